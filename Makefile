@@ -1,0 +1,42 @@
+# ballbot-casadi: every target creates/uses its own virtual environment in .venv.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+
+.PHONY: all venv codegen test demo bench fmu clean distclean
+
+all: codegen
+
+$(STAMP): pyproject.toml
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test,fmi-extra]'
+	@touch $(STAMP)
+
+venv: $(STAMP)
+
+## Generate C for the model (and controllers) under build/ and compile shared + static libraries.
+codegen: $(STAMP)
+	$(PY) -m ballbot_casadi.cli codegen
+
+## Run the test suite.
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+## Main job: build, analyse, simulate the default robot, write report and plots under build/demo.
+demo: $(STAMP)
+	$(PY) -m ballbot_casadi.cli demo --out build/demo
+
+## Benchmarks: results in build/bench.json.
+bench: $(STAMP)
+	$(PY) -m ballbot_casadi.cli bench --out build/bench.json
+
+## Build the plant FMU into build/fmu/.
+fmu: $(STAMP)
+	$(PY) -m ballbot_casadi.cli fmu build --out build/fmu
+
+clean:
+	rm -rf build
+
+distclean: clean
+	rm -rf $(VENV) *.egg-info
