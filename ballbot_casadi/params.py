@@ -175,12 +175,12 @@ def _reject_unknown(values: Mapping[str, Any]) -> None:
         )
 
 
-def _flatten(table: Mapping[str, Any], path: str) -> dict[str, Any]:
-    """Flatten TOML tables (sections are only for readability)."""
-    out: dict[str, Any] = {}
+def _flatten(table: Mapping[str, Any], path: str, out: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Flatten TOML tables (sections are only for readability); reject duplicates."""
+    out = {} if out is None else out
     for key, value in table.items():
         if isinstance(value, Mapping):
-            out.update(_flatten(value, path))
+            _flatten(value, path, out)
         elif key in out:
             raise ParameterError(f"{path}: parameter {key!r} is given twice")
         else:

@@ -131,13 +131,18 @@ def rotation_matrix(q: Any) -> Any:
     return (Phi(q) @ Gamma(q).T)[1:, 1:]
 
 
-def _sinc_terms(n: Any, cas: bool) -> tuple[Any, Any]:
-    """cos(n) and sin(n)/n with a Taylor branch near n = 0."""
+def _cos_sinc(n2: Any, cas: bool) -> tuple[Any, Any]:
+    """cos(n) and sin(n)/n of n = sqrt(n2), with Taylor branches near 0 (finite derivatives)."""
     if cas:
-        small = n < 1e-6
-        sinc = ca.if_else(small, 1 - n**2 / 6, ca.sin(n) / ca.if_else(small, 1, n))
-        return ca.cos(n), sinc
-    return np.cos(n), (1 - n**2 / 6 if n < 1e-6 else np.sin(n) / n)
+        small = n2 < 1e-12
+        n = ca.sqrt(ca.if_else(small, 1, n2))
+        c = ca.if_else(small, 1 - n2 / 2, ca.cos(n))
+        sinc = ca.if_else(small, 1 - n2 / 6, ca.sin(n) / n)
+        return c, sinc
+    if n2 < 1e-12:
+        return 1 - n2 / 2, 1 - n2 / 6
+    n = float(np.sqrt(n2))
+    return float(np.cos(n)), float(np.sin(n) / n)
 
 
 def exp(v: Any) -> Any:
@@ -147,8 +152,7 @@ def exp(v: Any) -> Any:
     """
     cas = _is_ca(v)
     vx, vy, vz = _elems(v, 3)
-    n = ca.sqrt(vx**2 + vy**2 + vz**2) if cas else float(np.sqrt(vx**2 + vy**2 + vz**2))
-    c, s = _sinc_terms(n, cas)
+    c, s = _cos_sinc(vx**2 + vy**2 + vz**2, cas)
     return _col([c, s * vx, s * vy, s * vz], cas)
 
 
