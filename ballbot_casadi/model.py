@@ -23,6 +23,10 @@ Derivation
   ``H~ = blkdiag(I2, [0 I3] Phi(q)^T)`` (C.49-C.52), and the sixth row is the
   Baumgarte-stabilised second derivative of ``h = q^T q - 1`` (C.64-C.66):
   ``q^T ddq + dq^T dq + 2 beta q^T dq + beta^2/2 (q^T q - 1) = 0`` (C.67, C.68).
+* The resulting 6x6 system (C.68) is solved through its tangent/normal split
+  (:func:`projected_terms`): a closed-form normal component and a 5x5 symmetric positive
+  definite LDL^T solve; the Jacobians use implicit differentiation of the same equations.
+  :func:`constrained_terms` keeps the thesis' M~, C~, G~, D~, Q~ form for verification.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ __all__ = [
     "symbols",
     "lagrangian_terms",
     "constrained_terms",
+    "projected_terms",
     "make_el_terms",
     "make_ode",
     "make_jacobians",
@@ -99,7 +104,8 @@ def lagrangian_terms(x: ca.SX, p: ca.SX) -> dict[str, ca.SX]:
     # Euler-Lagrange by AD (C.7, C.26).
     dT_ddchi = ca.gradient(T, dchi)
     M = ca.jacobian(dT_ddchi, dchi)
-    Cdq = ca.mtimes(ca.jacobian(dT_ddchi, chi), dchi) - ca.gradient(T, chi)
+    # (d/dchi dT/d dchi) dchi as a forward-mode directional derivative (cheaper than J dchi).
+    Cdq = ca.jtimes(dT_ddchi, chi, dchi) - ca.gradient(T, chi)
     G = ca.gradient(V, chi)
 
     # Input map (C.37, C.38) and viscous friction (C.40-C.43) via a Rayleigh function.
@@ -155,27 +161,115 @@ def make_el_terms() -> ca.Function:
     )
 
 
+def _ldl(A: ca.SX) -> tuple[list, list]:
+    """Symbolic LDL^T factorisation (no pivoting) of a small symmetric positive definite matrix."""
+    n = A.shape[0]
+    L = [[None] * n for _ in range(n)]
+    D = [None] * n
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d = d - L[j][k] ** 2 * D[k]
+        D[j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s = s - L[i][k] * L[j][k] * D[k]
+            L[i][j] = s / d
+    return L, D
+
+
+def _ldl_solve(L: list, D: list, B: ca.SX) -> ca.SX:
+    """Solve ``L D L^T X = B`` column by column with the factors of :func:`_ldl`."""
+    n = len(D)
+    cols = []
+    for c in range(B.shape[1]):
+        y = []
+        for i in range(n):
+            s = B[i, c]
+            for k in range(i):
+                s = s - L[i][k] * y[k]
+            y.append(s)
+        xs = [None] * n
+        for i in reversed(range(n)):
+            s = y[i] / D[i]
+            for k in range(i + 1, n):
+                s = s - L[k][i] * xs[k]
+            xs[i] = s
+        cols.append(ca.vertcat(*xs))
+    return ca.horzcat(*cols)
+
+
+def projected_terms(x: ca.SX, p: ca.SX) -> dict[str, ca.SX]:
+    """The constrained equations (C.68) solved through their tangent/normal split.
+
+    ``H~ = blkdiag(I2, Xi(q)^T)`` with ``Xi(q) = Phi(q)[:, 1:]`` (C.52), and every
+    ``ddq`` splits uniquely as ``ddq = q b + Xi(q) a`` because ``Phi(q) = [q, Xi(q)]`` is a
+    scaled orthogonal matrix.  The Baumgarte row (C.66) fixes ``b = c / q^T q`` with
+    ``c = -dq^T dq - 2 beta q^T dq - beta^2/2 (q^T q - 1)``; the five rows
+    ``H~ M ddchi = H~ (Q tau - C dchi - G - D)`` become the symmetric positive definite
+    system ``(S^T M S) u = S^T (r - M s0)`` for ``u = [ddx, ddy, a]`` with ``S = H~^T``,
+    ``s0 = [0, 0, q b]``.  Mathematically identical to solving (C.68) directly, but a 5x5
+    LDL^T solve instead of a general 6x6 one.
+
+    Returns
+    -------
+    dict
+        ``S`` (6x5), ``s0`` (6), ``L``/``D`` (LDL^T factors of ``S^T M S``), ``r0`` (torque-free
+        generalised forces ``-(C dchi + G + D)``), plus :func:`lagrangian_terms` entries.
+    """
+    P = ParamView(p)
+    t = lagrangian_terms(x, p)
+    q, dq = x[2:6], x[8:12]
+    S = ca.diagcat(ca.SX.eye(2), Q.Phi(q)[:, 1:])
+    qq = ca.dot(q, q)
+    c = -ca.dot(dq, dq) - 2 * P.beta * ca.dot(q, dq) - 0.5 * P.beta**2 * (qq - 1)
+    s0 = ca.vertcat(0, 0, q * (c / qq))
+    L, D = _ldl(ca.mtimes([S.T, t["M"], S]))
+    r0 = -(t["Cdq"] + t["G"] + t["D"])
+    return {**t, "S": S, "s0": s0, "L": L, "D": D, "r0": r0}
+
+
+def _ddchi(t: dict, tau: ca.SX) -> ca.SX:
+    r = t["r0"] + ca.mtimes(t["Q"], tau)
+    u = _ldl_solve(t["L"], t["D"], ca.mtimes(t["S"].T, r - ca.mtimes(t["M"], t["s0"])))
+    return t["s0"] + ca.mtimes(t["S"], u)
+
+
 def make_ode() -> ca.Function:
-    """``ballbot_ode(x, tau, p) -> xdot``: the state equation (thesis C.10, C.68)."""
+    """``ballbot_ode(x, tau, p) -> xdot``: the state equation (thesis C.10, C.68).
+
+    Solved as in :func:`projected_terms`.
+    """
     x, tau, p = symbols()
-    t = constrained_terms(x, p)
-    ddchi = ca.solve(t["Mt"], t["bt"] + ca.mtimes(t["Qt"], tau))
+    ddchi = _ddchi(projected_terms(x, p), tau)
     return ca.Function(
         "ballbot_ode", [x, tau, p], [ca.vertcat(x[6:], ddchi)], ["x", "tau", "p"], ["xdot"]
     )
 
 
-def make_jacobians(ode: ca.Function | None = None) -> ca.Function:
-    """``ballbot_jac(x, tau, p) -> (A, B)``: ``A = d xdot/dx`` (12x12), ``B = d xdot/d tau``."""
-    ode = make_ode() if ode is None else ode
+def make_jacobians() -> ca.Function:
+    """``ballbot_jac(x, tau, p) -> (A, B)``: ``A = d xdot/dx`` (12x12), ``B = d xdot/d tau``.
+
+    By implicit differentiation of the projected equations of :func:`projected_terms`:
+    with ``ddchi = s0 + S u`` and ``F(x, tau, u) = S^T (M (s0 + S u) - r) = 0``,
+    ``d ddchi/d(x, tau) = d(s0 + S u)/d(x, tau) - S (S^T M S)^-1 dF/d(x, tau)`` at fixed
+    ``u``, which reuses the LDL^T factors of the ODE instead of differentiating the solve.
+    """
     x, tau, p = symbols()
-    xdot = ode(x, tau, p)
+    t = projected_terms(x, p)
+    u = ca.SX.sym("u", 5)
+    r = t["r0"] + ca.mtimes(t["Q"], tau)
+    e = t["s0"] + ca.mtimes(t["S"], u)
+    F = ca.mtimes(t["S"].T, ca.mtimes(t["M"], e) - r)
+    xt = ca.vertcat(x, tau)
+    J = ca.jacobian(e, xt) - ca.mtimes(t["S"], _ldl_solve(t["L"], t["D"], ca.jacobian(F, xt)))
+    u_val = _ldl_solve(t["L"], t["D"], ca.mtimes(t["S"].T, r - ca.mtimes(t["M"], t["s0"])))
+    J = ca.substitute(J, u, u_val)
+    top = ca.horzcat(ca.SX.zeros(6, 6), ca.SX.eye(6), ca.SX.zeros(6, 3))
+    full = ca.vertcat(top, J)
     return ca.Function(
-        "ballbot_jac",
-        [x, tau, p],
-        [ca.jacobian(xdot, x), ca.jacobian(xdot, tau)],
-        ["x", "tau", "p"],
-        ["A", "B"],
+        "ballbot_jac", [x, tau, p], [full[:, :12], full[:, 12:]], ["x", "tau", "p"], ["A", "B"]
     )
 
 
@@ -185,9 +279,11 @@ def make_affine() -> ca.Function:
     The control-affine split that feedback linearisation needs (thesis C.10, 8.12).
     """
     x, _, p = symbols()
-    t = constrained_terms(x, p)
-    fg = ca.solve(t["Mt"], ca.horzcat(t["bt"], t["Qt"]))
-    return ca.Function("ballbot_affine", [x, p], [fg[:, 0], fg[:, 1:]], ["x", "p"], ["f", "g"])
+    t = projected_terms(x, p)
+    rhs = ca.mtimes(t["S"].T, ca.horzcat(t["r0"] - ca.mtimes(t["M"], t["s0"]), t["Q"]))
+    sol = ca.mtimes(t["S"], _ldl_solve(t["L"], t["D"], rhs))
+    f = t["s0"] + sol[:, 0]
+    return ca.Function("ballbot_affine", [x, p], [f, sol[:, 1:]], ["x", "p"], ["f", "g"])
 
 
 def make_energy() -> ca.Function:
@@ -219,10 +315,9 @@ def make_forward_kinematics() -> ca.Function:
 
 def make_model_functions() -> dict[str, ca.Function]:
     """All model Functions, keyed by their name without the ``ballbot_`` prefix."""
-    ode = make_ode()
     funcs = [
-        ode,
-        make_jacobians(ode),
+        make_ode(),
+        make_jacobians(),
         make_affine(),
         make_energy(),
         make_wheel_speeds(),

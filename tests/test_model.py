@@ -195,3 +195,22 @@ def test_wheel_permutation_symmetry(model_functions, default_params, rng):
     b = np.array(model_functions["ode"](xs, np.roll(tau, 1), p)).ravel()
     np.testing.assert_allclose(b[6:8], a[6:8], atol=1e-12)
     np.testing.assert_allclose(b[8:12], Q.mul(a[8:12], Q.conj(qg)), atol=1e-12)
+
+
+def test_solution_satisfies_thesis_C68_form(model_functions, default_params, rng):
+    """The projected LDL^T solve satisfies M~ ddchi + C~ dchi + G~ + D~ = Q~ tau (C.67, C.68)."""
+    import casadi as ca
+
+    from ballbot_casadi.model import constrained_terms, symbols
+
+    xs, _, ps = symbols()
+    t = constrained_terms(xs, ps)
+    f = ca.Function("thesis", [xs, ps], [t["Mt"], t["bt"], t["Qt"]])
+    p = default_params.replace(Bvk=0.2, Bvb=0.1, Bvm=0.01, com_y=0.02).to_vector()
+    for _ in range(10):
+        x = rng.normal(size=12) * 0.5
+        x[2:6] *= 1.0 / np.linalg.norm(x[2:6]) * rng.uniform(0.99, 1.01)
+        tau = rng.normal(size=3)
+        Mt, bt, Qt = (np.array(m) for m in f(x, p))
+        dd = np.array(model_functions["ode"](x, tau, p)).ravel()[6:]
+        np.testing.assert_allclose(Mt @ dd, bt.ravel() + Qt @ tau, rtol=1e-10, atol=1e-10)
