@@ -17,6 +17,8 @@ def kugle_reference() -> dict:
     """The predecessor robot's independently derived model (shared/reference)."""
     path = Path(os.environ.get("BALLBOT_REFERENCE_DIR", REFERENCE)) / "kugle-model-reference.json"
     if not path.is_file():
+        if os.environ.get("CI"):
+            pytest.fail(f"reference data not found at {path} (CI must have shared/ beside the clone)")
         pytest.skip(f"reference data not found at {path}")
     return json.loads(path.read_text())
 
