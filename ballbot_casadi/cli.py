@@ -20,6 +20,7 @@ COMMANDS: dict[str, str] = {
     "summary": "ballbot_casadi.commands",
     "bench": "ballbot_casadi.commands",
     "demo": "ballbot_casadi.commands",
+    "study": "ballbot_casadi.studies.study",
 }
 
 
