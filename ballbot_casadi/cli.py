@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "bench": "ballbot_casadi.commands",
     "demo": "ballbot_casadi.commands",
     "study": "ballbot_casadi.studies.study",
+    "fmu": "ballbot_casadi.fmu_cli",
 }
 
 
