@@ -1,0 +1,147 @@
+"""``ballbot analyze``: linearisation, controllability, zeros and bandwidth report.
+
+Writes ``analysis.json``, ``analysis.md`` and PNG plots (pole-zero map, singular values of
+the wheel-torque channels and, once the controllers exist, the closed-loop magnitude) to
+``--out``.  The computation is :mod:`ballbot_casadi.analysis`; the report text and plots
+are :mod:`ballbot_casadi.studies.analysis_report`.
+
+Operating point (``--at``)
+--------------------------
+``key=value`` pairs (``x, y`` in m, ``dx, dy`` in m/s, ``roll, pitch, yaw`` in degrees,
+ZYX), e.g. ``--at yaw=30`` or ``--at yaw=45,dx=0.2``; or the full 12-state as 12
+comma-separated numbers.  The attitude must be at rest and the state an equilibrium (a
+trim torque must cancel every acceleration); otherwise the command stops with exit
+code 2.  Default: the balanced attitude at rest (upright for a centred COM).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from ballbot_casadi import analysis as an
+from ballbot_casadi.params import load_params
+
+__all__ = ["run_analysis", "summary_text", "add_parser", "demo_step"]
+
+
+def _jsonable(obj: Any) -> Any:
+    """Replace non-finite floats by None so the JSON is standard."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    return obj
+
+
+def run_analysis(
+    out: str | Path,
+    params_path: str | None = None,
+    at: str | None = None,
+    plots: bool = True,
+) -> dict[str, Any]:
+    """Analyse one robot at one operating point and write the report files.
+
+    Parameters
+    ----------
+    out
+        Output directory (created).
+    params_path
+        Parameter TOML file; ``None`` = thesis App. A defaults.
+    at
+        Operating-point text (see the module docstring); ``None`` = balanced at rest.
+    plots
+        Also write the PNG plots.
+
+    Returns
+    -------
+    dict
+        The content of ``analysis.json`` plus ``files`` (written paths).
+    """
+    from ballbot_casadi.studies.analysis_report import write_markdown, write_plots
+
+    params = load_params(params_path)
+    x0 = an.parse_state_spec(at, params) if at is not None else None
+    lin, result = an.analyze_plant(params, x0)
+    result.update(an.analyze_closed_loop(params, lin))
+    result["parameters"] = params.as_dict()
+    result["parameters_source"] = str(params_path) if params_path else "thesis App. A defaults"
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    files = write_plots(lin, result, out) if plots else []
+    md = write_markdown(result, out, result["parameters_source"], files)
+    js = out / "analysis.json"
+    js.write_text(json.dumps(_jsonable(result), indent=2) + "\n", encoding="utf-8")
+    result["files"] = [str(js), str(md), *map(str, files)]
+    return result
+
+
+def summary_text(result: dict[str, Any]) -> str:
+    """A few lines summarising an analysis result."""
+    w = result["controllability"]["weakest_mode"]
+    lines = [
+        f"operating point rpy = {[round(v, 3) for v in result['operating_point']['rpy_deg']]} deg",
+        f"reduced model: {result['n_states_reduced']} states, controllability rank "
+        f"{result['controllability_rank']}",
+        f"unstable poles (rad/s): {[round(p, 4) for p in result['unstable_poles']]}",
+        f"RHP zeros torques->position (rad/s): {[round(z, 4) for z in result['rhp_zeros_position']]}"
+        + ("  (non-minimum phase)" if result["rhp_zeros_position"] else ""),
+        f"weakest controllable modes: {', '.join(w['weakest_direction'])} "
+        f"(energy {w['energy']:.3g} tau_max^2 s in {result['controllability']['gramian_horizon_s']:g} s)",
+    ]
+    if result.get("bandwidth_inner_hz") is None and result.get("bandwidth_outer_hz") is None:
+        msg = (result.get("closed_loop") or {}).get("message", "controllers not available")
+        lines.append(f"closed loop: not analysed ({msg}); plant only")
+    else:
+        bi, bo = result.get("bandwidth_inner_hz"), result.get("bandwidth_outer_hz")
+        si, so = result.get("bandwidth_sensitivity_inner_hz"), result.get("bandwidth_sensitivity_outer_hz")
+        ok = result.get("cascade_rule_ok")
+        lines.append(f"-3 dB bandwidth |T|: inner (FLC) {_f(bi)} Hz, outer (velocity) {_f(bo)} Hz")
+        lines.append(f"tracking bandwidth |1-T| = -3 dB: inner {_f(si)} Hz, outer {_f(so)} Hz, "
+                     f"ratio {_f(result.get('bandwidth_sensitivity_ratio'))}; 3x rule (thesis 7.1): "
+                     + ("n/a" if ok is None else "satisfied" if ok else "NOT satisfied"))
+    return "\n".join(lines)
+
+
+def _f(v: float | None) -> str:
+    return "n/a" if v is None else f"{v:.3f}"
+
+
+def _cmd_analyze(args: argparse.Namespace) -> int:
+    result = run_analysis(args.out, args.params, args.at, plots=not args.no_plots)
+    print(summary_text(result))
+    print(f"written: {', '.join(result['files'])}")
+    return 0
+
+
+def demo_step(out: Path) -> int:
+    """``make demo`` step: analyse the default robot into ``out/analysis`` and print a summary."""
+    result = run_analysis(Path(out) / "analysis")
+    print(summary_text(result))
+    print(f"report: {Path(out) / 'analysis' / 'analysis.md'}")
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register ``ballbot analyze``."""
+    p = sub.add_parser(
+        "analyze",
+        help="linearise, reduce, controllability, poles/zeros, bandwidths; JSON + Markdown + plots",
+        description=__doc__.split("\n\n", 1)[0] + " See the report analysis.md.",
+    )
+    p.add_argument("--params", help="parameter TOML file (default: thesis App. A)")
+    p.add_argument(
+        "--at",
+        metavar="STATE",
+        help="operating point: key=value pairs (x, y [m], dx, dy [m/s], roll, pitch, yaw [deg]), "
+        "e.g. 'yaw=30', or 12 comma-separated numbers (full state); default: balanced at rest",
+    )
+    p.add_argument("--out", default="build/analysis", help="output directory (default build/analysis)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.set_defaults(func=_cmd_analyze)
