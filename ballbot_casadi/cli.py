@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "demo": "ballbot_casadi.commands",
     "study": "ballbot_casadi.studies.study",
     "fmu": "ballbot_casadi.fmu_cli",
+    "analyze": "ballbot_casadi.studies.analyze",
 }
 
 
