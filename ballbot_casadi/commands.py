@@ -80,6 +80,7 @@ def _step_codegen(out: Path) -> int:
 #: Steps of ``ballbot demo`` in order: (title, "module:function" taking the output dir).
 DEMO_STEPS: list[tuple[str, str]] = [
     ("generate and compile C, model summary", "ballbot_casadi.commands:_step_codegen"),
+    ("linear analysis: minimal model, controllability, RHP zeros, bandwidths", "ballbot_casadi.studies.analyze:demo_step"),
     ("closed loop: roll sine 3 deg 0.5 Hz (thesis 8.2.5)", "ballbot_casadi.studies.study:demo_sine"),
     ("closed loop: COM offset, runaway and velocity loop (thesis 8.4.2, 9.2)", "ballbot_casadi.studies.study:demo_com"),
     ("plant FMU: build BallbotPlant.fmu and co-simulate it in fmpy", "ballbot_casadi.fmu_cli:demo_step"),
