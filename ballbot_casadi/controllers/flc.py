@@ -57,7 +57,7 @@ __all__ = ["make_flc", "FLC_GAIN_NAMES", "FLC_DEFAULT_GAINS", "DIAG_NAMES", "bal
 
 #: Gain vector layout of the FLC.
 FLC_GAIN_NAMES = ("Kp1", "Kp2", "Kp3", "Kd1", "Kd2", "Kd3")
-_W_TILT, _W_YAW = 6.0, 4.0
+_W_TILT, _W_YAW = 10.0, 5.0
 #: Default gains: critically damped double poles at -6 (tilt) and -4 rad/s (yaw).
 FLC_DEFAULT_GAINS = np.array(
     [_W_TILT**2, _W_TILT**2, _W_YAW**2, 2 * _W_TILT, 2 * _W_TILT, 2 * _W_YAW]
