@@ -17,6 +17,7 @@ __all__ = ["add_parser", "model_summary", "DEMO_STEPS", "CODEGEN_LIBRARIES"]
 #: CasADi Functions to export.
 CODEGEN_LIBRARIES: dict[str, str] = {
     "ballbot_model": "ballbot_casadi.codegen:model_functions_list",
+    "ballbot_control": "ballbot_casadi.control_library:control_codegen_functions",
 }
 
 

@@ -41,6 +41,7 @@ from .smc import SMC_DEFAULT_GAINS, SMC_GAIN_NAMES, make_smc
 from .velocity import (
     VELOCITY_NKV,
     VELOCITY_NZ,
+    check_velocity_gains,
     default_velocity_gains,
     design_velocity_lqr,
     make_velocity_controller,
@@ -60,6 +61,7 @@ __all__ = [
     "design_velocity_lqr",
     "default_velocity_gains",
     "velocity_initial_state",
+    "check_velocity_gains",
     "VELOCITY_NZ",
     "VELOCITY_NKV",
     "controller_functions_list",

@@ -61,6 +61,7 @@ import scipy.linalg
 
 from .. import quaternion as Q
 from ..errors import BallbotTypeError, ScenarioError, ShapeError
+from .flc import FLC_DEFAULT_GAINS
 
 __all__ = [
     "VELOCITY_NZ",
@@ -72,6 +73,7 @@ __all__ = [
     "default_velocity_gains",
     "make_velocity_controller",
     "velocity_initial_state",
+    "check_velocity_gains",
     "measured_tilt",
     "tilt_heading_quaternion",
 ]
@@ -100,7 +102,7 @@ _Q_DEFAULT = 1.0 / np.array(
 ) ** 2
 _R_DEFAULT = 1.0 / np.array([1.0, 1.0]) ** 2
 #: Inner-loop (balance) gains assumed by the design, FLC defaults (tilt axes).
-_INNER_DEFAULT = (100.0, 20.0)
+_INNER_DEFAULT = (float(FLC_DEFAULT_GAINS[0]), float(FLC_DEFAULT_GAINS[3]))
 
 
 def _check_jac(jac: ca.Function) -> None:
@@ -183,10 +185,16 @@ def design_velocity_lqr(
     Ts
         Control period (s).
     Qw, Rw
-        Diagonal state (12) and input (2) weights, default Bryson's rule with
-        excursions 0.05 m/s (velocity), 0.1 rad / 0.5 rad/s (tilt, tilt rate, for the
-        plant and the reference model) and 0.1 m (position error) against a tilt
-        acceleration of 4 rad/s^2.
+        Diagonal state (12) and input (2) weights.  Default, Bryson's rule (weight =
+        1/acceptable excursion^2): 0.1 m/s velocity error, 1 rad / 1 rad/s on the
+        plant's tilt and tilt rate (left free: the balance loop owns them), the
+        thesis §7.1 limits 5 deg and 20 deg/s on the tilt reference and its rate,
+        0.1 m position error, against a tilt-reference acceleration of 1 rad/s^2.
+        Closed-loop poles (default robot, Ts = 5 ms): -1.0, -2.3, -4.0, -7.8 rad/s
+        (double, one per axis) plus the balance loop's -10: the velocity loop's
+        dominant poles are >= 3x slower than the inner loop (thesis §7.1).
+    inner
+        ``(K_p, K_d)`` of the balance controller's tilt channels (FLC defaults).
     """
     import control
 
@@ -205,6 +213,32 @@ def default_velocity_gains(jac: ca.Function, p: Any, Ts: float = 0.005) -> np.nd
     """Default ``k`` (NKV = 30): the LQR gain of :func:`design_velocity_lqr` and the limits."""
     K = design_velocity_lqr(jac, p, Ts)
     return np.concatenate([K.ravel(), VELOCITY_DEFAULT_LIMITS])
+
+
+def check_velocity_gains(k: Any) -> np.ndarray:
+    """Validate a velocity-controller gain vector (NKV entries, finite, limits > 0).
+
+    Raises
+    ------
+    ScenarioError
+        Wrong length, non-finite entries or non-positive limits.
+    """
+    try:
+        arr = np.asarray(k, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"velocity gains must be numbers, got {k!r}") from None
+    if arr.size != VELOCITY_NKV:
+        raise ScenarioError(
+            f"velocity gains need {VELOCITY_NKV} entries (2x{_NX_LQR} LQR gain, then "
+            f"{', '.join(VELOCITY_LIMIT_NAMES)}), got {arr.size}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ScenarioError("velocity gains must be finite (NaN or inf found)")
+    lim = arr[2 * _NX_LQR:]
+    bad = [n for n, v in zip(VELOCITY_LIMIT_NAMES, lim) if not v > 0]
+    if bad:
+        raise ScenarioError(f"velocity limits must be > 0; invalid: {', '.join(bad)}")
+    return arr
 
 
 def tilt_heading_quaternion(th_x: Any, th_y: Any, psi: Any) -> Any:
