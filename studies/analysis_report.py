@@ -20,7 +20,12 @@ __all__ = ["write_plots", "write_markdown", "OMEGA"]
 #: Frequency grid of the plant plots (rad/s).
 OMEGA = np.logspace(-2, 2, 400)
 
-_CHANNEL_STYLE = {"position": ("tab:red", "o"), "tilt": ("tab:blue", "s"), "heading": ("tab:green", "D")}
+_CHANNEL_STYLE = {
+    "position": ("tab:red", "o"),
+    "tilt": ("tab:blue", "s"),
+    "heading": ("tab:green", "D"),
+    "pose": ("tab:purple", "^"),
+}
 
 
 def _plt():
@@ -63,7 +68,7 @@ def write_plots(lin: an.LinearModel, result: dict[str, Any], out: Path) -> list[
 
     fig, axes = plt.subplots(3, 1, figsize=(7, 9), sharex=True)
     units = {"position": "m/(N m)", "tilt": "1/(N m)", "heading": "1/(N m)"}
-    for ax, name in zip(axes, an.CHANNELS):
+    for ax, name in zip(axes, ("position", "tilt", "heading")):
         sv = an.singular_values(lin, OMEGA, name)
         c, _ = _CHANNEL_STYLE[name]
         for k in range(sv.shape[1]):
@@ -71,7 +76,7 @@ def write_plots(lin: an.LinearModel, result: dict[str, Any], out: Path) -> list[
                         label=f"sigma_{k + 1}")
         for p in result["unstable_poles"]:
             ax.axvline(p, color="k", ls=":", lw=1)
-        for z in result[f"rhp_zeros_{name}"]:
+        for z in result["rhp_zeros_position" if name == "position" else f"rhp_zeros_{name}"]:
             ax.axvline(z, color="tab:red", ls="-.", lw=1)
         ax.set_ylabel(f"dB re 1 {units[name]}")
         ax.set_title(f"wheel torques -> {name} ({', '.join(an.CHANNELS[name][1])})", fontsize=10)
@@ -204,6 +209,13 @@ def write_markdown(result: dict[str, Any], out: Path, params_source: str, plots:
         add(f"| {name} | {', '.join(ch['outputs'])} | {ch['minimal_order']} | "
             f"{_fmt_list(ch['poles'])} | {_fmt_list(ch['zeros'])} | {_fmt_list(ch['rhp_zeros'])} |")
     add("")
+    add("`pose` is the square channel torques -> (x, y, heading). At upright rest the summed "
+        "(yaw) torque does not reach x, y, so the 2x3 `position` channel is effectively square "
+        "and has the same zeros; away from that symmetric point (tilted by a COM offset, "
+        "rolling) the yaw torque couples in weakly and the non-square 2x3 channel generically "
+        "loses its transmission zeros (a third input can steer around the zero direction), "
+        "while the square `pose` channel keeps them. `rhp_zeros_position` in the JSON is taken "
+        "from `pose`.\n")
     zpos = result["rhp_zeros_position"]
     if zpos:
         add("**The position channel is non-minimum phase.** Its right-half-plane zeros mean "
