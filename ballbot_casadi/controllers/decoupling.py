@@ -14,17 +14,19 @@ moving reference it is the exact form of the error dynamics that the thesis
 approximates in (8.43, 8.44), so the closed loop obeys (8.45) without approximation.
 
 Structure of E: the torques only act tangentially to the unit sphere, so
-``E = sigma/2 (q_e0 I + [vec q_e]x) G`` with ``G`` the torque -> body angular
-acceleration map; ``det E`` carries the factor ``q_e0``, i.e. E is singular for a
-180 deg error and loses rank gradually at large tilt, where ``G`` degrades.
+``E = sigma/2 (q_e0 I + [vec q_e]x) G`` with ``G = 2 vec(Phi(q)^T g_q)`` the torque ->
+body angular acceleration map.  The kinematic factor has singular values
+``(1, 1, |q_e0|)``: E is singular for a 180 deg error.  ``G`` is never singular for the
+thesis robot but its tilt singular values fall ~10x at large tilt (reciprocal
+Frobenius condition number ``rcond(G)`` from 0.05 upright to 0.005 at ~110 deg).
 
 Inversion (thesis 8.26) is done as damped least squares,
-``tau = (E^T E + lambda^2 I)^-1 E^T (v - D)``, with ``lambda = 0`` (exact inverse)
-whenever the reciprocal Frobenius condition number
-``rcond = |det E| / (||E||_F ||adj E||_F)`` (scale free, in (0, 1/3]) is above
-``rcond_min``, and ``lambda^2 = mu^2 ||E||_F^2 (1 - rcond/rcond_min)`` below it: the
-damping rises continuously from zero, the solution never contains NaN, and the flag
-``singular = 1`` is reported.
+``tau = (E^T E + lambda^2 I)^-1 E^T (v - D)``.  The conditioning margin
+``m = min(|q_e0| / q_e0_min, rcond(G) / rcond_min)`` (defaults 0.05, i.e. an error
+angle above 174 deg, and 0.01, a tilt beyond ~95 deg) is >= 1 in normal operation,
+where ``lambda = 0`` and the inverse is exact; below 1, ``lambda^2 = mu^2 ||E||_F^2
+(1 - m)`` rises continuously from zero, the torque stays finite and continuous (no
+NaN even for an exactly singular E), and the flag ``singular = 1`` is reported.
 """
 
 from __future__ import annotations
@@ -39,14 +41,22 @@ from .quaternion_error import (
     shortest_path_sign,
 )
 
-__all__ = ["check_affine", "error_output_dynamics", "damped_solve", "RCOND_MIN", "DAMPING_MU"]
+__all__ = [
+    "check_affine",
+    "error_output_dynamics",
+    "damped_solve",
+    "QE0_MIN",
+    "RCOND_MIN",
+    "DAMPING_MU",
+]
 
-#: Default reciprocal Frobenius condition number below which E(x) counts as near-singular.
-#: Upright, E of the default robot has rcond ~ 0.05 (cond_2 ~ 14: yaw vs tilt); at 100 deg
-#: tilt ~ 4e-3.  1e-3 (cond_2 ~ 300-1000) is only reached close to a true singularity.
-RCOND_MIN = 1e-3
-#: Relative damping at an exact singularity: cond(E^T E + lambda^2 I) <= 1/mu^2 = 1e4.
-DAMPING_MU = 1e-2
+#: Scalar part of the error quaternion below which E counts as near-singular (174 deg).
+QE0_MIN = 0.05
+#: Reciprocal Frobenius condition number of G below which E counts as near-singular.
+#: Default robot: 0.05 upright, 0.012 at 90 deg, minimum 0.005 near 110 deg tilt.
+RCOND_MIN = 0.01
+#: Relative damping at the singularity: cond(E^T E + lambda^2 I) <= 1/mu^2 = 100.
+DAMPING_MU = 0.1
 
 
 def check_affine(affine: ca.Function) -> tuple[int, int]:
@@ -75,7 +85,9 @@ def error_output_dynamics(
     Returns
     -------
     dict
-        ``y`` (3), ``dy`` (3), ``D`` (3), ``E`` (3x3), ``sigma`` (scalar).
+        ``y`` (3), ``dy`` (3), ``D`` (3), ``E`` (3x3), ``sigma`` (scalar), ``qe0``
+        (normalised scalar part of the sign-fixed error, >= 0) and ``G`` (3x3 torque
+        -> body angular acceleration map).
     """
     q, dq = x[2:6], x[8:12]
     qe = quaternion_error(q, q_ref)
@@ -88,7 +100,10 @@ def error_output_dynamics(
         + ca.mtimes(Pr, f[2:6])
     )
     E = sigma * ca.mtimes(Pr, g[2:6, :])[1:4, :]
+    G = 2 * ca.mtimes(Q.Phi(q).T, g[2:6, :])[1:4, :]
     return {
+        "qe0": sigma * qe[0] / ca.sqrt(ca.sumsqr(qe)),
+        "G": G,
         "y": sigma * qe[1:4],
         "dy": sigma * dqe[1:4],
         "D": sigma * drift[1:4],
@@ -123,22 +138,32 @@ def _fro(M: ca.MX) -> ca.MX:
     return ca.sqrt(ca.sumsqr(M))
 
 
+def rcond_fro(M: ca.MX) -> ca.MX:
+    """Reciprocal Frobenius condition number ``|det M| / (||M||_F ||adj M||_F)`` of a 3x3."""
+    return ca.fabs(_det3(M)) / (_fro(M) * _fro(_adj3(M)) + 1e-300)
+
+
 def damped_solve(
-    E: ca.MX, rhs: ca.MX, rcond_min: float = RCOND_MIN, mu: float = DAMPING_MU
+    E: ca.MX,
+    rhs: ca.MX,
+    qe0: ca.MX,
+    G: ca.MX,
+    qe0_min: float = QE0_MIN,
+    rcond_min: float = RCOND_MIN,
+    mu: float = DAMPING_MU,
 ) -> tuple[ca.MX, ca.MX, ca.MX]:
-    """Regularised ``E^-1 rhs`` (thesis 8.26 with damped least squares near singularity).
+    """Regularised ``E^-1 rhs`` (thesis 8.26; damped least squares near singularity).
 
     Returns
     -------
-    tau, singular, rcond
+    tau, singular, margin
         The solution, the flag (1.0 when damping was active, else 0.0) and the
-        reciprocal Frobenius condition number of ``E``.
+        conditioning margin ``m`` (see the module docstring; < 1 means damped).
     """
-    nE = _fro(E)
-    rcond = ca.fabs(_det3(E)) / (nE * _fro(_adj3(E)) + 1e-300)
-    w = ca.fmax(0, 1 - rcond / rcond_min)
-    lam2 = mu**2 * (nE**2 + 1e-12) * w
+    margin = ca.fmin(qe0 / qe0_min, rcond_fro(G) / rcond_min)
+    w = ca.fmax(0, 1 - margin)
+    lam2 = mu**2 * (ca.sumsqr(E) + 1e-12) * w
     M = ca.mtimes(E.T, E) + lam2 * ca.MX.eye(3)
     tau = ca.mtimes(_adj3(M), ca.mtimes(E.T, rhs)) / _det3(M)
-    singular = ca.if_else(rcond < rcond_min, 1, 0)
-    return tau, singular, rcond
+    singular = ca.if_else(margin < 1, 1, 0)
+    return tau, singular, margin

@@ -57,7 +57,14 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .decoupling import DAMPING_MU, RCOND_MIN, check_affine, damped_solve, error_output_dynamics
+from .decoupling import (
+    DAMPING_MU,
+    QE0_MIN,
+    RCOND_MIN,
+    check_affine,
+    damped_solve,
+    error_output_dynamics,
+)
 
 __all__ = ["make_flc", "FLC_GAIN_NAMES", "FLC_DEFAULT_GAINS", "DIAG_NAMES", "balance_inputs"]
 
@@ -72,7 +79,7 @@ FLC_DEFAULT_GAINS = np.array(
 #: ``diag`` entries of both balance controllers.
 DIAG_NAMES = (
     "singular",  # 1.0 when E(x) was near-singular and damped least squares was used
-    "rcond",  # reciprocal Frobenius condition number of E(x)
+    "cond_margin",  # conditioning margin of E(x); < 1: damped inverse active
     "sigma",  # shortest-path sign applied to the error quaternion (+1 / -1)
     "e1", "e2", "e3",  # vec(q_e), body-frame error (half-angle units)
     "de1", "de2", "de3",  # its time derivative
@@ -93,7 +100,10 @@ def balance_inputs(np_: int, nk: int) -> list[ca.MX]:
 
 
 def make_flc(
-    affine: ca.Function, rcond_min: float = RCOND_MIN, mu: float = DAMPING_MU
+    affine: ca.Function,
+    qe0_min: float = QE0_MIN,
+    rcond_min: float = RCOND_MIN,
+    mu: float = DAMPING_MU,
 ) -> ca.Function:
     """Build the feedback-linearising balance controller (thesis 8.12-8.26, 8.43-8.45).
 
@@ -102,8 +112,9 @@ def make_flc(
     affine
         The model Function ``affine(x, p) -> (f, g)`` (``ddchi = f + g tau``); it stays a
         called Function inside the controller.
-    rcond_min, mu
-        Singularity threshold and relative damping of the regularised inverse.
+    qe0_min, rcond_min, mu
+        Singularity thresholds and relative damping of the regularised inverse
+        (:func:`~ballbot_casadi.controllers.decoupling.damped_solve`).
 
     Returns
     -------
@@ -116,8 +127,10 @@ def make_flc(
     f, g = affine(x, p)
     o = error_output_dynamics(x, q_ref, dq_ref, ddq_ref, f, g)
     v = -k[0:3] * o["y"] - k[3:6] * o["dy"]  # (8.44) on the exact error output
-    tau, singular, rcond = damped_solve(o["E"], v - o["D"], rcond_min, mu)  # (8.26)
-    diag = ca.vertcat(singular, rcond, o["sigma"], o["y"], o["dy"], v)
+    tau, singular, margin = damped_solve(
+        o["E"], v - o["D"], o["qe0"], o["G"], qe0_min, rcond_min, mu
+    )  # (8.26)
+    diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
     return ca.Function(
         "ballbot_flc",
         [x, q_ref, dq_ref, ddq_ref, p, k],

@@ -27,7 +27,14 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .decoupling import DAMPING_MU, RCOND_MIN, check_affine, damped_solve, error_output_dynamics
+from .decoupling import (
+    DAMPING_MU,
+    QE0_MIN,
+    RCOND_MIN,
+    check_affine,
+    damped_solve,
+    error_output_dynamics,
+)
 from .flc import balance_inputs
 
 __all__ = ["make_smc", "SMC_GAIN_NAMES", "SMC_DEFAULT_GAINS"]
@@ -38,7 +45,10 @@ SMC_DEFAULT_GAINS = np.array([15.0, 15.0, 6.0, 6.0, 6.0, 3.0, 0.5, 0.5, 0.2])
 
 
 def make_smc(
-    affine: ca.Function, rcond_min: float = RCOND_MIN, mu: float = DAMPING_MU
+    affine: ca.Function,
+    qe0_min: float = QE0_MIN,
+    rcond_min: float = RCOND_MIN,
+    mu: float = DAMPING_MU,
 ) -> ca.Function:
     """Build the sliding-mode balance controller (thesis §8.3, V2019 baseline).
 
@@ -46,8 +56,9 @@ def make_smc(
     ----------
     affine
         The model Function ``affine(x, p) -> (f, g)``; it stays a called Function.
-    rcond_min, mu
-        Singularity threshold and relative damping of the regularised inverse.
+    qe0_min, rcond_min, mu
+        Singularity thresholds and relative damping of the regularised inverse
+        (:func:`~ballbot_casadi.controllers.decoupling.damped_solve`).
 
     Returns
     -------
@@ -63,8 +74,10 @@ def make_smc(
     S = o["dy"] + K * o["y"]
     sat = ca.fmin(ca.fmax(S / eps, -1), 1)
     v = -K * o["dy"] - eta * sat
-    tau, singular, rcond = damped_solve(o["E"], v - o["D"], rcond_min, mu)
-    diag = ca.vertcat(singular, rcond, o["sigma"], o["y"], o["dy"], v)
+    tau, singular, margin = damped_solve(
+        o["E"], v - o["D"], o["qe0"], o["G"], qe0_min, rcond_min, mu
+    )
+    diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
     return ca.Function(
         "ballbot_smc",
         [x, q_ref, dq_ref, ddq_ref, p, k],
