@@ -399,9 +399,10 @@ static const char *not_settable(const fmu_instance *inst, fmi2ValueReference vr)
                  FMU_ST_STEP_COMPLETE))
             return NULL;
         return "inputs cannot be set in this state";
-    case FMU_KIND_STATE:
+    case FMU_KIND_STATE: /* Model Exchange: like fmi2SetContinuousStates (CasADi uses it) */
         if (s & (FMU_ST_INSTANTIATED | FMU_ST_INIT)) return NULL;
-        return "state start values can only be set before initialisation ends";
+        if (inst->type == fmi2ModelExchange && (s & (FMU_ST_EVENT | FMU_ST_CONT))) return NULL;
+        return "states can only be set before initialisation ends (Co-Simulation)";
     case FMU_KIND_PARAMETER:
         if (s & (FMU_ST_INSTANTIATED | FMU_ST_INIT)) return NULL;
         return "fixed parameters can only be set before initialisation ends";
