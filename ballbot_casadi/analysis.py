@@ -966,7 +966,7 @@ def bandwidth_sensitivity(omega: np.ndarray, H: np.ndarray) -> float | None:
     not reached on the grid.
     """
     H = np.asarray(H, dtype=complex)
-    S = np.abs(1.0 - H / H[0])
+    S = np.abs(1.0 - H / np.abs(H[0]))
     above = np.nonzero(S >= 1 / np.sqrt(2))[0]
     if above.size == 0:
         return None
