@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import functools
-from ctypes import byref, c_double, c_uint
+from ctypes import c_double, c_int, c_uint, c_void_p
 
 import numpy as np
 
@@ -84,13 +84,16 @@ class Plant:
 
     def raw_set_real(self, vr: list[int], values: list[float]) -> int:
         """fmi2SetReal without fmpy's exception on error: returns the status."""
-        f = self.fmu._functions["fmi2SetReal"]
-        return f(self.fmu.component, (c_uint * len(vr))(*vr), len(vr),
+        f = getattr(self.fmu.dll, "fmi2SetReal")
+        f.restype = c_int
+        return f(c_void_p(self.fmu.component), (c_uint * len(vr))(*vr), len(vr),
                  (c_double * len(values))(*values))
 
     def raw(self, fname: str, *args) -> int:
         """Call an FMI function directly (first argument the component) and return the status."""
-        return self.fmu._functions[fname](self.fmu.component, *args)
+        f = getattr(self.fmu.dll, fname)
+        f.restype = c_int
+        return f(c_void_p(self.fmu.component), *args)
 
     def errors(self) -> list[str]:
         return [m for s, _, m in self.logs if s >= 2]
