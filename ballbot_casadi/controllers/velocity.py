@@ -25,8 +25,9 @@ State ``z = [theta_rx, theta_ry, dtheta_rx, dtheta_ry, p_ex, p_ey, psi_r, r_r]``
 
 Inclination limits: the tilt acceleration is clipped so that the reference model's
 rate stays within ``tilt_rate_max`` and never exceeds the braking rate
-``sqrt(2 tilt_acc_max (tilt_max -+ theta_r))``, so the reference reaches the tilt limit
-with zero rate (no jump in ``dq_ref``); a final clamp guards the limit.
+``sqrt(2 tilt_acc_max (tilt_max -+ theta_r))`` (in its exact discrete form), so the
+reference reaches the tilt limit with zero rate (no jump in ``dq_ref``); a final
+clamp guards the limit.
 
 Feedback ``a = -K X`` with
 ``X = [dx - vx_ref, dy - vy_ref, theta_x, theta_y, dtheta_x, dtheta_y, theta_r, dtheta_r, p_e]``,
@@ -328,8 +329,13 @@ def make_velocity_controller() -> ca.Function:
     X = ca.vertcat(verr, th, dth, th_r, dth_r, pe)
     a = -ca.mtimes(K, X)
     a = ca.fmin(ca.fmax(a, -acc_max), acc_max)
-    ub = ca.fmin(rate_max, ca.sqrt(2 * acc_max * ca.fmax(tilt_max - th_r, 0)))
-    lb = -ca.fmin(rate_max, ca.sqrt(2 * acc_max * ca.fmax(tilt_max + th_r, 0)))
+    # braking bound: the next rate v_n must allow stopping at +-tilt_max with acc_max:
+    # th_n + v_n^2 / (2 acc_max) <= tilt_max with th_n = th + Ts (dth + v_n) / 2
+    h = 0.5 * acc_max * Ts
+    ub = ca.fmin(rate_max, -h + ca.sqrt(h**2 + 2 * acc_max * ca.fmax(
+        tilt_max - th_r - 0.5 * Ts * dth_r, 0)))
+    lb = -ca.fmin(rate_max, -h + ca.sqrt(h**2 + 2 * acc_max * ca.fmax(
+        tilt_max + th_r + 0.5 * Ts * dth_r, 0)))
     a = ca.fmin(ca.fmax(a, (lb - dth_r) / Ts), (ub - dth_r) / Ts)
     alpha = ca.fmin(ca.fmax(k_r * (rr - r_r), -yacc_max), yacc_max)
 
