@@ -2,7 +2,8 @@
 
 Writes ``analysis.json``, ``analysis.md`` and PNG plots (pole-zero map, singular values of
 the wheel-torque channels and, once the controllers exist, the closed-loop magnitude) to
-``--out``.  The computation is :mod:`ballbot_casadi.analysis`; the report text and plots
+``--out``.  The computation is :mod:`ballbot_casadi.analysis` (plant) and
+:mod:`ballbot_casadi.closed_loop_analysis` (cascade); the report text and plots
 are :mod:`ballbot_casadi.studies.analysis_report`.
 
 Operating point (``--at``)
@@ -23,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from ballbot_casadi import analysis as an
+from ballbot_casadi import closed_loop_analysis as cla
 from ballbot_casadi.params import load_params
 
 __all__ = ["run_analysis", "summary_text", "add_parser", "demo_step"]
@@ -44,6 +46,7 @@ def run_analysis(
     params_path: str | None = None,
     at: str | None = None,
     plots: bool = True,
+    compiled: bool = False,
 ) -> dict[str, Any]:
     """Analyse one robot at one operating point and write the report files.
 
@@ -57,6 +60,11 @@ def run_analysis(
         Operating-point text (see the module docstring); ``None`` = balanced at rest.
     plots
         Also write the PNG plots.
+    compiled
+        Take the plant Jacobians and trim from the compiled C library
+        (:func:`ballbot_casadi.codegen.load_model_library`) instead of the CasADi
+        Functions in memory (same expressions; the closed loop always differentiates the
+        symbolic controller graph).
 
     Returns
     -------
@@ -67,8 +75,14 @@ def run_analysis(
 
     params = load_params(params_path)
     x0 = an.parse_state_spec(at, params) if at is not None else None
-    lin, result = an.analyze_plant(params, x0)
-    result.update(an.analyze_closed_loop(params, lin))
+    funcs = None
+    if compiled:
+        from ballbot_casadi.codegen import load_model_library
+
+        funcs = load_model_library()
+    lin, result = an.analyze_plant(params, x0, funcs)
+    result["jacobians"] = "compiled C library" if compiled else "CasADi Functions (symbolic)"
+    result.update(cla.analyze_closed_loop(params, lin))
     result["parameters"] = params.as_dict()
     result["parameters_source"] = str(params_path) if params_path else "thesis App. A defaults"
 
@@ -114,7 +128,7 @@ def _f(v: float | None) -> str:
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
-    result = run_analysis(args.out, args.params, args.at, plots=not args.no_plots)
+    result = run_analysis(args.out, args.params, args.at, plots=not args.no_plots, compiled=args.compiled)
     print(summary_text(result))
     print(f"written: {', '.join(result['files'])}")
     return 0
@@ -144,4 +158,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default="build/analysis", help="output directory (default build/analysis)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--compiled", action="store_true",
+                   help="use the compiled C model library for the plant Jacobians (built if needed)")
     p.set_defaults(func=_cmd_analyze)

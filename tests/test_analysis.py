@@ -1,4 +1,4 @@
-"""Linear analysis (ballbot_casadi.analysis): reduction, controllability, zeros, bandwidths."""
+"""Linear analysis: reduction, controllability, zeros (analysis), bandwidths (closed_loop_analysis)."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from ballbot_casadi import analysis as an
+from ballbot_casadi import closed_loop_analysis as cla
 from ballbot_casadi import load_params
 from ballbot_casadi import quaternion as Q
 from ballbot_casadi.errors import StateError
@@ -88,6 +89,15 @@ def test_linearisation_matches_finite_differences(offset_point, funcs):
         B_fd[:, i] = (np.asarray(ode(x0, u0 + e, p)) - np.asarray(ode(x0, u0 - e, p))).ravel() / (2 * h)
     np.testing.assert_allclose(lin.A, A_fd, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(lin.B, B_fd, rtol=1e-6, atol=1e-8)
+
+
+def test_compiled_jacobians_give_the_same_linearisation(offset_point):
+    from ballbot_casadi.codegen import load_model_library
+
+    params, lin = offset_point
+    lin_c = an.linearize(params, lin.op.x, load_model_library())
+    np.testing.assert_allclose(lin_c.A, lin.A, rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(lin_c.B, lin.B, rtol=1e-11, atol=1e-12)
 
 
 def test_operating_point_is_trimmed_equilibrium(offset_point, funcs):
@@ -243,17 +253,17 @@ def test_finite_gramian_double_integrator():
 def test_bandwidth_helpers_first_order_lag():
     w = np.logspace(-2, 2, 2001)
     H = 1.0 / (1j * w + 1.0)
-    assert an.bandwidth_3db(w, np.abs(H)) == pytest.approx(1.0, rel=1e-3)
+    assert cla.bandwidth_3db(w, np.abs(H)) == pytest.approx(1.0, rel=1e-3)
     # |1 - H| = w / sqrt(1 + w^2) = 1/sqrt(2) at w = 1
-    assert an.bandwidth_sensitivity(w, H) == pytest.approx(1.0, rel=1e-3)
-    assert an.bandwidth_3db(w, np.ones_like(w)) is None
+    assert cla.bandwidth_sensitivity(w, H) == pytest.approx(1.0, rel=1e-3)
+    assert cla.bandwidth_3db(w, np.ones_like(w)) is None
 
 
 def test_zoh_matches_expm_series():
     A = np.array([[0.0, 1.0], [-4.0, -0.4]])
     B = np.array([[0.0], [1.0]])
     Ts = 0.05
-    Phi, Gam = an.zoh(A, B, Ts)
+    Phi, Gam = cla.zoh(A, B, Ts)
     # Gamma = A^-1 (Phi - I) B for invertible A
     np.testing.assert_allclose(Gam, np.linalg.solve(A, (Phi - np.eye(2)) @ B), rtol=1e-12)
 
@@ -306,7 +316,7 @@ def test_non_equilibrium_and_moving_attitude_are_rejected(funcs):
 @pytest.fixture(scope="module")
 def closed(default, funcs):
     params, lin, _ = default
-    cl = an.analyze_closed_loop(params, lin, funcs)
+    cl = cla.analyze_closed_loop(params, lin, funcs)
     if cl["closed_loop"]["status"] == "unavailable":
         pytest.skip("controllers not available")
     return params, cl
@@ -327,7 +337,7 @@ def test_closed_loop_is_stable_and_inner_matches_continuous_flc(closed):
 
     k = default_balance_gains("flc")
     assert d["inner_continuous_hz"] * 2 * np.pi == pytest.approx(
-        an._second_order_bw(k[0], k[3]), rel=1e-12
+        cla._second_order_bw(k[0], k[3]), rel=1e-12
     )
 
 
@@ -343,7 +353,7 @@ def test_cascade_rule_verdict_is_consistent(closed):
 
 def test_closed_loop_reports_missing_controllers(default, monkeypatch):
     params, lin, _ = default
-    monkeypatch.setattr(an, "_closed_loop_functions", lambda funcs: {})
-    cl = an.analyze_closed_loop(params, lin)
+    monkeypatch.setattr(cla, "_closed_loop_functions", lambda funcs: {})
+    cl = cla.analyze_closed_loop(params, lin)
     assert cl["closed_loop"]["status"] == "unavailable"
     assert cl["bandwidth_inner_hz"] is None and cl["bandwidth_outer_hz"] is None
