@@ -163,9 +163,15 @@ def write_markdown(result: dict[str, Any], out: Path, params_source: str, plots:
     add(f"| 12-state | {_fmt_list(result['eigenvalues_full'])} |")
     add(f"| reduced 10-state | {_fmt_list(result['eigenvalues_reduced'])} |")
     add(f"| constraint modes (difference) | {_fmt_list(result['constraint_eigenvalues'])} |\n")
+    er = np.array([complex(*z) for z in result["eigenvalues_reduced"]])
+    n_zero = int(np.sum(np.abs(er) < 1e-6))
     add(f"Unstable poles: {', '.join(f'{p:.4f}' for p in result['unstable_poles']) or 'none'} rad/s "
-        "(one real pair ±p per tilt axis: the inverted pendulum). The six zero eigenvalues are "
-        "the double integrators of the ball position x, y and of the heading.\n")
+        "(one real unstable pole per tilt axis: the inverted pendulum; without friction each "
+        f"has a stable mirror image -p). {n_zero} eigenvalues at zero: "
+        + ("the double integrators of the ball position x, y and of the heading."
+           if n_zero == 6 else
+           "the ball position and heading (friction turns their rates into stable modes)."
+           if n_zero == 3 else "rigid-body modes.") + "\n")
 
     add("## Controllability\n")
     add("Computed on the reduced model in scaled units (thesis §7.1 envelope: 1 m, 0.5 m/s, "
@@ -197,8 +203,10 @@ def write_markdown(result: dict[str, Any], out: Path, params_source: str, plots:
     w = ctrb["weakest_mode"]
     add(f"\nWeakest: the modes at {', '.join(sorted({_fmt_c(z) for z in w['eigenvalues']}))} "
         f"(direction {', '.join(w['weakest_direction'])}). The unstable tilt modes need almost "
-        "no energy (they grow by themselves); moving the ball is the expensive part because the "
-        "torques act on the position only through the tilt (shape acceleration, thesis §2.5).\n")
+        "no energy (they grow by themselves)"
+        + ("; moving the ball is the expensive part because the torques act on the position "
+           "only through the tilt (shape acceleration, thesis §2.5)."
+           if set(w["weakest_direction"]) <= {"x", "y", "dx", "dy"} else ".") + "\n")
 
     add("## Poles and transmission zeros\n")
     add("Channels from the three wheel torques (minimal realisation by SLICOT TB01PD, "
@@ -229,6 +237,12 @@ def write_markdown(result: dict[str, Any], out: Path, params_source: str, plots:
             "thesis C.14, C.18, C.21, C.24; see `analysis.planar_reduction`): "
             "`z = sqrt(Mb g l / (Jb + Mb l (l + rk)))`, "
             "`p = sqrt((a+J) Mb g l / ((a+J)(c+J) - (b-J)^2))`.\n")
+        P = result.get("parameters", {})
+        exact = (all(P.get(k, 0.0) == 0.0 for k in ("com_x", "com_y", "Bvk", "Bvm", "Bvb"))
+                 and np.allclose(op["state"][6:8], 0.0))
+        if not exact:
+            add("(The planar reduction is exact only at rest with a centred COM and no friction; "
+                "at this operating point it is an approximation.)\n")
         add("| axis | unstable pole (hand) | RHP zero (hand) |")
         add("|---|---|---|")
         for axis in ("pitch", "roll"):
