@@ -147,7 +147,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "analyze",
         help="linearise, reduce, controllability, poles/zeros, bandwidths; JSON + Markdown + plots",
-        description=__doc__.split("\n\n", 1)[0] + " See the report analysis.md.",
+        description="Linearise the ballbot at an operating point, reduce it to the minimal "
+        "10-state model, test controllability, compute poles/zeros of the wheel-torque channels "
+        "and the cascade bandwidths; write analysis.json, analysis.md and PNG plots to --out.",
     )
     p.add_argument("--params", help="parameter TOML file (default: thesis App. A)")
     p.add_argument(
