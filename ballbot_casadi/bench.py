@@ -15,6 +15,7 @@ from typing import Callable
 
 import numpy as np
 
+from .bench_fmu import bench_fmu
 from .codegen import CFLAGS, build_root, model_library
 from .errors import BuildError
 from .params import load_params
@@ -66,7 +67,7 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
 
 
 #: Benchmark groups run by ``ballbot bench``: name -> callable returning a flat dict.
-BENCHMARKS: dict[str, Callable[[], dict[str, float]]] = {"model": bench_model}
+BENCHMARKS: dict[str, Callable[[], dict[str, float]]] = {"model": bench_model, "fmu": bench_fmu}
 
 
 def run_benchmarks(path: Path, only: list[str] | None = None) -> dict[str, float]:
