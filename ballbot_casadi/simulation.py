@@ -21,9 +21,11 @@ One control period ``Ts`` (200 Hz, thesis §7.1) is the Function
 Every block is a *called* Function (ODE inside RK4, RK4 and controllers inside the
 step), so the generated C holds one copy of each.  The mission over ``N`` periods is
 ``step.mapaccum(N)`` (CasADi nests it in log-depth folds): one call runs a whole
-mission.  The compiled variant wraps the C step of :func:`closed_loop_library` (built
-once, cached by hash) in the same ``mapaccum``, so missions of any length run as a
-single call without regenerating C.
+mission.  The compiled variant (:func:`closed_loop_library`, built once, cached by hash)
+holds the step and a chunk of :data:`CHUNK` periods (``ballbot_cl_chunk_<ctrl>``, the
+step's ``mapaccum`` in C); a mission of any length chains compiled chunks and runs the
+remainder through the compiled step's ``mapaccum``, composed into one Function, so
+missions run as a single call without regenerating C.
 
 Plant and controller parameters are separate inputs, so robustness runs (thesis §8.4)
 need no regeneration.
@@ -51,6 +53,8 @@ __all__ = [
     "ND_W",
     "make_closed_loop_step",
     "make_mission",
+    "make_chunk",
+    "CHUNK",
     "closed_loop_functions",
     "closed_loop_library",
     "ClosedLoop",
@@ -66,6 +70,10 @@ TS_DEFAULT = 0.005
 N_SUB_DEFAULT = 5
 #: Size of the per-period disturbance input ``w = [attitude jump (3), torque (3)]``.
 ND_W = 6
+#: Control periods per compiled chunk (1 s at 200 Hz).
+CHUNK = 200
+#: Step inputs that are per-period sequences (the others are constants).
+_SEQ_INPUTS = (1, 2, 3, 4, 5)
 
 _TAU_MAX = PARAM_NAMES.index("tau_max")
 
@@ -179,39 +187,100 @@ def make_mission(step: ca.Function, n_periods: int) -> ca.Function:
     return step.mapaccum(name, int(n_periods))
 
 
-def closed_loop_functions(n_sub: int = N_SUB_DEFAULT) -> dict[str, ca.Function]:
-    """Symbolic step Functions of every balance controller plus the controllers themselves.
+def make_chunk(step: ca.Function, n_periods: int = CHUNK) -> ca.Function:
+    """``n_periods`` steps as one Function whose first output is the *last* ``xz``.
+
+    ``ballbot_cl_chunk_<ctrl>(xz, sequences..., constants...) -> (xz_last, xz_next,
+    x, tau_cmd, tau, q_ref_used, dq_ref_used, ddq_ref_used, diag)``: the shape of the
+    accumulated input equals that of the first output, so chunks chain with
+    ``mapaccum`` themselves (see :meth:`ClosedLoop.mission`).
+    """
+    inner = make_mission(step, n_periods)
+    # constants (parameters, gains, Ts, cascade) are single columns, broadcast inside
+    args = [ca.MX.sym(inner.name_in(i), inner.size1_in(i), n_periods if i in _SEQ_INPUTS else 1)
+            for i in range(inner.n_in())]
+    args[0] = ca.MX.sym(inner.name_in(0), inner.sparsity_in(0))
+    outs = inner(*[a if i == 0 or i in _SEQ_INPUTS else ca.repmat(a, 1, n_periods)
+                   for i, a in enumerate(args)])
+    return ca.Function(
+        step.name().replace("ballbot_cl_step_", "ballbot_cl_chunk_"),
+        args,
+        [outs[0][:, -1], *outs],
+        inner.name_in(),
+        ["xz_last", *inner.name_out()],
+    )
+
+
+def _compose_mission(step: ca.Function, chunk: ca.Function, n_chunk: int, n_periods: int) -> ca.Function:
+    """Mission of ``n_periods``: a chain of ``chunk`` calls + ``step.mapaccum`` for the rest.
+
+    Same inputs and outputs as ``make_mission(step, n_periods)``.  The chunks are chained
+    by explicit calls (one call node per chunk, each running ``n_chunk`` periods in
+    compiled C); building ``chunk.mapaccum`` instead is two orders of magnitude slower to
+    construct (seconds for a 100 s mission) and no faster to run.
+    """
+    if not isinstance(n_periods, (int, np.integer)) or n_periods < 1:
+        raise ScenarioError(f"number of control periods must be an int >= 1, got {n_periods!r}")
+    n_c, rem = divmod(int(n_periods), n_chunk)
+    args = [ca.MX.sym(step.name_in(i), step.size1_in(i), n_periods if i in _SEQ_INPUTS else 1)
+            for i in range(step.n_in())]
+    parts: list[list[ca.MX]] = []
+    xz = args[0]
+    for c in range(n_c):
+        cols = slice(c * n_chunk, (c + 1) * n_chunk)
+        a = [xz] + [args[i][:, cols] if i in _SEQ_INPUTS else args[i] for i in range(1, len(args))]
+        outs = chunk(*a)
+        xz = outs[0]
+        parts.append(list(outs[1:]))
+    if rem:
+        start = n_c * n_chunk
+        a = [xz] + [args[i][:, start:] if i in _SEQ_INPUTS else args[i] for i in range(1, len(args))]
+        parts.append(list(step.mapaccum(f"{step.name()}_x{rem}", rem)(*a)))
+    outs = [ca.horzcat(*[p[j] for p in parts]) for j in range(step.n_out())]
+    name = step.name().replace("ballbot_cl_step_", "ballbot_mission_")
+    return ca.Function(name, args, outs, step.name_in(), step.name_out())
+
+
+def closed_loop_functions(n_sub: int = N_SUB_DEFAULT) -> tuple[dict[str, ca.Function], list[ca.Function]]:
+    """Symbolic step Functions of every balance controller, and everything to export in C.
 
     Returns
     -------
-    dict
-        ``{"flc": ballbot_cl_step_flc, "smc": ..., "ballbot_flc": ..., "ballbot_velocity": ...}``:
-        step Functions keyed by controller name and the controller Functions keyed by
-        their own names (exported too, for the C benchmark).
+    steps
+        ``{"flc": ballbot_cl_step_flc, "smc": ballbot_cl_step_smc}``.
+    exported
+        The step and chunk (:func:`make_chunk`) Functions plus the controllers
+        ``ballbot_flc``, ``ballbot_smc``, ``ballbot_velocity`` (for the C benchmark).
     """
     from .controllers import BALANCE_CONTROLLERS, make_velocity_controller
     from .model import make_affine, make_ode
 
     ode, affine = make_ode(), make_affine()
     velocity = make_velocity_controller()
-    out: dict[str, ca.Function] = {}
+    steps: dict[str, ca.Function] = {}
+    exported: list[ca.Function] = []
     for name, builder in BALANCE_CONTROLLERS.items():
         bal = builder(affine)
-        out[name] = make_closed_loop_step(bal, velocity, ode, n_sub)
-        out[bal.name()] = bal
-    out[velocity.name()] = velocity
-    return out
+        steps[name] = make_closed_loop_step(bal, velocity, ode, n_sub)
+        exported += [steps[name], make_chunk(steps[name]), bal]
+    exported.append(velocity)
+    return steps, exported
 
 
 def closed_loop_library(n_sub: int = N_SUB_DEFAULT, root: Path | None = None):
-    """Generate and compile ``ballbot_closed_loop`` (every step Function and controller).
+    """Generate and compile ``ballbot_closed_loop`` (steps, chunks and controllers).
 
     Cached by the hash of the generated C (see :func:`~ballbot_casadi.codegen.build_library`).
+
+    Returns
+    -------
+    library, steps
+        The :class:`~ballbot_casadi.codegen.Library` and the symbolic step Functions.
     """
     from .codegen import build_library
 
-    funcs = closed_loop_functions(n_sub)
-    return build_library("ballbot_closed_loop", list(funcs.values()), root), funcs
+    steps, exported = closed_loop_functions(n_sub)
+    return build_library("ballbot_closed_loop", exported, root), steps
 
 
 class ClosedLoop:
@@ -220,12 +289,13 @@ class ClosedLoop:
     Parameters
     ----------
     compiled
-        Use the generated C step (default) or the symbolic Functions.
+        Run the generated C (default) or the symbolic Functions.
     n_sub
         RK4 sub-steps per control period.
     steps
         Optional ``{controller name: step Function}`` to use instead of the package's
-        controllers (e.g. a stand-in in tests); then ``compiled`` compiles those.
+        controllers (e.g. a stand-in in tests); with ``compiled`` those are compiled
+        (library ``ballbot_closed_loop_custom``).
 
     Notes
     -----
@@ -242,26 +312,30 @@ class ClosedLoop:
     ) -> None:
         self.n_sub = int(n_sub)
         self.compiled = bool(compiled)
+        lib = None
         if steps is None:
             if compiled:
-                lib, funcs = closed_loop_library(self.n_sub, root)
+                lib, symbolic = closed_loop_library(self.n_sub, root)
             else:
-                lib, funcs = None, closed_loop_functions(self.n_sub)
-            symbolic = {k: f for k, f in funcs.items() if not k.startswith("ballbot_")}
+                symbolic, _ = closed_loop_functions(self.n_sub)
         else:
             symbolic = dict(steps)
-            lib = None
             if compiled:
                 from .codegen import build_library
 
-                lib = build_library("ballbot_closed_loop_custom", list(symbolic.values()), root)
+                funcs = [g for f in symbolic.values() for g in (f, make_chunk(f))]
+                lib = build_library("ballbot_closed_loop_custom", funcs, root)
         self.library = lib
         self.symbolic_steps = symbolic
+        self.chunks: dict[str, ca.Function] = {}
         if lib is not None:
             from .codegen import load_library
 
-            ext = load_library(lib, [f.name() for f in symbolic.values()])
+            names = [f.name() for f in symbolic.values()]
+            chunk_names = [n.replace("ballbot_cl_step_", "ballbot_cl_chunk_") for n in names]
+            ext = load_library(lib, names + chunk_names)
             self.steps = {k: ext[f.name()] for k, f in symbolic.items()}
+            self.chunks = {k: ext[c] for k, c in zip(symbolic, chunk_names)}
         else:
             self.steps = dict(symbolic)
         self._missions: dict[tuple[str, int], ca.Function] = {}
@@ -284,7 +358,11 @@ class ClosedLoop:
         """The ``n_periods`` mission Function of ``controller`` (cached)."""
         key = (controller, int(n_periods))
         if key not in self._missions:
-            self._missions[key] = make_mission(self.step(controller), int(n_periods))
+            step = self.step(controller)
+            if controller in self.chunks:
+                self._missions[key] = _compose_mission(step, self.chunks[controller], CHUNK, key[1])
+            else:
+                self._missions[key] = make_mission(step, key[1])
         return self._missions[key]
 
     def simulate(

@@ -15,6 +15,7 @@ from ballbot_casadi.params import load_params
 from ballbot_casadi.robot import make_state
 from ballbot_casadi.scenarios import Scenario, initial_state, study_scenarios
 from ballbot_casadi.simulation import (
+    CHUNK,
     ClosedLoop,
     load_log,
     make_closed_loop_step,
@@ -61,10 +62,11 @@ def _inputs(scenario: Scenario, n: int | None = None) -> dict:
 @pytest.mark.parametrize("controller", ["flc", "smc"])
 @pytest.mark.parametrize("cascade", [False, True])
 def test_compiled_equals_symbolic(compiled, symbolic, controller, cascade):
-    sc = Scenario("t", controller, 0.5, initial_state(3, -2, 10), cascade=cascade,
+    # 2 compiled chunks of CHUNK periods + 7 periods of the compiled step
+    sc = Scenario("t", controller, (2 * CHUNK + 7) * 0.005, initial_state(3, -2, 10), cascade=cascade,
                   velocity_keyframes=((0.0, 0.2, -0.1, 0.3),),
                   attitude={"roll": {"type": "sine", "amplitude_deg": 2, "frequency_hz": 1}},
-                  pushes=((0.2, 1.0, -1.0, 0.5),))
+                  pushes=((0.2, 1.0, -1.0, 0.5), (1.3, -0.5, 0.5, 0.0)))
     inp = _inputs(sc)
     a = compiled.simulate(controller, **inp)
     b = symbolic.simulate(controller, **inp)
