@@ -15,6 +15,7 @@ from typing import Callable
 
 import numpy as np
 
+from .bench_control import bench_control
 from .bench_fmu import bench_fmu
 from .codegen import CFLAGS, build_root, model_library
 from .errors import BuildError
@@ -67,7 +68,11 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
 
 
 #: Benchmark groups run by ``ballbot bench``: name -> callable returning a flat dict.
-BENCHMARKS: dict[str, Callable[[], dict[str, float]]] = {"model": bench_model, "fmu": bench_fmu}
+BENCHMARKS: dict[str, Callable[[], dict[str, float]]] = {
+    "model": bench_model,
+    "fmu": bench_fmu,
+    "control": bench_control,
+}
 
 
 def run_benchmarks(path: Path, only: list[str] | None = None) -> dict[str, float]:
