@@ -8,6 +8,7 @@ import pytest
 from ballbot_casadi import quaternion as Q
 from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.references import (
+    FIG93_ACCEL,
     FIG93_KEYFRAMES,
     SPEC,
     chirp,
@@ -66,7 +67,8 @@ def test_velocity_profile_respects_the_specification():
     # piecewise linear: the value is the integral of d1
     integral = np.cumsum(s.d1, axis=0) * 0.001
     np.testing.assert_allclose(integral, s.value, atol=2e-3)
-    np.testing.assert_allclose(s.value[-1], FIG93_KEYFRAMES[-1][1:], atol=1e-12)
+    np.testing.assert_allclose(s.value[-1], FIG93_KEYFRAMES[-1][1:4], atol=1e-12)
+    assert np.hypot(s.d1[:, 0], s.d1[:, 1]).max() == pytest.approx(FIG93_ACCEL, rel=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -76,6 +78,7 @@ def test_velocity_profile_respects_the_specification():
         ([(0.0, 0.0, 0.0, 1.5)], "exceeds"),
         ([(1.0, 0.5, 0.0, 0.0), (1.2, 0.0, 0.0, 0.0)], "before the previous ramp"),
         ([(1.0, np.nan, 0.0, 0.0)], "NaN"),
+        ([(1.0, 0.3, 0.0, 0.0, 1.5)], "ramp acceleration"),
     ],
 )
 def test_velocity_profile_rejects_bad_keyframes(keyframes, match):

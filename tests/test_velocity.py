@@ -66,8 +66,8 @@ def test_lqr_closed_loop_is_stable_and_slower_than_the_balance_loop(model_functi
     assert np.abs(z).max() < 1.0
     s = np.log(z.astype(complex)) / TS
     outer = s[np.abs(s.real + 10.0) > 1e-3]
-    assert outer.real.max() <= -10.0 / 3.0 * 0.25  # stable with margin
-    assert np.sort(-outer.real)[0] < 10.0 / 3.0  # dominant poles >= 3x slower (thesis §7.1)
+    assert outer.real.max() < -0.2  # stable, integral mode not negligibly slow
+    assert np.sort(-outer.real)[:4].max() < 10.0 / 3.0  # velocity poles >= 3x slower (§7.1)
     np.testing.assert_array_equal(K, design_velocity_lqr(model_functions["jac"], p, TS))
 
 
@@ -133,7 +133,7 @@ def test_com_offset_standstill(vel, kv, model_functions, default_params):
     """Thesis §9.2: COM offset (-2, -3, +3) cm; speed -> 0, COM settles over the ball centre."""
     P = default_params
     plant = P.replace(com_x=-0.02, com_y=-0.03, l=P.l + 0.03)
-    X = _cascade(model_functions, vel, kv, plant.to_vector(), P.to_vector(), P.tau_max, 12.0,
+    X = _cascade(model_functions, vel, kv, plant.to_vector(), P.to_vector(), P.tau_max, 18.0,
                  lambda t: np.zeros(3))
     assert np.abs(X[-1, 6:8]).max() < 2e-3
     com = Q.rotate(X[-1, 2:6], np.array([-0.02, -0.03, P.l + 0.03]))
@@ -144,7 +144,7 @@ def test_com_offset_standstill(vel, kv, model_functions, default_params):
 def test_velocity_step_is_tracked(vel, kv, model_functions, default_params):
     """A 0.3 m/s ramp in x with a heading rate: tracked without steady-state error."""
     P = default_params
-    X = _cascade(model_functions, vel, kv, P.to_vector(), P.to_vector(), P.tau_max, 7.0,
+    X = _cascade(model_functions, vel, kv, P.to_vector(), P.to_vector(), P.tau_max, 10.0,
                  lambda t: np.array([min(0.3, 0.5 * t), 0.0, 0.2]))
     np.testing.assert_allclose(X[-1, 6:8], [0.3, 0.0], atol=5e-3)
     assert np.degrees(np.abs([measured_tilt(x[2:6]) for x in X])).max() <= 5.05
