@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -103,8 +104,10 @@ def test_fmu_carries_sources_and_fmpy_compile_rebuilds_it(plant, tmp_path):
         pytest.skip("cmake is not available for fmpy compile")
     copy = tmp_path / "BallbotPlant.fmu"
     shutil.copyfile(plant.fmu, copy)
+    env = {**os.environ,
+           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
     res = subprocess.run([sys.executable, "-m", "fmpy", "compile", str(copy)],
-                         capture_output=True, text=True)
+                         capture_output=True, text=True, env=env)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     with zipfile.ZipFile(copy) as zf:
         rebuilt = zf.read("binaries/linux64/BallbotPlant.so")
