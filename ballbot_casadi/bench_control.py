@@ -10,12 +10,14 @@ Keys
     the RK4 sub-steps of the plant).
 ``mission_100s_s``
     Wall time of a 100 s cascade mission (20000 control periods at 200 Hz, 1 ms RK4,
-    true-state feedback) run from Python as one call of the compiled closed loop.
-    Target <= 0.5 s.
+    true-state feedback) run from Python as one call of the compiled closed loop (the
+    zero-copy C entry point of :mod:`~ballbot_casadi.mission_driver`).  Target <= 0.5 s.
+    ``mission_100s_casadi_call_s`` is the same mission through the CasADi mission
+    Function (same generated code plus numpy <-> DM conversion of every element).
 ``python_loop_ratio``
     The same loop written as a Python loop of CasADi calls (velocity controller,
-    balance controller, numpy saturation, RK4 step Function; per-period time measured on
-    a shorter mission) divided by the per-period time of the single compiled call.
+    balance controller, numpy saturation, RK4 step Function; best of 3 blocks of 400
+    periods) divided by the per-period time of the single compiled call.
     Target >= 50.
 """
 
@@ -85,13 +87,16 @@ def _python_loop_period_s(sim, inputs: dict, n: int) -> float:
     kb, kv, Ts = inputs["k_bal"], inputs["k_vel"], inputs["Ts"]
     x, z = inputs["x0"].copy(), inputs["z0"].copy()
     v_ref = inputs["v_ref"]
-    t0 = time.perf_counter()
-    for k in range(n):
-        qr, dqr, ddqr, z = vel(x, v_ref[k], z, pc, kv, Ts)
-        tau, _ = bal(x, qr, dqr, ddqr, pc, kb)
-        tau = np.clip(np.asarray(tau).ravel(), -tau_max, tau_max)
-        x = np.asarray(rk4(x, tau, p, Ts)).ravel()
-    return (time.perf_counter() - t0) / n
+    best = float("inf")
+    for rep in range(3):  # best of 3 blocks: the machine may be shared
+        t0 = time.perf_counter()
+        for k in range(rep * n, (rep + 1) * n):
+            qr, dqr, ddqr, z = vel(x, v_ref[k], z, pc, kv, Ts)
+            tau, _ = bal(x, qr, dqr, ddqr, pc, kb)
+            tau = np.clip(np.asarray(tau).ravel(), -tau_max, tau_max)
+            x = np.asarray(rk4(x, tau, p, Ts)).ravel()
+        best = min(best, (time.perf_counter() - t0) / n)
+    return best
 
 
 def bench_control(n_calls: int = 100000, repeats: int = 3) -> dict[str, float]:
@@ -113,7 +118,14 @@ def bench_control(n_calls: int = 100000, repeats: int = 3) -> dict[str, float]:
     if not np.all(np.isfinite(log["state"])):
         raise BuildError("benchmark mission diverged")
     data["mission_100s_s"] = best
-    n_py = 1000
+    # the same mission through the CasADi mission Function (numpy <-> DM conversions)
+    via_casadi = ClosedLoop(compiled=True, use_driver=False)
+    via_casadi.mission("flc", n)
+    t0 = time.perf_counter()
+    ref = via_casadi.simulate(sc.controller, **inputs)
+    data["mission_100s_casadi_call_s"] = time.perf_counter() - t0
+    data["mission_driver_vs_casadi_max_abs_diff"] = float(np.max(np.abs(ref["state"] - log["state"])))
+    n_py = 400
     py = _python_loop_period_s(sim, inputs, n_py)
     data["python_loop_period_us"] = py * 1e6
     data["mission_period_us"] = best / n * 1e6

@@ -296,6 +296,12 @@ class ClosedLoop:
         Optional ``{controller name: step Function}`` to use instead of the package's
         controllers (e.g. a stand-in in tests); with ``compiled`` those are compiled
         (library ``ballbot_closed_loop_custom``).
+    root
+        Build root (default :func:`~ballbot_casadi.codegen.build_root`).
+    use_driver
+        With ``compiled``: run missions through the zero-copy C entry point of
+        :mod:`~ballbot_casadi.mission_driver` (same generated chunk and step code, no
+        numpy <-> DM conversion); otherwise call the CasADi mission Function.
 
     Notes
     -----
@@ -309,6 +315,7 @@ class ClosedLoop:
         n_sub: int = N_SUB_DEFAULT,
         steps: Mapping[str, ca.Function] | None = None,
         root: Path | None = None,
+        use_driver: bool = True,
     ) -> None:
         self.n_sub = int(n_sub)
         self.compiled = bool(compiled)
@@ -339,6 +346,11 @@ class ClosedLoop:
         else:
             self.steps = dict(symbolic)
         self._missions: dict[tuple[str, int], ca.Function] = {}
+        self.driver = None
+        if lib is not None and use_driver:
+            from .mission_driver import MissionDriver
+
+            self.driver = MissionDriver(lib, symbolic, CHUNK, _SEQ_INPUTS)
 
     @property
     def controllers(self) -> tuple[str, ...]:
@@ -405,14 +417,21 @@ class ClosedLoop:
             if arr.shape[0] != n:
                 raise ShapeError(f"{key} has {arr.shape[0]} rows, the other sequences {n}")
             seqs[key] = arr
-        mission = self.mission(controller, n)
         xz0 = np.concatenate([np.asarray(x0, float).reshape(NX), np.asarray(z0, float).reshape(-1)])
-        res = mission(
-            xz0, seqs["q_ref"].T, seqs["dq_ref"].T, seqs["ddq_ref"].T, seqs["v_ref"].T, seqs["w"].T,
-            np.asarray(p_plant, float), np.asarray(p_ctrl, float), np.asarray(k_bal, float),
-            np.asarray(k_vel, float), float(Ts), 1.0 if cascade else 0.0,
-        )
-        xz_next, xs, tau_cmd, tau, qr, dqr, ddqr, diag = (np.asarray(r).T for r in res)
+        args = [xz0, seqs["q_ref"], seqs["dq_ref"], seqs["ddq_ref"], seqs["v_ref"], seqs["w"],
+                np.asarray(p_plant, float), np.asarray(p_ctrl, float), np.asarray(k_bal, float),
+                np.asarray(k_vel, float), float(Ts), 1.0 if cascade else 0.0]
+        step = self.step(controller)
+        for i, a in enumerate(args[6:], start=6):
+            if np.size(a) != step.size1_in(i):
+                raise ShapeError(f"{step.name_in(i)} has {np.size(a)} entries, expected {step.size1_in(i)}")
+        if self.driver is not None and controller in self.chunks:
+            res = self.driver.run(controller, n, args)
+        else:
+            mission = self.mission(controller, n)
+            res = [np.asarray(r).T for r in mission(*[a.T if i in _SEQ_INPUTS else a
+                                                       for i, a in enumerate(args)])]
+        xz_next, xs, tau_cmd, tau, qr, dqr, ddqr, diag = res
         state = np.vstack([xs, xz_next[-1:, :NX]])
         z = np.vstack([xz0[None, NX:], xz_next[:, NX:]])
         return {

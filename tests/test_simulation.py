@@ -75,6 +75,16 @@ def test_compiled_equals_symbolic(compiled, symbolic, controller, cascade):
     assert np.max(np.abs(a["state"][-1] - a["state"][0])) > 1e-3  # something happened
 
 
+def test_c_driver_equals_casadi_mission(compiled):
+    via_casadi = ClosedLoop(compiled=True, use_driver=False)
+    assert compiled.driver is not None and via_casadi.driver is None
+    sc = study_scenarios("velocity", "flc")[0].replace(duration=(CHUNK + 3) * 0.005)
+    inp = _inputs(sc)
+    a, b = compiled.simulate("flc", **inp), via_casadi.simulate("flc", **inp)
+    for key in a:
+        np.testing.assert_allclose(a[key], b[key], rtol=0, atol=1e-15, err_msg=key)
+
+
 def test_zero_controller_equals_open_loop_rk4():
     ode = make_ode()
     step = make_closed_loop_step(_zero_balance(), _const_velocity(), ode, n_sub=5)
