@@ -64,3 +64,17 @@ def test_pushes_cannot_be_co_simulated():
     sc = study_scenarios("push", "flc")[0]
     with pytest.raises(ScenarioError, match="pushes"):
         closed_loop_cosim(sc)
+
+
+def test_demo_step_writes_the_co_simulation_outputs(tmp_path):
+    from ballbot_casadi.commands import DEMO_STEPS
+    from ballbot_casadi.fmu_cli import demo_step
+
+    assert ("plant FMU: build BallbotPlant.fmu and co-simulate it in fmpy",
+            "ballbot_casadi.fmu_cli:demo_step") in DEMO_STEPS
+    assert demo_step(tmp_path) == 0
+    d = tmp_path / "fmu"
+    assert (d / "cosim_open_loop.csv").is_file() and (d / "cosim_closed_loop_sine.csv").is_file()
+    data = np.genfromtxt(d / "cosim_closed_loop_sine.csv", delimiter=",", names=True)
+    assert len(data) == 2001 and np.all(np.isfinite(data["q1"]))
+    assert "max |x_fmu - x_python|" in (d / "summary.txt").read_text()
