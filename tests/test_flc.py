@@ -245,3 +245,5 @@ def test_controllers_generate_strict_c(model_functions, default_params, tmp_path
         b = np.asarray(ext[f.name()](x, q_ref, dq_ref, ddq_ref, p, k)[0])
         np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12)
     assert isinstance(ext["ballbot_flc"], ca.Function)
+    # the model stays a called Function (one copy of the dynamics in the C code)
+    assert "ballbot_affine" in lib.source.read_text()

@@ -121,6 +121,13 @@ def make_flc(
     casadi.Function
         ``ballbot_flc(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[6]) ->
         (tau[3], diag[12])``; ``tau`` unsaturated; ``diag`` as :data:`DIAG_NAMES`.
+
+    Notes
+    -----
+    ``q_ref`` must be a unit quaternion and ``dq_ref``, ``ddq_ref`` its derivatives (e.g.
+    from :func:`ballbot_casadi.references.rpy_reference` or the velocity controller);
+    they are used as given, not re-normalised.  The reference may use either sign of
+    the double cover: the shortest-path sign is applied inside.
     """
     _, np_ = check_affine(affine)
     x, q_ref, dq_ref, ddq_ref, p, k = balance_inputs(np_, len(FLC_GAIN_NAMES))
