@@ -301,7 +301,7 @@ SPECS: dict[str, list[tuple[str, str, float, str]]] = {
     ],
     "robustness": [
         ("finite", "==", True, "run completed"),
-        ("steady_state_error_deg", "<", 0.1, "converges despite mass/inertia error (thesis §8.4.1)"),
+        ("steady_state_error_deg", "<", 0.01, "converges despite mass/inertia error (thesis §8.4.1)"),
     ],
     "com": [
         ("finite", "==", True, "run completed"),

@@ -169,12 +169,18 @@ class Scenario:
     description: str = ""
 
     def __post_init__(self) -> None:
-        from .controllers import BALANCE_CONTROLLERS
+        from .controllers import BALANCE_CONTROLLERS, VELOCITY_NKV, check_gains
 
         if self.controller not in BALANCE_CONTROLLERS:
             raise ScenarioError(
                 f"scenario {self.name!r}: unknown controller {self.controller!r}; "
                 f"allowed: {', '.join(BALANCE_CONTROLLERS)}"
+            )
+        if self.k_bal:
+            check_gains(self.controller, self.k_bal)
+        if self.k_vel and len(self.k_vel) != VELOCITY_NKV:
+            raise ScenarioError(
+                f"scenario {self.name!r}: k_vel needs {VELOCITY_NKV} entries, got {len(self.k_vel)}"
             )
         for key in ("duration", "Ts"):
             v = getattr(self, key)

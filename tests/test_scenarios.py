@@ -56,6 +56,9 @@ def test_non_finite_reference_rejected():
         ({"plant_changes": {"Mb": ["times", 1.1]}}, "op in"),
         ({"ctrl_changes": {"Mb": ["set", -1.0]}}, "Mb"),
         ({"velocity_keyframes": ((1.0, 0.9, 0.0, 0.0),)}, "exceeds"),
+        ({"k_bal": (1.0, 2.0)}, "flc gains need 6"),
+        ({"k_bal": (36.0, 36.0, 16.0, 12.0, 12.0, -8.0)}, "Kd3"),
+        ({"k_vel": (1.0, 2.0)}, "k_vel needs"),
     ],
 )
 def test_invalid_fields_rejected(kwargs, match):
