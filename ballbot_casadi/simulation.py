@@ -25,7 +25,13 @@ mission.  The compiled variant (:func:`closed_loop_library`, built once, cached 
 holds the step and a chunk of :data:`CHUNK` periods (``ballbot_cl_chunk_<ctrl>``, the
 step's ``mapaccum`` in C); a mission of any length chains compiled chunks and runs the
 remainder through the compiled step's ``mapaccum``, composed into one Function, so
-missions run as a single call without regenerating C.
+missions run as a single call without regenerating C.  By default the same chain runs
+through the zero-copy C entry point of :mod:`~ballbot_casadi.mission_driver` (one C
+call per mission, numpy buffers in place; identical results).
+
+Log layout: ``state[k]`` (k < N) is the state the controllers saw at ``t_k = k Ts`` (after
+a push), ``state[N]`` the final state; torques and references of period k apply on
+``[t_k, t_k+1)``.
 
 Plant and controller parameters are separate inputs, so robustness runs (thesis §8.4)
 need no regeneration.
