@@ -101,7 +101,7 @@ def closed_loop_cosim(scenario, fmu: str | Path | None = None, n_sub: int | None
     from fmpy import read_model_description
     from fmpy.fmi2 import FMU2Slave
 
-    from .controllers import BALANCE_CONTROLLERS, make_velocity_controller
+    from .controllers import BALANCE_CONTROLLERS, make_velocity_controller, saturate_torques
     from .errors import ScenarioError
     from .fmu_build import MODEL_IDENTIFIER, build_fmu
     from .model import STATE_NAMES, make_affine
@@ -155,10 +155,11 @@ def closed_loop_cosim(scenario, fmu: str | Path | None = None, n_sub: int | None
                 qr, dqr, ddqr = inp["q_ref"][k], inp["dq_ref"][k], inp["ddq_ref"][k]
             u, _ = balance(x, qr, dqr, ddqr, p_ctrl, k_bal)
             tau_cmd[k] = np.asarray(u, float).ravel()
-            plant.setReal(su, (tau_cmd[k] + w[k, 3:6]).tolist())
+            u_lim = saturate_torques(tau_cmd[k], p_ctrl[PARAM_NAMES.index("tau_max")])
+            plant.setReal(su, (u_lim + w[k, 3:6]).tolist())
             plant.doStep(k * Ts, Ts)
             tmax = float(inp["p_plant"][PARAM_NAMES.index("tau_max")])
-            tau[k] = np.clip(tau_cmd[k] + w[k, 3:6], -tmax, tmax)
+            tau[k] = np.clip(u_lim + w[k, 3:6], -tmax, tmax)
         states[n] = plant.getReal(sx)
         plant.terminate()
     finally:

@@ -13,7 +13,9 @@ One control period ``Ts`` (200 Hz, thesis §7.1) is the Function
    come from the input sequences instead (balance controller alone, thesis Fig. 8.1);
 3. the balance controller (``ballbot_flc`` thesis 8.26/8.44 or ``ballbot_smc``) computes
    the wheel torques on its *own* internal-model parameters ``p_ctrl``;
-4. the torques are saturated at ``+-tau_max`` of the *plant* parameters ``p_plant``,
+4. the torques are limited without changing their direction at ``tau_max`` of the
+   controller parameters ``p_ctrl`` and then saturated per wheel at ``+-tau_max`` of the
+   *plant* parameters ``p_plant``,
    an input disturbance torque ``w[3:6]`` is added, and the result is held (zero-order
    hold) over the period while the plant is integrated with ``n_sub`` classical RK4 steps
    of size ``Ts / n_sub`` (:func:`~ballbot_casadi.integrators.make_rk4_n`).
@@ -48,6 +50,7 @@ import casadi as ca
 import numpy as np
 
 from . import quaternion as Q
+from .controllers import saturate_torques
 from .errors import ScenarioError, ShapeError
 from .integrators import make_rk4_n
 from .model import NP, NU, NX, STATE_NAMES
@@ -168,8 +171,11 @@ def make_closed_loop_step(
     z_next = ca.if_else(on, z_next, z)
 
     tau_cmd, diag = balance(xk, qr, dqr, ddqr, p_ctrl, k_bal)
+    # Direction-preserving limit at the controller's own tau_max, then the plant's
+    # physical per-wheel saturation (a no-op unless the plant's limit is lower).
+    tau_lim = saturate_torques(tau_cmd, p_ctrl[_TAU_MAX])
     tau_max = p_plant[_TAU_MAX]
-    tau = ca.fmin(ca.fmax(tau_cmd, -tau_max), tau_max)
+    tau = ca.fmin(ca.fmax(tau_lim, -tau_max), tau_max)
     x_next = rk4(xk, tau + w[3:6], p_plant, Ts)
     return ca.Function(
         f"ballbot_cl_step_{_block_name(balance)}",
@@ -481,6 +487,13 @@ class SimulationLog:
 
     def __getitem__(self, key: str) -> np.ndarray:
         return self.arrays[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self.arrays
+
+    def keys(self):
+        """Names of the logged arrays."""
+        return self.arrays.keys()
 
     def save(self, path: str | Path) -> Path:
         """Write the log to ``path`` (``.npz``); see :func:`save_log`."""
