@@ -38,12 +38,12 @@ def W_tilde(P: Any) -> Any:
     cas = _cas(P.alpha, P.gamma, P.rk, P.rw)
     cos, sin = (ca.cos, ca.sin) if cas else (np.cos, np.sin)
     k = P.rk / P.rw
-    rows = []
-    for i in range(3):
-        gi = i * P.gamma
-        rows.append(
-            [0 * k, -k * cos(gi) * cos(P.alpha), -k * sin(gi) * cos(P.alpha), k * sin(P.alpha)]
-        )
+    ca_, sa = cos(P.alpha), sin(P.alpha)
+    cg, sg = cos(P.gamma), sin(P.gamma)
+    # cos/sin of i*gamma by the double-angle identities: one sin/cos pair per parameter
+    # keeps the generated C free of redundant trigonometric calls.
+    cs = [(1.0, 0.0), (cg, sg), (cg * cg - sg * sg, 2 * sg * cg)]
+    rows = [[0 * k, -k * ci * ca_, -k * si * ca_, k * sa] for ci, si in cs]
     if cas:
         return ca.vertcat(*[ca.horzcat(*r) for r in rows])
     return np.array(rows, dtype=float)
