@@ -85,6 +85,7 @@ DEMO_STEPS: list[tuple[str, str]] = [
     ("closed loop: roll sine 3 deg 0.5 Hz (thesis 8.2.5)", "ballbot_casadi.studies.study:demo_sine"),
     ("closed loop: COM offset, runaway and velocity loop (thesis 8.4.2, 9.2)", "ballbot_casadi.studies.study:demo_com"),
     ("plant FMU: build BallbotPlant.fmu and co-simulate it in fmpy", "ballbot_casadi.fmu_cli:demo_step"),
+    ("report", "ballbot_casadi.studies.report:demo_step"),
 ]
 
 
