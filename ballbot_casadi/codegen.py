@@ -32,6 +32,7 @@ __all__ = [
     "model_library",
     "load_model_library",
     "Library",
+    "run_tool",
 ]
 
 #: Strict C99 flags every generated file must compile with.
@@ -107,7 +108,8 @@ class Library:
     digest: str
 
 
-def _run(cmd: list[str], what: str) -> None:
+def run_tool(cmd: list[str], what: str) -> None:
+    """Run a compiler/archiver command; raise :class:`BuildError` with its stderr on failure."""
     try:
         res = subprocess.run(cmd, capture_output=True, text=True)
     except FileNotFoundError:
@@ -154,11 +156,11 @@ def build_library(
             tsrc = tmp / f"{name}.c"
             tsrc.write_text(c_src)
             (tmp / f"{name}.h").write_text(h_src)
-            _run([cc, *CFLAGS, "-shared", "-o", str(tmp / shared.name), str(tsrc), "-lm"],
+            run_tool([cc, *CFLAGS, "-shared", "-o", str(tmp / shared.name), str(tsrc), "-lm"],
                  f"compiling {name} (shared)")
-            _run([cc, *CFLAGS, "-c", "-o", str(tmp / f"{name}.o"), str(tsrc)],
+            run_tool([cc, *CFLAGS, "-c", "-o", str(tmp / f"{name}.o"), str(tsrc)],
                  f"compiling {name} (object)")
-            _run(["ar", "rcs", str(tmp / static.name), str(tmp / f"{name}.o")],
+            run_tool(["ar", "rcs", str(tmp / static.name), str(tmp / f"{name}.o")],
                  f"archiving {name}")
             cache.mkdir(exist_ok=True)
             os.replace(tmp / shared.name, shared)

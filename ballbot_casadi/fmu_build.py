@@ -25,7 +25,6 @@ import hashlib
 import math
 import os
 import shutil
-import subprocess
 import tempfile
 import uuid
 import zipfile
@@ -37,7 +36,7 @@ from xml.sax.saxutils import quoteattr
 
 import casadi as ca
 
-from .codegen import build_root, generate_sources
+from .codegen import build_root, generate_sources, run_tool
 from .errors import BuildError
 from .params import PARAM_INFO, PARAM_NAMES, load_params
 from .validation import QUAT_TOL
@@ -408,15 +407,6 @@ class FmuBuild:
     digest: str
 
 
-def _run(cmd: list[str], what: str) -> None:
-    try:
-        res = subprocess.run(cmd, capture_output=True, text=True)
-    except FileNotFoundError:
-        raise BuildError(f"{what}: compiler {cmd[0]!r} not found; install gcc") from None
-    if res.returncode != 0:
-        raise BuildError(f"{what} failed ({' '.join(cmd)}):\n{res.stderr[-4000:]}")
-
-
 def _write_zip(root: Path, target: Path) -> None:
     """Deterministic zip of ``root`` (sorted names, fixed timestamps and modes)."""
     tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
@@ -496,7 +486,7 @@ def build_fmu(out: str | Path | None = None, cc: str | None = None) -> FmuBuild:
             cmd = [cc, *CFLAGS, "-I", str(troot / "sources"), "-I", str(fmi_headers_dir()),
                    *[str(troot / "sources" / s) for s in c_sources], *LDFLAGS, "-o",
                    str(troot / "binaries" / platform_dir() / f"{MODEL_IDENTIFIER}.so"), "-lm"]
-            _run(cmd, "compiling BallbotPlant")
+            run_tool(cmd, "compiling BallbotPlant")
             _write_zip(troot, tmp / fmu_path.name)
             try:
                 os.replace(tmp, cache)
@@ -529,7 +519,7 @@ def build_tool(build: FmuBuild, name: str, cc: str | None = None) -> Path:
     exe = build.unzipped.parent / f"{name}-{tag}"
     if not exe.is_file():
         tmp = exe.with_name(f".{exe.name}.{os.getpid()}.tmp")
-        _run([cc, *CFLAGS, "-I", str(build.unzipped / "sources"), "-I", str(fmi_headers_dir()),
+        run_tool([cc, *CFLAGS, "-I", str(build.unzipped / "sources"), "-I", str(fmi_headers_dir()),
               "-o", str(tmp), str(src), "-ldl", "-lm"], f"compiling {name}.c")
         os.replace(tmp, exe)
     return exe

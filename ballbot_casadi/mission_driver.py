@@ -18,7 +18,6 @@ import ctypes
 import hashlib
 import os
 import shutil
-import subprocess
 import tempfile
 from pathlib import Path
 from typing import Sequence
@@ -26,7 +25,7 @@ from typing import Sequence
 import casadi as ca
 import numpy as np
 
-from .codegen import CFLAGS, Library
+from .codegen import CFLAGS, Library, run_tool
 from .errors import BuildError, ShapeError
 
 __all__ = ["glue_source", "MissionDriver"]
@@ -169,12 +168,7 @@ class MissionDriver:
             c.write_text(src)
             cmd = [cc, *CFLAGS, "-shared", "-I", str(lib.header.parent), "-o", str(tmp / so.name),
                    str(c), str(lib.static), "-lm"]
-            try:
-                res = subprocess.run(cmd, capture_output=True, text=True)
-            except FileNotFoundError:
-                raise BuildError(f"compiler {cc!r} not found; install gcc") from None
-            if res.returncode != 0:
-                raise BuildError(f"compiling the mission driver failed:\n{res.stderr[-3000:]}")
+            run_tool(cmd, "compiling the mission driver")
             os.replace(tmp / so.name, so)
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
