@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from . import quaternion as Q
-from .analysis import NR, LinearModel
+from .linearization import NR, LinearModel
 from .model import NX, make_model_functions
 from .params import Params
 
