@@ -11,7 +11,8 @@ import subprocess
 import time
 from importlib import resources
 from pathlib import Path
-from typing import Callable
+from types import MappingProxyType
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -68,11 +69,11 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
 
 
 #: Benchmark groups run by ``ballbot bench``: name -> callable returning a flat dict.
-BENCHMARKS: dict[str, Callable[[], dict[str, float]]] = {
+BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
     "model": bench_model,
     "fmu": bench_fmu,
     "control": bench_control,
-}
+})
 
 
 def run_benchmarks(path: Path, only: list[str] | None = None) -> dict[str, float]:

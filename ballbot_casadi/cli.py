@@ -9,13 +9,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from types import MappingProxyType
+from typing import Mapping
 
 from .errors import BallbotError
 
 __all__ = ["main", "COMMANDS"]
 
 #: subcommand -> module defining ``add_parser``.
-COMMANDS: dict[str, str] = {
+COMMANDS: Mapping[str, str] = MappingProxyType({
     "codegen": "ballbot_casadi.commands",
     "summary": "ballbot_casadi.commands",
     "bench": "ballbot_casadi.commands",
@@ -23,7 +25,7 @@ COMMANDS: dict[str, str] = {
     "study": "ballbot_casadi.studies.study",
     "fmu": "ballbot_casadi.fmu_cli",
     "analyze": "ballbot_casadi.studies.analyze",
-}
+})
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import importlib
 from pathlib import Path
-from typing import Callable
+from types import MappingProxyType
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -15,10 +16,10 @@ __all__ = ["add_parser", "model_summary", "DEMO_STEPS", "CODEGEN_LIBRARIES"]
 
 #: Libraries built by ``ballbot codegen``: name -> "module:function" returning the list of
 #: CasADi Functions to export.
-CODEGEN_LIBRARIES: dict[str, str] = {
+CODEGEN_LIBRARIES: Mapping[str, str] = MappingProxyType({
     "ballbot_model": "ballbot_casadi.codegen:model_functions_list",
     "ballbot_control": "ballbot_casadi.control_library:control_codegen_functions",
-}
+})
 
 
 def _resolve(spec: str) -> Callable:
@@ -79,14 +80,26 @@ def _step_codegen(out: Path) -> int:
 
 
 #: Steps of ``ballbot demo`` in order: (title, "module:function" taking the output dir).
-DEMO_STEPS: list[tuple[str, str]] = [
+DEMO_STEPS: tuple[tuple[str, str], ...] = (
     ("generate and compile C, model summary", "ballbot_casadi.commands:_step_codegen"),
-    ("linear analysis: minimal model, controllability, RHP zeros, bandwidths", "ballbot_casadi.studies.analyze:demo_step"),
-    ("closed loop: roll sine 3 deg 0.5 Hz (thesis 8.2.5)", "ballbot_casadi.studies.study:demo_sine"),
-    ("closed loop: COM offset, runaway and velocity loop (thesis 8.4.2, 9.2)", "ballbot_casadi.studies.study:demo_com"),
-    ("plant FMU: build BallbotPlant.fmu and co-simulate it in fmpy", "ballbot_casadi.fmu_cli:demo_step"),
+    (
+        "linear analysis: minimal model, controllability, RHP zeros, bandwidths",
+        "ballbot_casadi.studies.analyze:demo_step",
+    ),
+    (
+        "closed loop: roll sine 3 deg 0.5 Hz (thesis 8.2.5)",
+        "ballbot_casadi.studies.study:demo_sine",
+    ),
+    (
+        "closed loop: COM offset, runaway and velocity loop (thesis 8.4.2, 9.2)",
+        "ballbot_casadi.studies.study:demo_com",
+    ),
+    (
+        "plant FMU: build BallbotPlant.fmu and co-simulate it in fmpy",
+        "ballbot_casadi.fmu_cli:demo_step",
+    ),
     ("report", "ballbot_casadi.studies.report:demo_step"),
-]
+)
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:

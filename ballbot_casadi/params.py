@@ -12,6 +12,7 @@ import tomllib
 from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, Mapping
 
 import numpy as np
@@ -22,7 +23,7 @@ __all__ = ["PARAM_NAMES", "PARAM_INFO", "Params", "ParamView", "load_params", "d
 
 # name: (unit, description, rule)
 # rules: "pos" > 0, "nonneg" >= 0, "any" finite, "alpha" in (0, pi/2), "gamma" in (0, pi)
-PARAM_INFO: dict[str, tuple[str, str, str]] = {
+PARAM_INFO: Mapping[str, tuple[str, str, str]] = MappingProxyType({
     "Mb": ("kg", "body mass including wheels and motors", "pos"),
     "l": ("m", "distance from ball centre to body centre of mass", "pos"),
     "Jbx": ("kg.m2", "body inertia about body x", "pos"),
@@ -44,7 +45,7 @@ PARAM_INFO: dict[str, tuple[str, str, str]] = {
     "com_x": ("m", "centre-of-mass offset along body x", "any"),
     "com_y": ("m", "centre-of-mass offset along body y", "any"),
     "beta": ("1/s", "Baumgarte stabilisation gain", "nonneg"),
-}
+})
 
 PARAM_NAMES: tuple[str, ...] = tuple(PARAM_INFO)
 
