@@ -54,6 +54,8 @@ Near-singular E(x) is handled by damped least squares and reported in ``diag``
 
 from __future__ import annotations
 
+from typing import Callable
+
 import casadi as ca
 import numpy as np
 
@@ -66,7 +68,7 @@ from .decoupling import (
     error_output_dynamics,
 )
 
-__all__ = ["make_flc", "FLC_GAIN_NAMES", "FLC_DEFAULT_GAINS", "DIAG_NAMES", "balance_inputs"]
+__all__ = ["make_flc", "FLC_GAIN_NAMES", "FLC_DEFAULT_GAINS", "DIAG_NAMES", "balance_controller"]
 
 #: Gain vector layout of the FLC.
 FLC_GAIN_NAMES = ("Kp1", "Kp2", "Kp3", "Kd1", "Kd2", "Kd3")
@@ -87,16 +89,41 @@ DIAG_NAMES = (
 )
 
 
-def balance_inputs(np_: int, nk: int) -> list[ca.MX]:
-    """MX symbols ``x, q_ref, dq_ref, ddq_ref, p, k`` of a balance controller."""
-    return [
-        ca.MX.sym("x", 12),
-        ca.MX.sym("q_ref", 4),
-        ca.MX.sym("dq_ref", 4),
-        ca.MX.sym("ddq_ref", 4),
-        ca.MX.sym("p", np_),
-        ca.MX.sym("k", nk),
-    ]
+def balance_controller(
+    name: str,
+    affine: ca.Function,
+    n_gains: int,
+    law: Callable[[dict[str, ca.MX], ca.MX], ca.MX],
+    qe0_min: float,
+    rcond_min: float,
+    mu: float,
+) -> ca.Function:
+    """Common frame of the balance controllers: ``ballbot_<name>(x, q_ref, dq_ref, ddq_ref, p, k)``.
+
+    Computes the exact error-output dynamics ``ddy = D + E tau`` from the model's
+    ``affine`` Function (thesis 8.12-8.26, with the body-frame error of 7.4/7.5), asks
+    ``law(o, k)`` for the desired error acceleration ``v`` and solves ``E tau = v - D``
+    with the regularised inverse (thesis 8.26).  Outputs ``tau`` and ``diag``
+    (:data:`DIAG_NAMES`).
+    """
+    _, np_ = check_affine(affine)
+    x, q_ref, dq_ref, ddq_ref = (ca.MX.sym(n, m) for n, m in
+                                 (("x", 12), ("q_ref", 4), ("dq_ref", 4), ("ddq_ref", 4)))
+    p, k = ca.MX.sym("p", np_), ca.MX.sym("k", n_gains)
+    f, g = affine(x, p)
+    o = error_output_dynamics(x, q_ref, dq_ref, ddq_ref, f, g)
+    v = law(o, k)
+    tau, singular, margin = damped_solve(
+        o["E"], v - o["D"], o["qe0"], o["G"], qe0_min, rcond_min, mu
+    )  # (8.26)
+    diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
+    return ca.Function(
+        f"ballbot_{name}",
+        [x, q_ref, dq_ref, ddq_ref, p, k],
+        [tau, diag],
+        ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"],
+        ["tau", "diag"],
+    )
 
 
 def make_flc(
@@ -129,19 +156,8 @@ def make_flc(
     they are used as given, not re-normalised.  The reference may use either sign of
     the double cover: the shortest-path sign is applied inside.
     """
-    _, np_ = check_affine(affine)
-    x, q_ref, dq_ref, ddq_ref, p, k = balance_inputs(np_, len(FLC_GAIN_NAMES))
-    f, g = affine(x, p)
-    o = error_output_dynamics(x, q_ref, dq_ref, ddq_ref, f, g)
-    v = -k[0:3] * o["y"] - k[3:6] * o["dy"]  # (8.44) on the exact error output
-    tau, singular, margin = damped_solve(
-        o["E"], v - o["D"], o["qe0"], o["G"], qe0_min, rcond_min, mu
-    )  # (8.26)
-    diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
-    return ca.Function(
-        "ballbot_flc",
-        [x, q_ref, dq_ref, ddq_ref, p, k],
-        [tau, diag],
-        ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"],
-        ["tau", "diag"],
-    )
+
+    def pd_law(o: dict[str, ca.MX], k: ca.MX) -> ca.MX:
+        return -k[0:3] * o["y"] - k[3:6] * o["dy"]  # (8.44) on the exact error output
+
+    return balance_controller("flc", affine, len(FLC_GAIN_NAMES), pd_law, qe0_min, rcond_min, mu)

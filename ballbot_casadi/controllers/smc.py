@@ -27,15 +27,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .decoupling import (
-    DAMPING_MU,
-    QE0_MIN,
-    RCOND_MIN,
-    check_affine,
-    damped_solve,
-    error_output_dynamics,
-)
-from .flc import balance_inputs
+from .decoupling import DAMPING_MU, QE0_MIN, RCOND_MIN
+from .flc import balance_controller
 
 __all__ = ["make_smc", "SMC_GAIN_NAMES", "SMC_DEFAULT_GAINS"]
 
@@ -66,22 +59,13 @@ def make_smc(
         ``ballbot_smc(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[9]) ->
         (tau[3], diag[12])``; same ``diag`` layout as the FLC.
     """
-    _, np_ = check_affine(affine)
-    x, q_ref, dq_ref, ddq_ref, p, k = balance_inputs(np_, len(SMC_GAIN_NAMES))
-    f, g = affine(x, p)
-    o = error_output_dynamics(x, q_ref, dq_ref, ddq_ref, f, g)
-    K, eta, eps = k[0:3], k[3:6], k[6:9]
-    S = o["dy"] + K * o["y"]
-    sat = ca.fmin(ca.fmax(S / eps, -1), 1)
-    v = -K * o["dy"] - eta * sat
-    tau, singular, margin = damped_solve(
-        o["E"], v - o["D"], o["qe0"], o["G"], qe0_min, rcond_min, mu
-    )
-    diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
-    return ca.Function(
-        "ballbot_smc",
-        [x, q_ref, dq_ref, ddq_ref, p, k],
-        [tau, diag],
-        ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"],
-        ["tau", "diag"],
+
+    def sliding_law(o: dict[str, ca.MX], k: ca.MX) -> ca.MX:
+        K, eta, eps = k[0:3], k[3:6], k[6:9]
+        S = o["dy"] + K * o["y"]  # sliding surface in the body frame
+        sat = ca.fmin(ca.fmax(S / eps, -1), 1)
+        return -K * o["dy"] - eta * sat  # equivalent control + continuous switching
+
+    return balance_controller(
+        "smc", affine, len(SMC_GAIN_NAMES), sliding_law, qe0_min, rcond_min, mu
     )
