@@ -19,7 +19,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ballbot_casadi.metrics import check_spec, rpy_deg, study_metrics, tilt_deg
+from ballbot_casadi.metrics import attitude_error_deg, check_spec, rpy_deg, study_metrics, tilt_deg
 from ballbot_casadi.scenarios import STUDY_NAMES, study_scenarios
 from ballbot_casadi.simulation import ClosedLoop, SimulationLog, run_scenario, save_log
 
@@ -40,7 +40,7 @@ def _jsonable(v: Any) -> Any:
 
 
 def plot_study(name: str, logs: Sequence[SimulationLog], path: Path) -> Path:
-    """Euler angles vs references, speed and torques of the study's main run (PNG)."""
+    """Euler angles vs references, tracking error, speed and torques of the main run (PNG)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -52,12 +52,17 @@ def plot_study(name: str, logs: Sequence[SimulationLog], path: Path) -> Path:
     t = a["time"]
     ang = rpy_deg(a["state"][:, 2:6])
     ref = rpy_deg(a["q_ref"])
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    fig, axes = plt.subplots(4, 1, figsize=(8, 10), sharex=True)
+    err = attitude_error_deg(log)
     for i, lab in enumerate(("roll", "pitch", "yaw")):
         line, = axes[0].plot(t, ang[:, i], label=lab)
         axes[0].plot(t[:n], ref[:, i], "--", color=line.get_color(), lw=0.8)
+        axes[3].plot(t[:n], err[:, i], color=line.get_color(), label=f"{lab} error")
     axes[0].set_ylabel("angle (deg), -- ref")
     axes[0].legend(loc="upper right")
+    axes[3].set_yscale("symlog", linthresh=1e-3)
+    axes[3].set_ylabel("attitude error (deg)")
+    axes[3].legend(loc="upper right", fontsize=7)
     speed = np.hypot(a["state"][:, 6], a["state"][:, 7])
     axes[1].plot(t, a["state"][:, 6], label="dx")
     axes[1].plot(t, a["state"][:, 7], label="dy")
@@ -73,7 +78,7 @@ def plot_study(name: str, logs: Sequence[SimulationLog], path: Path) -> Path:
     for i in range(3):
         axes[2].step(t[:n], a["tau"][:, i], where="post", label=f"tau{i}")
     axes[2].set_ylabel("wheel torque (N m)")
-    axes[2].set_xlabel("time (s)")
+    axes[3].set_xlabel("time (s)")
     axes[2].legend(loc="upper right")
     fig.suptitle(f"study {name} ({log.scenario['controller']}): tilt max {tilt_deg(a['state'][:, 2:6]).max():.2f} deg")
     fig.tight_layout()
