@@ -6,7 +6,7 @@ module computes it.  Everything here is numpy/CasADi/python-control; plots and t
 live in :mod:`ballbot_casadi.studies.analyze`.
 
 Operating points and the exact full/reduced linearisation are in
-:mod:`ballbot_casadi.linearization` (re-exported here).
+:mod:`ballbot_casadi.linearization`.
 
 The closed loop (cascade bandwidths, 3x rule) is :mod:`ballbot_casadi.closed_loop_analysis`.
 
@@ -27,35 +27,13 @@ import numpy as np
 import scipy.linalg as sla
 
 from .errors import ShapeError
-from .linearization import (
-    NR,
-    REDUCED_STATE_NAMES,
-    LinearModel,
-    OperatingPoint,
-    balance_point,
-    balance_tilt,
-    linearize,
-    parse_state_spec,
-    sorted_eig,
-    tangent_basis,
-    trim,
-)
+from .linearization import NR, REDUCED_STATE_NAMES, LinearModel, linearize, sorted_eig
 from .model import NU, NX
 from .params import Params
 
 __all__ = [
-    "NR",
-    "REDUCED_STATE_NAMES",
     "STATE_SCALE",
     "CHANNELS",
-    "OperatingPoint",
-    "LinearModel",
-    "parse_state_spec",
-    "balance_point",
-    "balance_tilt",
-    "trim",
-    "tangent_basis",
-    "linearize",
     "state_scaling",
     "controllability",
     "mode_groups",

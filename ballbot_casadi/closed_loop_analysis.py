@@ -4,7 +4,7 @@ The thesis runs the FLC balance controller (inner loop, ch. 8) inside the veloci
 controller (outer loop, §7.3) and requires the inner loop to be at least three times
 faster than the outer one (§7.1); it measures the attitude bandwidth with a chirp test
 (§9.1).  This module linearises the sampled cascade at an operating point of
-:func:`ballbot_casadi.analysis.linearize` by CasADi automatic differentiation through the
+:func:`ballbot_casadi.linearization.linearize` by CasADi automatic differentiation through the
 controller Functions (:mod:`ballbot_casadi.controllers`) and computes both loops'
 frequency responses and bandwidths.
 """

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ballbot_casadi import analysis as an
+from ballbot_casadi import linearization as lz
 
 __all__ = ["write_plots", "write_markdown", "OMEGA"]
 
@@ -37,7 +38,7 @@ def _plt():
     return plt
 
 
-def write_plots(lin: an.LinearModel, result: dict[str, Any], out: Path) -> list[Path]:
+def write_plots(lin: lz.LinearModel, result: dict[str, Any], out: Path) -> list[Path]:
     """Write ``pole_zero.png``, ``singular_values.png`` and, if present, ``closed_loop.png``."""
     plt = _plt()
     files = []

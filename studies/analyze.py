@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from ballbot_casadi import analysis as an
+from ballbot_casadi import linearization as lz
 from ballbot_casadi import closed_loop_analysis as cla
 from ballbot_casadi.params import load_params
 
@@ -74,7 +75,7 @@ def run_analysis(
     from ballbot_casadi.studies.analysis_report import write_markdown, write_plots
 
     params = load_params(params_path)
-    x0 = an.parse_state_spec(at, params) if at is not None else None
+    x0 = lz.parse_state_spec(at, params) if at is not None else None
     funcs = None
     if compiled:
         from ballbot_casadi.codegen import load_model_library

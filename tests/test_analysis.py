@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from ballbot_casadi import analysis as an
+from ballbot_casadi import linearization as lz
 from ballbot_casadi import closed_loop_analysis as cla
 from ballbot_casadi import load_params
 from ballbot_casadi import quaternion as Q
@@ -29,8 +30,8 @@ def default(funcs):
 def offset_point(funcs):
     """A non-trivial operating point: COM offset (tilted balance), friction, rolling, heading."""
     params = load_params(com_x=0.015, com_y=-0.01, Bvk=0.4, Bvm=0.01, Bvb=0.05, beta=7.0)
-    x0 = an.parse_state_spec("yaw=37,dx=0.15,dy=-0.05,x=1.5", params)
-    return params, an.linearize(params, x0, funcs)
+    x0 = lz.parse_state_spec("yaw=37,dx=0.15,dy=-0.05,x=1.5", params)
+    return params, lz.linearize(params, x0, funcs)
 
 
 def _match(a, b, tol):
@@ -50,7 +51,7 @@ def test_tangent_basis_is_orthonormal_and_tangent():
     rng = np.random.default_rng(3)
     q0 = rng.normal(size=4)
     q0 /= np.linalg.norm(q0)
-    T = an.tangent_basis(q0)
+    T = lz.tangent_basis(q0)
     np.testing.assert_allclose(T.T @ T, np.eye(10), atol=1e-14)
     # q0^T delta q = 0 and (dq0 = 0) q0^T delta dq = 0 for every basis vector
     np.testing.assert_allclose(q0 @ T[2:6], 0.0, atol=1e-14)
@@ -95,7 +96,7 @@ def test_compiled_jacobians_give_the_same_linearisation(offset_point):
     from ballbot_casadi.codegen import load_model_library
 
     params, lin = offset_point
-    lin_c = an.linearize(params, lin.op.x, load_model_library())
+    lin_c = lz.linearize(params, lin.op.x, load_model_library())
     np.testing.assert_allclose(lin_c.A, lin.A, rtol=1e-11, atol=1e-11)
     np.testing.assert_allclose(lin_c.B, lin.B, rtol=1e-11, atol=1e-12)
 
@@ -197,7 +198,7 @@ def test_pole_and_zero_match_planar_hand_derivation(default):
 )
 def test_pole_and_zero_follow_parameters_like_the_hand_derivation(overrides, funcs):
     params = load_params(**overrides)
-    lin = an.linearize(params, None, funcs)
+    lin = lz.linearize(params, None, funcs)
     eig = lin.eig_reduced()
     poles = np.sort(eig.real[eig.real > 1e-6])
     zeros = an.channel_poles_zeros(lin, "pose")["rhp_zeros"].real
@@ -208,7 +209,7 @@ def test_pole_and_zero_follow_parameters_like_the_hand_derivation(overrides, fun
 
 def test_pole_and_zero_scale_with_sqrt_g(default, funcs):
     params, lin, result = default
-    lin4 = an.linearize(params.replace(g=4 * params.g), None, funcs)
+    lin4 = lz.linearize(params.replace(g=4 * params.g), None, funcs)
     p4 = np.sort(lin4.eig_reduced().real)[-2:]
     np.testing.assert_allclose(p4, 2 * np.sort(result["unstable_poles"]), rtol=1e-10)
     z4 = np.sort(an.channel_poles_zeros(lin4, "pose")["rhp_zeros"].real)
@@ -222,7 +223,7 @@ def test_pole_versus_com_height_follows_pendulum_physics(funcs):
     ls = (0.3, 0.42, 0.6)
 
     def pole(**kw):
-        return float(np.max(an.linearize(load_params(**kw), None, funcs).eig_reduced().real))
+        return float(np.max(lz.linearize(load_params(**kw), None, funcs).eig_reduced().real))
 
     slender = [pole(l=l, Jbx=1e-3, Jby=1e-3) for l in ls]
     bulky = [pole(l=l) for l in ls]
@@ -232,7 +233,7 @@ def test_pole_versus_com_height_follows_pendulum_physics(funcs):
 
 def test_results_do_not_depend_on_heading(default, funcs):
     params, lin, result = default
-    lin30 = an.linearize(params, an.parse_state_spec("yaw=30", params), funcs)
+    lin30 = lz.linearize(params, lz.parse_state_spec("yaw=30", params), funcs)
     assert _match(lin30.eig_reduced(), lin.eig_reduced(), 1e-6)  # defective zero modes
     z30 = an.channel_poles_zeros(lin30, "pose")["zeros"]
     z0 = an.channel_poles_zeros(lin, "pose")["zeros"]
@@ -273,13 +274,13 @@ def test_zoh_matches_expm_series():
 
 def test_state_spec_formats():
     params = load_params()
-    x = an.parse_state_spec("x=1, y=-2, yaw=90, dx=0.1", params)
+    x = lz.parse_state_spec("x=1, y=-2, yaw=90, dx=0.1", params)
     np.testing.assert_allclose(x[:2], [1, -2])
     np.testing.assert_allclose(x[6:8], [0.1, 0])
     np.testing.assert_allclose(np.degrees(Q.to_rpy(x[2:6])), [0, 0, 90], atol=1e-12)
     full = np.zeros(12)
     full[2] = 1.0
-    np.testing.assert_allclose(an.parse_state_spec(",".join(map(str, full)), params), full)
+    np.testing.assert_allclose(lz.parse_state_spec(",".join(map(str, full)), params), full)
 
 
 @pytest.mark.parametrize(
@@ -296,18 +297,18 @@ def test_state_spec_formats():
 )
 def test_state_spec_errors(text, match):
     with pytest.raises(StateError, match=match):
-        an.parse_state_spec(text, load_params())
+        lz.parse_state_spec(text, load_params())
 
 
 def test_non_equilibrium_and_moving_attitude_are_rejected(funcs):
     params = load_params()
     with pytest.raises(StateError, match="not an equilibrium"):
-        an.linearize(params, an.parse_state_spec("roll=3", params), funcs)
+        lz.linearize(params, lz.parse_state_spec("roll=3", params), funcs)
     x = np.zeros(12)
     x[2] = 1.0
     x[9] = 0.1
     with pytest.raises(StateError, match="at rest"):
-        an.linearize(params, x, funcs)
+        lz.linearize(params, x, funcs)
 
 
 # ----------------------------------------------------------------- closed loop
