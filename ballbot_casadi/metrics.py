@@ -17,6 +17,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from . import quaternion as Q
 from .errors import ScenarioError
 
 __all__ = [
@@ -43,13 +44,8 @@ def _arrays(log: Any) -> Mapping[str, np.ndarray]:
 
 
 def rpy_deg(q: np.ndarray) -> np.ndarray:
-    """ZYX roll, pitch, yaw (deg) of quaternion rows (N, 4) (as ``quaternion.to_rpy``)."""
-    q = np.asarray(q, float)
-    q0, q1, q2, q3 = q.T
-    roll = np.arctan2(2 * (q0 * q1 + q2 * q3), 1 - 2 * (q1**2 + q2**2))
-    pitch = np.arcsin(np.clip(2 * (q0 * q2 - q3 * q1), -1.0, 1.0))
-    yaw = np.arctan2(2 * (q0 * q3 + q1 * q2), 1 - 2 * (q2**2 + q3**2))
-    return np.degrees(np.stack([roll, pitch, yaw], axis=1))
+    """ZYX roll, pitch, yaw (deg) of quaternion rows (N, 4) (``quaternion.to_rpy``)."""
+    return np.degrees(Q.to_rpy(np.asarray(q, float).reshape(-1, 4)))
 
 
 def tilt_deg(q: np.ndarray) -> np.ndarray:

@@ -207,18 +207,29 @@ def from_rpy(roll: Any, pitch: Any, yaw: Any) -> Any:
 
 
 def to_rpy(q: Any) -> Any:
-    """ZYX roll, pitch, yaw of a unit quaternion (inverse of :func:`from_rpy`)."""
+    """ZYX roll, pitch, yaw of a unit quaternion (inverse of :func:`from_rpy`).
+
+    A numpy array of quaternion rows (N, 4) gives an (N, 3) array.
+    """
     cas = _is_ca(q)
-    q0, q1, q2, q3 = _elems(q, 4)
+    if not cas and np.ndim(q) == 2:
+        arr = np.asarray(q, dtype=float)
+        if arr.shape[1] != 4:
+            raise ValueError(f"expected quaternion rows of shape (N, 4), got {arr.shape}")
+        q0, q1, q2, q3 = arr.T
+    else:
+        q0, q1, q2, q3 = _elems(q, 4)
     atan2 = ca.atan2 if cas else np.arctan2
     s = 2 * (q0 * q2 - q3 * q1)
     if cas:
         s = ca.fmin(ca.fmax(s, -1), 1)
         asin = ca.asin
     else:
-        s = float(np.clip(s, -1.0, 1.0))
+        s = np.clip(s, -1.0, 1.0)
         asin = np.arcsin
     roll = atan2(2 * (q0 * q1 + q2 * q3), 1 - 2 * (q1**2 + q2**2))
     pitch = asin(s)
     yaw = atan2(2 * (q0 * q3 + q1 * q2), 1 - 2 * (q2**2 + q3**2))
+    if not cas and np.ndim(q) == 2:
+        return np.stack([roll, pitch, yaw], axis=1)
     return _col([roll, pitch, yaw], cas)
