@@ -16,7 +16,7 @@ Keys
     Function (same generated code plus numpy <-> DM conversion of every element).
 ``python_loop_ratio``
     The same loop written as a Python loop of CasADi calls (velocity controller,
-    balance controller, numpy saturation, RK4 step Function; best of 3 blocks of 400
+    balance controller, numpy torque limit and saturation, RK4 step Function; best of 3 blocks of 400
     periods) divided by the per-period time of the single compiled call.
     Target >= 50.
 """
@@ -74,7 +74,7 @@ def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
 
 def _python_loop_period_s(sim, inputs: dict, n: int) -> float:
     """Seconds per period of the closed loop as a Python loop of symbolic CasADi calls."""
-    from .controllers import make_balance_controller, make_velocity_controller
+    from .controllers import make_balance_controller, make_velocity_controller, saturate_torques
     from .integrators import make_rk4_n
     from .model import make_affine, make_ode
     from .params import PARAM_NAMES
@@ -84,6 +84,7 @@ def _python_loop_period_s(sim, inputs: dict, n: int) -> float:
     rk4 = make_rk4_n(make_ode(), sim.n_sub)
     p, pc = inputs["p_plant"], inputs["p_ctrl"]
     tau_max = p[PARAM_NAMES.index("tau_max")]
+    tau_max_ctrl = pc[PARAM_NAMES.index("tau_max")]
     kb, kv, Ts = inputs["k_bal"], inputs["k_vel"], inputs["Ts"]
     x, z = inputs["x0"].copy(), inputs["z0"].copy()
     v_ref = inputs["v_ref"]
@@ -93,7 +94,7 @@ def _python_loop_period_s(sim, inputs: dict, n: int) -> float:
         for k in range(rep * n, (rep + 1) * n):
             qr, dqr, ddqr, z = vel(x, v_ref[k], z, pc, kv, Ts)
             tau, _ = bal(x, qr, dqr, ddqr, pc, kb)
-            tau = np.clip(np.asarray(tau).ravel(), -tau_max, tau_max)
+            tau = np.clip(saturate_torques(np.asarray(tau).ravel(), tau_max_ctrl), -tau_max, tau_max)
             x = np.asarray(rk4(x, tau, p, Ts)).ravel()
         best = min(best, (time.perf_counter() - t0) / n)
     return best
