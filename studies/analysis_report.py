@@ -11,10 +11,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import matplotlib
+import matplotlib.pyplot as plt
 import numpy as np
 
-from ballbot_casadi import analysis as an
-from ballbot_casadi import linearization as lz
+from ballbot_casadi.analysis import linear as an
+from ballbot_casadi.model import linearization as lz
 
 __all__ = ["write_plots", "write_markdown", "OMEGA"]
 
@@ -30,10 +32,7 @@ _CHANNEL_STYLE = {
 
 
 def _plt():
-    import matplotlib
-
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     return plt
 

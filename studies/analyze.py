@@ -23,12 +23,15 @@ import math
 from pathlib import Path
 from typing import Any
 
-from ballbot_casadi import analysis as an
-from ballbot_casadi import linearization as lz
-from ballbot_casadi import closed_loop_analysis as cla
-from ballbot_casadi.params import load_params
+from ballbot_casadi.studies.analysis_report import write_markdown, write_plots
 
-__all__ = ["run_analysis", "summary_text", "add_parser", "demo_step"]
+from ballbot_casadi.analysis import closed_loop as cla
+from ballbot_casadi.analysis import linear as an
+from ballbot_casadi.codegen.libraries import load_model_library
+from ballbot_casadi.core.params import load_params
+from ballbot_casadi.model import linearization as lz
+
+__all__ = ["run_analysis", "summary_text", "demo_step"]
 
 
 def _jsonable(obj: Any) -> Any:
@@ -63,7 +66,7 @@ def run_analysis(
         Also write the PNG plots.
     compiled
         Take the plant Jacobians and trim from the compiled C library
-        (:func:`ballbot_casadi.codegen.load_model_library`) instead of the CasADi
+        (:func:`ballbot_casadi.codegen.libraries.load_model_library`) instead of the CasADi
         Functions in memory (same expressions; the closed loop always differentiates the
         symbolic controller graph).
 
@@ -72,14 +75,11 @@ def run_analysis(
     dict
         The content of ``analysis.json`` plus ``files`` (written paths).
     """
-    from ballbot_casadi.studies.analysis_report import write_markdown, write_plots
 
     params = load_params(params_path)
     x0 = lz.parse_state_spec(at, params) if at is not None else None
     funcs = None
     if compiled:
-        from ballbot_casadi.codegen import load_model_library
-
         funcs = load_model_library()
     lin, result = an.analyze_plant(params, x0, funcs)
     result["jacobians"] = "compiled C library" if compiled else "CasADi Functions (symbolic)"
@@ -128,39 +128,9 @@ def _f(v: float | None) -> str:
     return "n/a" if v is None else f"{v:.3f}"
 
 
-def _cmd_analyze(args: argparse.Namespace) -> int:
-    result = run_analysis(args.out, args.params, args.at, plots=not args.no_plots, compiled=args.compiled)
-    print(summary_text(result))
-    print(f"written: {', '.join(result['files'])}")
-    return 0
-
-
 def demo_step(out: Path) -> int:
     """``make demo`` step: analyse the default robot into ``out/analysis`` and print a summary."""
     result = run_analysis(Path(out) / "analysis")
     print(summary_text(result))
     print(f"report: {Path(out) / 'analysis' / 'analysis.md'}")
     return 0
-
-
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register ``ballbot analyze``."""
-    p = sub.add_parser(
-        "analyze",
-        help="linearise, reduce, controllability, poles/zeros, bandwidths; JSON + Markdown + plots",
-        description="Linearise the ballbot at an operating point, reduce it to the minimal "
-        "10-state model, test controllability, compute poles/zeros of the wheel-torque channels "
-        "and the cascade bandwidths; write analysis.json, analysis.md and PNG plots to --out.",
-    )
-    p.add_argument("--params", help="parameter TOML file (default: thesis App. A)")
-    p.add_argument(
-        "--at",
-        metavar="STATE",
-        help="operating point: key=value pairs (x, y [m], dx, dy [m/s], roll, pitch, yaw [deg]), "
-        "e.g. 'yaw=30', or 12 comma-separated numbers (full state); default: balanced at rest",
-    )
-    p.add_argument("--out", default="build/analysis", help="output directory (default build/analysis)")
-    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
-    p.add_argument("--compiled", action="store_true",
-                   help="use the compiled C model library for the plant Jacobians (built if needed)")
-    p.set_defaults(func=_cmd_analyze)

@@ -11,6 +11,10 @@ import json
 from pathlib import Path
 from typing import Any
 
+from ballbot_casadi.model.linearization import model_summary
+from ballbot_casadi.core.params import PARAM_INFO, load_params
+from ballbot_casadi.core.toolchain import build_root
+
 __all__ = ["write_report", "demo_step"]
 
 
@@ -29,9 +33,6 @@ def _num(v: Any, fmt: str = ".4g") -> str:
 
 
 def _model_section() -> list[str]:
-    from ballbot_casadi.commands import model_summary
-    from ballbot_casadi.params import PARAM_INFO, load_params
-
     p = load_params()
     rows = [f"| `{n}` | {getattr(p, n):.6g} | {PARAM_INFO[n][0]} | {PARAM_INFO[n][1]} |"
             for n in p.names]
@@ -42,7 +43,7 @@ def _model_section() -> list[str]:
         "Jacobians (`build/codegen/`).",
         "",
         "```",
-        model_summary(),
+        model_summary(p),
         "```",
         "",
         "<details><summary>Parameters (thesis App. A)</summary>",
@@ -114,8 +115,6 @@ def write_report(out: Path, bench: Path | None = None) -> Path:
     """Write ``out/report.md`` from the demo outputs under ``out``."""
     out = Path(out)
     if bench is None:
-        from ballbot_casadi.codegen import build_root
-
         bench = build_root() / "bench.json"
     lines = ["# ballbot-casadi demo report", "", "Default robot (thesis App. A), true-state "
              "feedback. Regenerate with `make demo`.", ""]

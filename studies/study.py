@@ -17,13 +17,26 @@ import math
 from pathlib import Path
 from typing import Any, Sequence
 
+import matplotlib
+import matplotlib.pyplot as plt
 import numpy as np
 
-from ballbot_casadi.metrics import attitude_error_deg, check_spec, rpy_deg, study_metrics, tilt_deg
-from ballbot_casadi.scenarios import STUDY_NAMES, study_scenarios
-from ballbot_casadi.simulation import ClosedLoop, SimulationLog, run_scenario, save_log
+from ballbot_casadi.analysis.metrics import (
+    attitude_error_deg,
+    check_spec,
+    rpy_deg,
+    study_metrics,
+    tilt_deg,
+)
+from ballbot_casadi.sim.closed_loop import (
+    ClosedLoop,
+    SimulationLog,
+    run_scenario,
+    save_log,
+)
+from ballbot_casadi.sim.scenarios import STUDY_NAMES, study_scenarios
 
-__all__ = ["run_study", "run_all", "add_parser", "demo_sine", "demo_com", "CONTROLLERS"]
+__all__ = ["run_study", "run_all", "demo_sine", "demo_com", "CONTROLLERS"]
 
 CONTROLLERS = ("flc", "smc")
 DEFAULT_OUT = Path("build") / "study"
@@ -41,10 +54,8 @@ def _jsonable(v: Any) -> Any:
 
 def plot_study(name: str, logs: Sequence[SimulationLog], path: Path) -> Path:
     """Euler angles vs references, tracking error, speed and torques of the main run (PNG)."""
-    import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     log = logs[-1]
     a = log.arrays
@@ -157,39 +168,6 @@ def run_all(out: Path | None = None, plot: bool = True) -> dict[str, Any]:
             md.append(f"| {name} | {row['metric']} | {row['op']} {row['threshold']} | {cells[0]} | {cells[1]} |")
     (out / "summary.md").write_text("\n".join(md) + "\n")
     return table
-
-
-def _cmd_study(args: argparse.Namespace) -> int:
-    if args.name == "all":
-        table = run_all(Path(args.out) if args.out else None, plot=not args.no_plot)
-        ok = True
-        for res in table.values():
-            for r in res.values():
-                ok &= r["passed"]
-                if not args.quiet:
-                    print(format_summary(r))
-        return 0 if ok else 1
-    result = run_study(args.name, args.controller, Path(args.out) if args.out else None,
-                       plot=not args.no_plot)
-    if not args.quiet:
-        print(format_summary(result))
-    return 0 if result["passed"] else 1
-
-
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register ``ballbot study <name>``."""
-    p = sub.add_parser(
-        "study",
-        help="run a closed-loop acceptance study (exit 1 if its spec is not met)",
-        description="Closed-loop acceptance studies (issue 4): " + ", ".join(STUDY_NAMES)
-        + "; 'all' runs every study for flc and smc.",
-    )
-    p.add_argument("name", choices=[*STUDY_NAMES, "all"])
-    p.add_argument("--controller", choices=CONTROLLERS, default="flc")
-    p.add_argument("--quiet", action="store_true", help="print nothing")
-    p.add_argument("--out", help="output directory (default build/study/<name>/<controller>)")
-    p.add_argument("--no-plot", action="store_true", help="skip the PNG plot")
-    p.set_defaults(func=_cmd_study)
 
 
 def _demo(name: str, out: Path) -> int:

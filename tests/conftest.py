@@ -25,7 +25,7 @@ def kugle_reference() -> dict:
 
 @pytest.fixture(scope="session")
 def model_functions():
-    from ballbot_casadi.model import make_model_functions
+    from ballbot_casadi.model.dynamics import make_model_functions
 
     return make_model_functions()
 

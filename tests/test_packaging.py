@@ -1,7 +1,8 @@
 """The wheel must contain every subpackage, so studies work from an installed package."""
 
-import tomllib
 from pathlib import Path
+
+import tomllib
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -1,0 +1,91 @@
+"""Benchmarks (``make bench``): generated-C timings of the model, written to JSON.
+
+Timing goals live here, never in tests.  Targets (issue 2): generated ODE <= 0.5 us
+per call, (A, B) <= 3 us per call.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+from importlib import resources
+from pathlib import Path
+from types import MappingProxyType
+from typing import Callable, Mapping
+
+import numpy as np
+
+from ballbot_casadi.bench.control import bench_control
+from ballbot_casadi.bench.fmu import bench_fmu
+from ballbot_casadi.codegen.libraries import model_library
+from ballbot_casadi.core.params import load_params
+from ballbot_casadi.core.toolchain import CFLAGS, build_root
+from ballbot_casadi.errors import BuildError
+from ballbot_casadi.model.dynamics import make_ode
+
+__all__ = ["bench_model", "run_benchmarks", "BENCHMARKS"]
+
+
+def _python_call_ns(n: int = 20000) -> float:
+    """ns per call of the symbolic ODE Function called from Python with numpy arrays."""
+
+    ode = make_ode()
+    x = np.array([0.1, -0.2, 0.99904822, 0.0348995, 0.0261769, 0, 0.1, 0.05, 0, 0.01, -0.02, 0.03])
+    tau, p = np.array([0.2, -0.1, 0.3]), load_params().to_vector()
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter_ns()
+        for _ in range(n):
+            ode(x, tau, p)
+        best = min(best, (time.perf_counter_ns() - t0) / n)
+    return best
+
+
+def bench_model(n_calls: int = 200000) -> dict[str, float]:
+    """Compile and run the C micro-benchmark of the model library.
+
+    Returns ``ode_ns``, ``jac_ns`` (ns per call of the generated C), ``python_call_ns``
+    (same ODE as a CasADi Function called from Python) and ``python_over_c_ratio``.
+    """
+    lib = model_library()
+    out = build_root() / "bench"
+    out.mkdir(parents=True, exist_ok=True)
+    src = Path(str(resources.files("ballbot_casadi.bench") / "csrc" / "bench_model.c"))
+    exe = out / "bench_model"
+    cmd = ["gcc", *CFLAGS, "-I", str(lib.header.parent), "-o", str(exe), str(src),
+           str(lib.static), "-lm"]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise BuildError(f"compiling the model benchmark failed:\n{res.stderr[-3000:]}")
+    p = [repr(float(v)) for v in load_params().to_vector()]
+    run = subprocess.run([str(exe), str(n_calls), *p], capture_output=True, text=True, check=True)
+    data = json.loads(run.stdout)
+    data.pop("sink", None)
+    data["python_call_ns"] = _python_call_ns()
+    data["python_over_c_ratio"] = data["python_call_ns"] / data["ode_ns"]
+    data["ode_target_ns"] = 500.0
+    data["jac_target_ns"] = 3000.0
+    return data
+
+
+#: Benchmark groups run by ``ballbot bench``: name -> callable returning a flat dict.
+BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
+    "model": bench_model,
+    "fmu": bench_fmu,
+    "control": bench_control,
+})
+
+
+def run_benchmarks(path: Path, only: list[str] | None = None) -> dict[str, float]:
+    """Run the benchmark groups and merge their results into the JSON file ``path``."""
+    results: dict[str, float] = {}
+    if path.is_file():
+        results.update(json.loads(path.read_text()))
+    for name, fn in BENCHMARKS.items():
+        if only and name not in only:
+            continue
+        results.update(fn())
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(results, indent=2, sort_keys=True) + "\n")
+    return results

@@ -1,0 +1,140 @@
+"""Benchmark group ``control`` (``ballbot bench --only control``): closed-loop speed.
+
+Keys
+----
+``control_step_us``
+    One control period of the cascade in generated C: ``ballbot_velocity`` then
+    ``ballbot_flc`` (C micro-benchmark ``csrc/bench_control.c`` linked against the static
+    closed-loop library).  Target <= 5 us.  Also ``control_step_smc_us`` (velocity +
+    SMC) and ``cl_period_us`` (a whole closed-loop period: controllers, saturation and
+    the RK4 sub-steps of the plant).
+``mission_100s_s``
+    Wall time of a 100 s cascade mission (20000 control periods at 200 Hz, 1 ms RK4,
+    true-state feedback) run from Python as one call of the compiled closed loop (the
+    zero-copy C entry point of :mod:`~ballbot_casadi.mission_driver`).  Target <= 0.5 s.
+    ``mission_100s_casadi_call_s`` is the same mission through the CasADi mission
+    Function (same generated code plus numpy <-> DM conversion of every element).
+``python_loop_ratio``
+    The same loop written as a Python loop of CasADi calls (velocity controller,
+    balance controller, numpy torque limit and saturation, RK4 step Function; best of 3 blocks of 400
+    periods) divided by the per-period time of the single compiled call.
+    Target >= 50.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ballbot_casadi.control import (
+    default_balance_gains,
+    make_balance_controller,
+    make_velocity_controller,
+    saturate_torques,
+)
+from ballbot_casadi.core.params import PARAM_NAMES
+from ballbot_casadi.core.toolchain import CFLAGS, build_root
+from ballbot_casadi.errors import BuildError
+from ballbot_casadi.model.dynamics import make_affine, make_ode
+from ballbot_casadi.model.integrators import make_rk4_n
+from ballbot_casadi.sim import references as R
+from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.scenarios import Scenario, initial_state
+
+__all__ = ["bench_control", "mission_inputs"]
+
+
+def mission_inputs(duration: float = 100.0) -> tuple[object, dict]:
+    """The benchmark mission: FLC cascade following the Fig. 9.3-like profile, then standing."""
+
+    sc = Scenario("bench", "flc", duration, initial_state(2.0, -1.0, 0.0), cascade=True,
+                  velocity_keyframes=R.FIG93_KEYFRAMES if duration > 20 else ())
+    return sc, sc.inputs()
+
+
+def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
+    out = build_root() / "bench"
+    out.mkdir(parents=True, exist_ok=True)
+    src = Path(str(resources.files("ballbot_casadi.bench") / "csrc" / "bench_control.c"))
+    exe = out / "bench_control"
+    cmd = ["gcc", *CFLAGS, "-I", str(lib.header.parent), "-o", str(exe), str(src), str(lib.static), "-lm"]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise BuildError(f"compiling the control benchmark failed:\n{res.stderr[-3000:]}")
+    x = inputs["x0"]
+    kf, ks = default_balance_gains("flc"), default_balance_gains("smc")
+    vals = [inputs["p_ctrl"], kf, ks, inputs["k_vel"], x, inputs["z0"], [inputs["Ts"]]]
+    header = [len(inputs["p_ctrl"]), kf.size, ks.size, inputs["k_vel"].size, inputs["z0"].size]
+    text = " ".join(str(int(v)) for v in header) + "\n" + "\n".join(
+        " ".join(repr(float(v)) for v in np.ravel(arr)) for arr in vals) + "\n"
+    data_file = out / "bench_control_input.txt"
+    data_file.write_text(text)
+    run = subprocess.run([str(exe), str(n_calls), str(data_file)], capture_output=True, text=True, check=True)
+    data = json.loads(run.stdout)
+    data.pop("sink", None)
+    return data
+
+
+def _python_loop_period_s(sim, inputs: dict, n: int) -> float:
+    """Seconds per period of the closed loop as a Python loop of symbolic CasADi calls."""
+
+    bal = make_balance_controller("flc", make_affine())
+    vel = make_velocity_controller()
+    rk4 = make_rk4_n(make_ode(), sim.n_sub)
+    p, pc = inputs["p_plant"], inputs["p_ctrl"]
+    tau_max = p[PARAM_NAMES.index("tau_max")]
+    tau_max_ctrl = pc[PARAM_NAMES.index("tau_max")]
+    kb, kv, Ts = inputs["k_bal"], inputs["k_vel"], inputs["Ts"]
+    x, z = inputs["x0"].copy(), inputs["z0"].copy()
+    v_ref = inputs["v_ref"]
+    best = float("inf")
+    for rep in range(3):  # best of 3 blocks: the machine may be shared
+        t0 = time.perf_counter()
+        for k in range(rep * n, (rep + 1) * n):
+            qr, dqr, ddqr, z = vel(x, v_ref[k], z, pc, kv, Ts)
+            tau, _ = bal(x, qr, dqr, ddqr, pc, kb)
+            tau = np.clip(saturate_torques(np.asarray(tau).ravel(), tau_max_ctrl), -tau_max, tau_max)
+            x = np.asarray(rk4(x, tau, p, Ts)).ravel()
+        best = min(best, (time.perf_counter() - t0) / n)
+    return best
+
+
+def bench_control(n_calls: int = 100000, repeats: int = 3) -> dict[str, float]:
+    """Run the ``control`` benchmark group (see the module docstring)."""
+
+    sim = ClosedLoop(compiled=True)
+    sc, inputs = mission_inputs(100.0)
+    data = _c_bench(sim.library, inputs, n_calls)
+    n = sc.n_periods
+    t0 = time.perf_counter()
+    sim.mission("flc", n)
+    data["mission_build_s"] = time.perf_counter() - t0
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        log = sim.simulate(sc.controller, **inputs)
+        best = min(best, time.perf_counter() - t0)
+    if not np.all(np.isfinite(log["state"])):
+        raise BuildError("benchmark mission diverged")
+    data["mission_100s_s"] = best
+    # the same mission through the CasADi mission Function (numpy <-> DM conversions)
+    via_casadi = ClosedLoop(compiled=True, use_driver=False)
+    via_casadi.mission("flc", n)
+    t0 = time.perf_counter()
+    ref = via_casadi.simulate(sc.controller, **inputs)
+    data["mission_100s_casadi_call_s"] = time.perf_counter() - t0
+    data["mission_driver_vs_casadi_max_abs_diff"] = float(np.max(np.abs(ref["state"] - log["state"])))
+    n_py = 400
+    py = _python_loop_period_s(sim, inputs, n_py)
+    data["python_loop_period_us"] = py * 1e6
+    data["mission_period_us"] = best / n * 1e6
+    data["python_loop_ratio"] = py / (best / n)
+    data["control_step_target_us"] = 5.0
+    data["mission_100s_target_s"] = 0.5
+    data["python_loop_ratio_target"] = 50.0
+    return data

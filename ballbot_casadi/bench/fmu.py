@@ -1,0 +1,124 @@
+"""Benchmarks of the native plant FMU (group ``fmu`` of ``make bench``).
+
+* ``fmu_plant_step_us``: one 5 ms co-simulation step (fmi2SetReal of the torques,
+  fmi2DoStep with five 1 ms RK4 sub-steps, fmi2GetReal of the 12 states) in the C host
+  ``fmu/host.c``; best of several repetitions of 2000 steps.
+* ``fmu_vs_pythonfmu_ratio``: wall time of the same fmpy co-simulation (2 s at 5 ms,
+  constant torques, states recorded) of a PythonFMU export of the same CasADi model
+  (RK4 Function called from Python, same 1 ms sub-steps) divided by that of the native
+  FMU.  The PythonFMU is built only here, under ``<build>/bench/pythonfmu``, and never
+  shipped.  Target: >= 20.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+from fmpy import extract, read_model_description, simulate_fmu
+
+from ballbot_casadi.core.toolchain import build_root
+from ballbot_casadi.fmi.build import build_fmu, build_tool
+from ballbot_casadi.model.dynamics import STATE_NAMES
+from ballbot_casadi.model.numeric import make_state
+
+__all__ = ["bench_fmu", "build_pythonfmu", "FMU_RATIO_TARGET"]
+
+FMU_RATIO_TARGET = 20.0
+_TAU = (0.02, -0.01, 0.005)
+_ROLL0 = 0.002
+_STOP = 2.0
+_DT = 0.005
+
+_SLAVE = '''"""PythonFMU baseline of the ballbot plant (benchmark only, never shipped)."""
+import math
+
+import numpy as np
+from pythonfmu.fmi2slave import Fmi2Causality, Fmi2Slave, Real
+
+from ballbot_casadi.model.integrators import make_rk4
+from ballbot_casadi.model.dynamics import STATE_NAMES, make_model_functions
+from ballbot_casadi.core.params import load_params
+
+_RK4 = make_rk4(make_model_functions()["ode"])
+_P = load_params().to_vector()
+
+
+class BallbotPlantPy(Fmi2Slave):
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.h_internal = 1e-3
+        self.tau0 = 0.0
+        self.tau1 = 0.0
+        self.tau2 = 0.0
+        x0 = [0.0] * 12
+        x0[2], x0[3] = math.cos(ROLL0 / 2), math.sin(ROLL0 / 2)
+        for name, value in zip(STATE_NAMES, x0):
+            setattr(self, name, value)
+        for i in range(3):
+            self.register_variable(Real(f"tau{i}", causality=Fmi2Causality.input))
+        for name in STATE_NAMES:
+            self.register_variable(Real(name, causality=Fmi2Causality.output))
+
+    def do_step(self, current_time, step_size):
+        x = np.array([getattr(self, n) for n in STATE_NAMES])
+        tau = np.array([self.tau0, self.tau1, self.tau2])
+        n = max(1, math.ceil(step_size / self.h_internal * (1 - 1e-12)))
+        for _ in range(n):
+            x = np.asarray(_RK4(x, tau, _P, step_size / n)).ravel()
+        for name, value in zip(STATE_NAMES, x):
+            setattr(self, name, float(value))
+        return True
+'''
+
+
+def build_pythonfmu(out: Path) -> Path:
+    """Build the PythonFMU baseline ``BallbotPlantPy.fmu`` into ``out`` (benchmark only)."""
+    from pythonfmu import FmuBuilder
+
+    out.mkdir(parents=True, exist_ok=True)
+    script = out / "ballbot_plant_py.py"
+    script.write_text(_SLAVE.replace("ROLL0", repr(_ROLL0)))
+    return Path(FmuBuilder.build_FMU(script, dest=out, needsExecutionTool="false"))
+
+
+def _fmpy_time(fmu: Path, start_values: dict, reps: int = 3) -> tuple[float, np.ndarray]:
+    unzip = extract(str(fmu))
+    md = read_model_description(unzip)
+    best, res = float("inf"), None
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        res = simulate_fmu(unzip, model_description=md, fmi_type="CoSimulation",
+                           stop_time=_STOP, output_interval=_DT, start_values=start_values,
+                           output=list(STATE_NAMES))
+        best = min(best, time.perf_counter() - t0)
+    return best, np.column_stack([res[n] for n in STATE_NAMES])
+
+
+def bench_fmu() -> dict[str, float]:
+    """Run the FMU benchmarks; returns a flat dict for ``build/bench.json``."""
+
+    b = build_fmu()
+    host = build_tool(b, "host")
+    run = subprocess.run([str(host), str(b.binary), b.guid, "2000", repr(_DT),
+                          *map(repr, _TAU), repr(_ROLL0), "5"],
+                         capture_output=True, text=True, check=True)
+    step_us = float(json.loads(run.stdout)["step_us"])
+
+    py_fmu = build_pythonfmu(build_root() / "bench" / "pythonfmu")
+    taus = {f"tau{i}": t for i, t in enumerate(_TAU)}
+    x0 = make_state(roll=_ROLL0)
+    t_native, x_native = _fmpy_time(b.fmu, {**taus, **dict(zip(STATE_NAMES, x0.tolist()))})
+    t_python, x_python = _fmpy_time(py_fmu, taus, reps=2)
+    agree = float(np.max(np.abs(x_native - x_python)))
+    return {
+        "fmu_plant_step_us": step_us,
+        "fmu_native_cosim_s": t_native,
+        "fmu_pythonfmu_cosim_s": t_python,
+        "fmu_vs_pythonfmu_ratio": t_python / t_native,
+        "fmu_vs_pythonfmu_ratio_target": FMU_RATIO_TARGET,
+        "fmu_vs_pythonfmu_state_diff": agree,
+    }

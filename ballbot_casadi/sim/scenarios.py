@@ -1,0 +1,383 @@
+"""Closed-loop scenarios: a validated, JSON-serialisable description of one simulation run.
+
+A :class:`Scenario` says which balance controller runs (``flc`` thesis ch. 8, ``smc``
+the V2019 baseline of thesis §8.3), whether the velocity loop closes the cascade
+(thesis Fig. 7.1) or the balance controller follows an attitude reference alone
+(thesis Fig. 8.1), the initial state, the references, pushes, and how the plant and
+the controller's internal model deviate from the nominal parameters (thesis §8.4).
+:meth:`Scenario.inputs` turns it into the input sequences of
+:meth:`ballbot_casadi.simulation.ClosedLoop.simulate`.
+
+The acceptance scenarios of issue 4 are built by :func:`study_scenarios`:
+
+============  ===========================================================================
+``zero``      zero reference from roll = pitch = 5 deg (thesis §8.2.3)
+``sine``      roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
+``robustness`` plant mass +10 %, inertias x3.2, controller nominal (thesis §8.4.1)
+``com``       COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2) and cascade (§9.2)
+``push``      4 deg roll jump of the plant attitude (thesis §8.4.3)
+``velocity``  velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
+============  ===========================================================================
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from ballbot_casadi import control as controllers
+from ballbot_casadi.control import (
+    BALANCE_CONTROLLERS,
+    VELOCITY_NKV,
+    check_gains,
+    default_balance_gains,
+    default_velocity_gains,
+    velocity_initial_state,
+)
+from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
+from ballbot_casadi.core.validation import check_state
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.model.dynamics import make_jacobians
+from ballbot_casadi.sim import references as R
+
+__all__ = [
+    "Scenario",
+    "STUDY_NAMES",
+    "study_scenarios",
+    "initial_state",
+    "apply_changes",
+]
+
+#: Names of the acceptance studies (``ballbot study <name>``).
+STUDY_NAMES = ("zero", "sine", "robustness", "com", "push", "velocity")
+
+_SIGNAL_TYPES = ("const", "sine", "step", "chirp")
+_CHANGE_OPS = ("set", "scale", "add")
+
+
+def initial_state(roll_deg: float = 0.0, pitch_deg: float = 0.0, yaw_deg: float = 0.0) -> tuple:
+    """Upright-at-rest state rotated by ZYX angles in degrees, as a 12-tuple."""
+    q = Q.from_rpy(math.radians(roll_deg), math.radians(pitch_deg), math.radians(yaw_deg))
+    return tuple(float(v) for v in np.concatenate([[0.0, 0.0], q, np.zeros(6)]))
+
+
+def apply_changes(base: Params, changes: Mapping[str, Any], what: str) -> Params:
+    """Apply ``{name: [op, value]}`` changes (op ``set``, ``scale`` or ``add``) to ``base``."""
+    values = base.as_dict()
+    for name, change in changes.items():
+        if name not in PARAM_NAMES:
+            raise ScenarioError(
+                f"{what}: unknown parameter {name!r}; allowed: {', '.join(PARAM_NAMES)}"
+            )
+        try:
+            op, value = change
+            value = float(value)
+        except (TypeError, ValueError):
+            raise ScenarioError(
+                f"{what}: change of {name!r} must be [op, number] with op in {_CHANGE_OPS}, "
+                f"got {change!r}"
+            ) from None
+        if op not in _CHANGE_OPS or not math.isfinite(value):
+            raise ScenarioError(
+                f"{what}: change of {name!r} must be [op, finite number] with op in "
+                f"{_CHANGE_OPS}, got {change!r}"
+            )
+        values[name] = value if op == "set" else values[name] * value if op == "scale" else values[name] + value
+    return base.replace(**values)
+
+
+def _check_signal(axis: str, spec: Mapping[str, Any]) -> None:
+    if not isinstance(spec, Mapping) or spec.get("type") not in _SIGNAL_TYPES:
+        raise ScenarioError(
+            f"reference {axis!r}: must be a dict with 'type' in {_SIGNAL_TYPES}, got {spec!r}"
+        )
+    for key, val in spec.items():
+        if key == "type":
+            continue
+        if not isinstance(val, (int, float)) or isinstance(val, bool) or not math.isfinite(val):
+            raise ScenarioError(
+                f"reference {axis!r}: {key} = {val!r} is not a finite number; references must be finite"
+            )
+
+
+def _signal(spec: Mapping[str, Any], t: np.ndarray) -> R.Signal:
+    """Angle signal (rad) from a JSON spec with angles in degrees."""
+    d = math.radians
+    kind = spec["type"]
+    if kind == "const":
+        v = d(spec.get("value_deg", 0.0))
+        return R.Signal(np.full(t.size, v), np.zeros(t.size), np.zeros(t.size))
+    if kind == "sine":
+        return R.sine(t, d(spec["amplitude_deg"]), spec["frequency_hz"], spec.get("phase_rad", 0.0),
+                      d(spec.get("offset_deg", 0.0)))
+    if kind == "step":
+        return R.step(t, d(spec["amplitude_deg"]), spec.get("t_step", 0.0), spec.get("rise_time", 0.0),
+                      d(spec.get("offset_deg", 0.0)))
+    return R.chirp(t, d(spec["amplitude_deg"]), spec["f0_hz"], spec["f1_hz"], spec["duration"],
+                   d(spec.get("offset_deg", 0.0)))
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One closed-loop run.
+
+    Attributes
+    ----------
+    name
+        Identifier (also the study name for the acceptance scenarios).
+    controller
+        Balance controller: a key of ``controllers.BALANCE_CONTROLLERS`` (``flc``, ``smc``).
+    duration
+        Simulated time (s); the run has ``round(duration / Ts)`` control periods.
+    x0
+        Initial plant state (12 numbers, unit quaternion).
+    cascade
+        Close the velocity loop (thesis Fig. 7.1); otherwise the balance controller
+        follows ``attitude`` alone (thesis Fig. 8.1).
+    attitude
+        ``{"roll": sig, "pitch": sig, "yaw": sig}`` with ``sig`` a dict: ``{"type":
+        "const", "value_deg"}``, ``{"type": "sine", "amplitude_deg", "frequency_hz"}``,
+        ``{"type": "step", "amplitude_deg", "t_step", "rise_time"}`` or ``{"type":
+        "chirp", "amplitude_deg", "f0_hz", "f1_hz", "duration"}``; missing axes are 0.
+    velocity_keyframes
+        Rows ``(t_start, vx, vy, yaw_rate)`` of :func:`~ballbot_casadi.references.velocity_profile`
+        (cascade only; empty = stand still).
+    pushes
+        Rows ``(t, roll_deg, pitch_deg, yaw_deg)``: at the control instant nearest ``t``
+        the plant attitude is rotated (in {K}) by that rotation (thesis §8.4.3).
+    plant_changes, ctrl_changes
+        ``{param: [op, value]}`` with op ``set``/``scale``/``add``, applied to the nominal
+        parameters for the plant and for the controller's internal model.
+    k_bal, k_vel
+        Gain vectors; empty = the controller package's defaults.
+    Ts, n_sub
+        Control period (s, 200 Hz) and RK4 sub-steps per period (plant step Ts/n_sub).
+    study
+        Which metric set / spec applies (see :mod:`ballbot_casadi.metrics`).
+    """
+
+    name: str
+    controller: str = "flc"
+    duration: float = 5.0
+    x0: tuple = field(default_factory=initial_state)
+    cascade: bool = False
+    attitude: Mapping[str, Any] = field(default_factory=dict)
+    velocity_keyframes: tuple = ()
+    pushes: tuple = ()
+    plant_changes: Mapping[str, Any] = field(default_factory=dict)
+    ctrl_changes: Mapping[str, Any] = field(default_factory=dict)
+    k_bal: tuple = ()
+    k_vel: tuple = ()
+    Ts: float = 0.005
+    n_sub: int = 5
+    study: str = ""
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if self.controller not in BALANCE_CONTROLLERS:
+            raise ScenarioError(
+                f"scenario {self.name!r}: unknown controller {self.controller!r}; "
+                f"allowed: {', '.join(BALANCE_CONTROLLERS)}"
+            )
+        if self.k_bal:
+            check_gains(self.controller, self.k_bal)
+        if self.k_vel and len(self.k_vel) != VELOCITY_NKV:
+            raise ScenarioError(
+                f"scenario {self.name!r}: k_vel needs {VELOCITY_NKV} entries, got {len(self.k_vel)}"
+            )
+        for key in ("duration", "Ts"):
+            v = getattr(self, key)
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ScenarioError(f"scenario {self.name!r}: {key} must be a finite number > 0, got {v!r}")
+        if round(self.duration / self.Ts) < 1:
+            raise ScenarioError(f"scenario {self.name!r}: duration shorter than one control period")
+        if not isinstance(self.n_sub, int) or isinstance(self.n_sub, bool) or self.n_sub < 1:
+            raise ScenarioError(f"scenario {self.name!r}: n_sub must be an int >= 1, got {self.n_sub!r}")
+        object.__setattr__(self, "x0", tuple(float(v) for v in check_state(self.x0, "initial state x0")))
+        unknown = sorted(set(self.attitude) - {"roll", "pitch", "yaw"})
+        if unknown:
+            raise ScenarioError(f"scenario {self.name!r}: attitude axes {unknown} unknown; allowed roll, pitch, yaw")
+        for axis, spec in self.attitude.items():
+            _check_signal(axis, spec)
+        for what in ("velocity_keyframes", "pushes", "k_bal", "k_vel"):
+            arr = np.asarray(getattr(self, what), dtype=float)
+            if not np.all(np.isfinite(arr)):
+                raise ScenarioError(f"scenario {self.name!r}: {what} contains NaN or Inf")
+            object.__setattr__(self, what, _freeze(getattr(self, what)))
+        for row in self.pushes:
+            if len(row) != 4 or not 0 <= row[0] < self.duration:
+                raise ScenarioError(
+                    f"scenario {self.name!r}: push {row!r} must be (t, roll_deg, pitch_deg, "
+                    f"yaw_deg) with 0 <= t < duration"
+                )
+        if self.velocity_keyframes:
+            R.velocity_profile(np.zeros(1), self.velocity_keyframes)  # validates
+        apply_changes(load_params(), self.plant_changes, f"scenario {self.name!r} plant_changes")
+        apply_changes(load_params(), self.ctrl_changes, f"scenario {self.name!r} ctrl_changes")
+
+    # -- derived quantities ------------------------------------------------------------
+    @property
+    def n_periods(self) -> int:
+        """Number of control periods."""
+        return int(round(self.duration / self.Ts))
+
+    def time(self) -> np.ndarray:
+        """Control instants ``t_k = k Ts``, k = 0..N-1."""
+        return np.arange(self.n_periods) * self.Ts
+
+    def plant_params(self, base: Params | None = None) -> Params:
+        """Plant parameters: ``base`` (default thesis App. A) with :attr:`plant_changes`."""
+        return apply_changes(base or load_params(), self.plant_changes, "plant_changes")
+
+    def controller_params(self, base: Params | None = None) -> Params:
+        """Controller internal-model parameters (``base`` with :attr:`ctrl_changes`)."""
+        return apply_changes(base or load_params(), self.ctrl_changes, "ctrl_changes")
+
+    def attitude_reference(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``q, dq, ddq`` (N, 4) sampled at the control instants (analytic derivatives)."""
+        t = self.time()
+        sig = {ax: _signal(self.attitude.get(ax, {"type": "const"}), t) for ax in ("roll", "pitch", "yaw")}
+        return R.rpy_reference(sig["roll"], sig["pitch"], sig["yaw"])
+
+    def velocity_reference(self) -> np.ndarray:
+        """``[vx, vy, yaw_rate]`` (N, 3) at the control instants."""
+        t = self.time()
+        if not self.velocity_keyframes:
+            return np.zeros((t.size, 3))
+        return R.velocity_profile(t, self.velocity_keyframes).value
+
+    def disturbance(self) -> np.ndarray:
+        """Per-period disturbance ``w`` (N, 6): attitude jumps (rotation vectors) and torques."""
+        w = np.zeros((self.n_periods, 6))
+        for t, roll, pitch, yaw in self.pushes:
+            k = min(int(round(t / self.Ts)), self.n_periods - 1)
+            q = Q.from_rpy(math.radians(roll), math.radians(pitch), math.radians(yaw))
+            w[k, 0:3] += Q.to_rotation_vector(q)
+        return w
+
+    def diag_names(self) -> tuple[str, ...]:
+        """Names of the balance controller's diagnostic outputs."""
+
+        return tuple(getattr(controllers, "BALANCE_DIAG_NAMES", ()))
+
+    def inputs(self, base: Params | None = None) -> dict[str, Any]:
+        """Keyword arguments of :meth:`~ballbot_casadi.simulation.ClosedLoop.simulate`."""
+
+        p_plant = self.plant_params(base).to_vector()
+        p_ctrl = self.controller_params(base).to_vector()
+        k_bal = np.asarray(self.k_bal, float) if self.k_bal else default_balance_gains(self.controller)
+        if self.k_vel:
+            k_vel = np.asarray(self.k_vel, float)
+        else:
+            k_vel = default_velocity_gains(make_jacobians(), p_ctrl, Ts=self.Ts)
+        q, dq, ddq = self.attitude_reference()
+        for key, arr in (("q_ref", q), ("dq_ref", dq), ("ddq_ref", ddq)):
+            if not np.all(np.isfinite(arr)):
+                raise ScenarioError(f"scenario {self.name!r}: {key} contains NaN or Inf")
+        x0 = np.asarray(self.x0, float)
+        return {
+            "x0": x0,
+            "p_plant": p_plant,
+            "p_ctrl": p_ctrl,
+            "k_bal": np.asarray(k_bal, float).reshape(-1),
+            "k_vel": np.asarray(k_vel, float).reshape(-1),
+            "z0": np.asarray(velocity_initial_state(x0), float).reshape(-1),
+            "q_ref": q,
+            "dq_ref": dq,
+            "ddq_ref": ddq,
+            "v_ref": self.velocity_reference(),
+            "w": self.disturbance(),
+            "Ts": self.Ts,
+            "cascade": self.cascade,
+        }
+
+    # -- serialisation -----------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-compatible dict (round-trips through :meth:`from_dict`)."""
+        d = asdict(self)
+        return json.loads(json.dumps(d, default=_jsonable))
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> "Scenario":
+        """Inverse of :meth:`to_dict`."""
+        allowed = {f for f in cls.__dataclass_fields__}
+        unknown = sorted(set(data) - allowed)
+        if unknown:
+            raise ScenarioError(f"unknown scenario field(s) {unknown}; allowed: {sorted(allowed)}")
+        return cls(**dict(data))
+
+    def replace(self, **changes: Any) -> "Scenario":
+        """Copy with some fields changed (validated)."""
+        return Scenario.from_dict({**self.to_dict(), **changes})
+
+
+def _freeze(value: Any) -> Any:
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return tuple(_freeze(v) for v in value)
+    return float(value)
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    if isinstance(obj, Mapping):
+        return dict(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+# -- the acceptance scenarios of issue 4 ---------------------------------------------------
+
+#: COM offset of thesis §8.4.2 / §9.2: (-2, -3, +3) cm in the body frame.
+COM_CHANGES = {"com_x": ["set", -0.02], "com_y": ["set", -0.03], "l": ["add", 0.03]}
+
+
+def _sine_initial_state(amplitude_deg: float, frequency_hz: float) -> tuple:
+    """Plant at rest on the ground, body on the sine reference at t = 0 (q, dq)."""
+    sig = R.sine(np.zeros(1), math.radians(amplitude_deg), frequency_hz)
+    q, dq, _ = R.rpy_reference(sig, 0.0, 0.0)
+    return tuple(float(v) for v in np.concatenate([[0.0, 0.0], q[0], [0.0, 0.0], dq[0]]))
+
+
+def study_scenarios(name: str, controller: str = "flc") -> tuple[Scenario, ...]:
+    """The scenario(s) of acceptance study ``name`` (see the module docstring).
+
+    ``com`` returns two runs: balance controller alone (runaway, thesis §8.4.2) and the
+    cascade with the velocity loop (thesis §9.2); every other study returns one.
+    """
+    if name not in STUDY_NAMES:
+        raise ScenarioError(f"unknown study {name!r}; allowed: {', '.join(STUDY_NAMES)}")
+    c = controller
+    if name == "zero":
+        return (Scenario("zero", c, 5.0, initial_state(5, 5), study="zero",
+                         description="zero reference from roll = pitch = 5 deg (thesis §8.2.3)"),)
+    if name == "sine":
+        return (Scenario("sine", c, 10.0, _sine_initial_state(3.0, 0.5),
+                         attitude={"roll": {"type": "sine", "amplitude_deg": 3.0, "frequency_hz": 0.5}},
+                         study="sine",
+                         description="roll sine 3 deg at 0.5 Hz (thesis §8.2.5), plant starts on the reference"),)
+    if name == "robustness":
+        changes = {"Mb": ["scale", 1.1], "Jbx": ["scale", 3.2], "Jby": ["scale", 3.2], "Jbz": ["scale", 3.2]}
+        return (Scenario("robustness", c, 8.0, initial_state(5, -5), plant_changes=changes,
+                         study="robustness",
+                         description="plant mass +10 %, inertias x3.2, controller on the nominal model, "
+                                     "from roll 5, pitch -5 deg (thesis §8.4.1, Fig. 8.10)"),)
+    if name == "com":
+        return (
+            Scenario("com_balance_only", c, 5.0, initial_state(), plant_changes=COM_CHANGES, study="com",
+                     description="COM offset (-2, -3, +3) cm, balance controller alone: runaway (thesis §8.4.2)"),
+            Scenario("com", c, 30.0, initial_state(), cascade=True, plant_changes=COM_CHANGES, study="com",
+                     description="COM offset (-2, -3, +3) cm with the velocity loop (thesis §9.2)"),
+        )
+    if name == "push":
+        return (Scenario("push", c, 6.0, initial_state(), pushes=((1.0, 4.0, 0.0, 0.0),), study="push",
+                         description="4 deg roll jump of the plant attitude at t = 1 s (thesis §8.4.3)"),)
+    return (Scenario("velocity", c, 22.0, initial_state(), cascade=True,
+                     velocity_keyframes=R.FIG93_KEYFRAMES, study="velocity",
+                     description="velocity profile in the spirit of thesis Fig. 9.3 (§9.2)"),)

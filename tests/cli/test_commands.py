@@ -1,0 +1,46 @@
+"""Core CLI commands run in-process."""
+
+import json
+
+import numpy as np
+
+from ballbot_casadi.cli import main
+from ballbot_casadi import load_params
+from ballbot_casadi.model.linearization import model_summary
+
+
+def test_summary_lists_unstable_tilt_poles(capsys):
+    assert main(["summary"]) == 0
+    out = capsys.readouterr().out
+    assert "states: 12  inputs: 3  parameters: 21" in out
+    eig = [complex(line.strip().replace("j", "j")) for line in out.splitlines()[2:]]
+    assert sum(1 for e in eig if e.real > 1.0) == 2  # one unstable pole per tilt axis
+    assert model_summary(load_params()) in out
+    assert "upright" in out
+
+
+def test_summary_of_an_offset_com_trims_to_the_balanced_tilt(tmp_path):
+    # upright is not an equilibrium with a COM offset: the summary trims first
+    text = model_summary(load_params(com_x=0.03))
+    assert "upright" not in text and "balanced tilt" in text
+    eig = [complex(line.strip()) for line in text.splitlines()[2:]]
+    assert sum(1 for e in eig if e.real > 1.0) == 2
+
+
+def test_summary_bad_params_file(capsys, tmp_path):
+    assert main(["summary", "--params", str(tmp_path / "nope.toml")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_codegen_command(capsys):
+    assert main(["codegen"]) == 0
+    assert "ballbot_model" in capsys.readouterr().out
+
+
+def test_bench_model_runs(tmp_path):
+    from ballbot_casadi.bench import bench_model
+
+    res = bench_model(n_calls=2000)
+    assert res["ode_ns"] > 0 and res["jac_ns"] > 0 and res["python_call_ns"] > 0
+    assert np.isfinite(res["python_over_c_ratio"])
+    json.dumps(res)

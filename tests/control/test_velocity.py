@@ -1,0 +1,167 @@
+"""LQR velocity controller with integral action (thesis §7.1, §7.3)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.control import (
+    VELOCITY_NKV,
+    VELOCITY_NZ,
+    check_velocity_gains,
+    default_balance_gains,
+    default_velocity_gains,
+    design_velocity_lqr,
+    make_flc,
+    make_velocity_controller,
+    saturate_torques,
+    velocity_initial_state,
+)
+from ballbot_casadi.control.velocity import design_model, measured_tilt
+from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.errors import BallbotTypeError, ScenarioError, ShapeError
+from ballbot_casadi.model.integrators import make_rk4_n
+from ballbot_casadi.model.numeric import make_state
+
+TS = 0.005
+
+
+@pytest.fixture(scope="module")
+def vel():
+    return make_velocity_controller()
+
+
+@pytest.fixture(scope="module")
+def kv(model_functions, default_params):
+    return default_velocity_gains(model_functions["jac"], default_params.to_vector(), TS)
+
+
+def test_interface(vel, kv):
+    assert vel.name() == "ballbot_velocity"
+    assert vel.name_in() == ["x", "v_ref", "z", "p", "k", "Ts"]
+    assert vel.name_out() == ["q_ref", "dq_ref", "ddq_ref", "z_next"]
+    assert vel.size1_in(2) == VELOCITY_NZ and vel.size1_in(4) == VELOCITY_NKV
+    assert kv.shape == (VELOCITY_NKV,)
+    np.testing.assert_array_equal(check_velocity_gains(kv), kv)
+
+
+def test_reduced_design_model_is_exact_at_upright(model_functions, default_params):
+    """The ball-velocity and tilt rows do not depend on x, y, q0, yaw (reduction is exact)."""
+    x0 = make_state()
+    A, _ = (np.asarray(M) for M in model_functions["jac"](x0, np.zeros(3), default_params.to_vector()))
+    assert np.abs(A[np.ix_([6, 7, 9, 10], [0, 1, 2, 5, 8, 11])]).max() < 1e-12
+
+
+def test_lqr_closed_loop_is_stable_and_slower_than_the_balance_loop(model_functions, default_params):
+    p = default_params.to_vector()
+    K = design_velocity_lqr(model_functions["jac"], p, TS)
+    Ac, _, Ad, Bd = design_model(model_functions["jac"], p, TS)
+    # open loop: the balance loop's double poles at -10 and integrators (velocity, ref, p_e)
+    ev_open = np.linalg.eigvals(Ac)
+    assert np.sum(np.abs(ev_open + 10.0) < 1e-5) == 4
+    assert np.sum(np.abs(ev_open) < 1e-9) == 8
+    z = np.linalg.eigvals(Ad - Bd @ K)
+    assert np.abs(z).max() < 1.0
+    s = np.log(z.astype(complex)) / TS
+    outer = s[np.abs(s.real + 10.0) > 1e-3]
+    assert outer.real.max() < -0.2  # stable, integral mode not negligibly slow
+    assert np.sort(-outer.real)[:4].max() < 10.0 / 3.0  # velocity poles >= 3x slower (§7.1)
+    np.testing.assert_array_equal(K, design_velocity_lqr(model_functions["jac"], p, TS))
+
+
+def test_initial_state_is_bumpless(vel, kv, default_params):
+    x = make_state(roll=0.03, pitch=-0.02, yaw=2.0)
+    z = velocity_initial_state(x)
+    q_ref = np.asarray(vel(x, np.zeros(3), z, default_params.to_vector(), kv, TS)[0]).ravel()
+    np.testing.assert_allclose(q_ref, x[2:6], atol=1e-12)
+    with pytest.raises(ShapeError):
+        velocity_initial_state(np.zeros(5))
+
+
+def _run_fixed_state(vel, kv, p, x, v_ref, n):
+    z = velocity_initial_state(make_state())
+    out = []
+    for _ in range(n):
+        q, dq, ddq, z = (np.asarray(a).ravel() for a in vel(x, v_ref, z, p, kv, TS))
+        out.append(np.concatenate([q, dq, ddq, z]))
+    return np.array(out)
+
+
+def test_reference_derivatives_are_consistent(vel, kv, default_params):
+    """q_ref(k+1) = q_ref + Ts dq_ref + Ts^2/2 ddq_ref + O(Ts^3) along the reference model."""
+    x = make_state(dx=0.3, dy=-0.2, roll=0.01)
+    R = _run_fixed_state(vel, kv, default_params.to_vector(), x, np.array([0.0, 0.1, 0.8]), 150)
+    q, dq, ddq = R[:, 0:4], R[:, 4:8], R[:, 8:12]
+    pred = q[:-1] + TS * dq[:-1] + 0.5 * TS**2 * ddq[:-1]
+    # O(Ts^3) ~ 3e-8; the final step onto the tilt limit (clamp) may add a few 1e-6
+    np.testing.assert_allclose(q[1:], pred, atol=5e-6)
+    assert np.abs(dq).max() > 1e-3 and np.abs(ddq).max() > 1e-2  # the test is not vacuous
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-14)
+
+
+def test_limits_are_respected(vel, kv, default_params):
+    """Tilt <= 5 deg, tilt rate <= 20 deg/s, heading rate <= 1 rad/s (thesis §7.1)."""
+    x = make_state(dx=-3.0, dy=2.0)
+    R = _run_fixed_state(vel, kv, default_params.to_vector(), x, np.array([2.0, 0.0, 5.0]), 400)
+    z = R[:, 12:]
+    assert np.abs(z[:, 0:2]).max() <= math.radians(5) + 1e-12
+    assert np.abs(z[:, 0:2]).max() > math.radians(4.9)  # the limit was reached
+    assert np.abs(z[:, 2:4]).max() <= math.radians(20) + 1e-12
+    assert np.abs(z[:, 7]).max() <= 1.0 + 1e-12
+    tilt = np.array([measured_tilt(q) for q in R[:, 0:4]])
+    assert np.abs(tilt).max() <= math.radians(5) + 1e-9
+
+
+def _cascade(model_functions, vel, kv, p_plant, p_ctrl, tau_max, T, v_ref):
+    flc = make_flc(model_functions["affine"])
+    kb = default_balance_gains("flc")
+    step = make_rk4_n(model_functions["ode"], 5)
+    x = make_state()
+    z = velocity_initial_state(x)
+    X = [x]
+    for i in range(int(round(T / TS))):
+        q, dq, ddq, z = (np.asarray(a).ravel() for a in vel(x, v_ref(i * TS), z, p_ctrl, kv, TS))
+        tau = saturate_torques(np.asarray(flc(x, q, dq, ddq, p_ctrl, kb)[0]).ravel(), tau_max)
+        x = np.asarray(step(x, tau, p_plant, TS)).ravel()
+        X.append(x)
+    return np.array(X)
+
+
+def test_com_offset_standstill(vel, kv, model_functions, default_params):
+    """Thesis §9.2: COM offset (-2, -3, +3) cm; speed -> 0, COM settles over the ball centre."""
+    P = default_params
+    plant = P.replace(com_x=-0.02, com_y=-0.03, l=P.l + 0.03)
+    X = _cascade(model_functions, vel, kv, plant.to_vector(), P.to_vector(), P.tau_max, 18.0,
+                 lambda t: np.zeros(3))
+    assert np.abs(X[-1, 6:8]).max() < 2e-3
+    com = Q.rotate(X[-1, 2:6], np.array([-0.02, -0.03, P.l + 0.03]))
+    assert np.abs(com[:2]).max() < 1e-4
+    assert np.degrees(np.abs([measured_tilt(x[2:6]) for x in X])).max() < 6.0
+
+
+def test_velocity_step_is_tracked(vel, kv, model_functions, default_params):
+    """A 0.3 m/s ramp in x with a heading rate: tracked without steady-state error."""
+    P = default_params
+    X = _cascade(model_functions, vel, kv, P.to_vector(), P.to_vector(), P.tau_max, 10.0,
+                 lambda t: np.array([min(0.3, 0.5 * t), 0.0, 0.2]))
+    np.testing.assert_allclose(X[-1, 6:8], [0.3, 0.0], atol=5e-3)
+    assert np.degrees(np.abs([measured_tilt(x[2:6]) for x in X])).max() <= 5.05
+
+
+def test_bad_inputs(model_functions, default_params, kv):
+    bad = kv.copy()
+    bad[3] = np.nan
+    with pytest.raises(ScenarioError, match="finite"):
+        check_velocity_gains(bad)
+    with pytest.raises(ScenarioError, match="entries"):
+        check_velocity_gains(kv[:-1])
+    bad = kv.copy()
+    bad[-8] = 0.0
+    with pytest.raises(ScenarioError, match="tilt_max"):
+        check_velocity_gains(bad)
+    with pytest.raises(ScenarioError, match="Ts"):
+        design_velocity_lqr(model_functions["jac"], default_params.to_vector(), -1.0)
+    with pytest.raises(BallbotTypeError, match="jac"):
+        design_velocity_lqr(model_functions["affine"], default_params.to_vector(), TS)

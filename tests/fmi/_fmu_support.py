@@ -1,0 +1,129 @@
+"""Shared helpers of the plant-FMU tests: one cached build, fmpy instances with captured logs."""
+
+from __future__ import annotations
+
+import functools
+from ctypes import c_double, c_int, c_uint, c_void_p
+
+import numpy as np
+
+from ballbot_casadi.fmi.build import FmuBuild, build_fmu, plant_variables
+
+STATES = ("x", "y", "q0", "q1", "q2", "q3", "dx", "dy", "dq0", "dq1", "dq2", "dq3")
+
+
+@functools.lru_cache(maxsize=None)
+def plant_build() -> FmuBuild:
+    """The plant FMU, built once per test session (cached on disk by content hash)."""
+    return build_fmu()
+
+
+@functools.lru_cache(maxsize=None)
+def vr_table() -> dict[str, int]:
+    return {v.name: v.vr for v in plant_variables()}
+
+
+def vrs(*names: str) -> list[int]:
+    t = vr_table()
+    return [t[n] for n in names]
+
+
+class Plant:
+    """One fmpy instance of the plant with a logger that records every message."""
+
+    def __init__(self, kind: str = "cs", name: str = "plant", guid: str | None = None,
+                 logging_on: bool = False):
+        from fmpy import calloc, free
+        from fmpy.fmi2 import (
+            FMU2Model,
+            FMU2Slave,
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            fmi2CallbackLoggerTYPE,
+        )
+
+        b = plant_build()
+        self.build = b
+        self.kind = kind
+        self.logs: list[tuple[int, str, str]] = []
+        cls = FMU2Slave if kind == "cs" else FMU2Model
+        self.fmu = cls(guid=guid or b.guid, unzipDirectory=str(b.unzipped),
+                       modelIdentifier="BallbotPlant", instanceName=name)
+        cb = fmi2CallbackFunctions()
+        cb.logger = fmi2CallbackLoggerTYPE(self._log)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._cb = cb
+        self.fmu.instantiate(callbacks=cb, loggingOn=logging_on)
+        self.t = 0.0
+
+    def _log(self, env, name, status, category, message):
+        self.logs.append((int(status), category.decode(), message.decode()))
+
+    # thin wrappers ------------------------------------------------------------------
+    def set(self, **values: float) -> None:
+        names = list(values)
+        self.fmu.setReal(vrs(*names), [float(values[n]) for n in names])
+
+    def get(self, *names: str) -> np.ndarray:
+        return np.array(self.fmu.getReal(vrs(*names)))
+
+    def state(self) -> np.ndarray:
+        return self.get(*STATES)
+
+    def init(self, **values: float) -> None:
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        if values:
+            self.set(**values)
+        self.fmu.exitInitializationMode()
+        self.t = 0.0
+        if self.kind == "me":
+            self.fmu.enterContinuousTimeMode()
+
+    def step(self, h: float, n: int = 1) -> None:
+        for _ in range(n):
+            self.fmu.doStep(self.t, h)
+            self.t += h
+
+    def raw_set_real(self, vr: list[int], values: list[float]) -> int:
+        """fmi2SetReal without fmpy's exception on error: returns the status."""
+        f = getattr(self.fmu.dll, "fmi2SetReal")
+        f.restype = c_int
+        return f(c_void_p(self.fmu.component), (c_uint * len(vr))(*vr), len(vr),
+                 (c_double * len(values))(*values))
+
+    def raw(self, fname: str, *args) -> int:
+        """Call an FMI function directly (first argument the component) and return the status."""
+        f = getattr(self.fmu.dll, fname)
+        f.restype = c_int
+        return f(c_void_p(self.fmu.component), *args)
+
+    def errors(self) -> list[str]:
+        return [m for s, _, m in self.logs if s >= 2]
+
+    def free(self) -> None:
+        self.fmu.freeInstance()
+
+
+def python_rk4(x0, tau, p, h_total: float, n_steps: int, h_int: float = 1e-3):
+    """The Python model (CasADi RK4 Function) over n_steps communication steps."""
+    rk4 = _rk4()
+    x = np.asarray(x0, float).copy()
+    sub = max(1, int(np.ceil(h_total / h_int * (1 - 1e-12))))
+    hs = h_total / sub
+    out = [x.copy()]
+    for _ in range(n_steps):
+        for _ in range(sub):
+            x = np.asarray(rk4(x, tau, p, hs)).ravel()
+        out.append(x.copy())
+    return np.array(out)
+
+
+@functools.lru_cache(maxsize=None)
+def _rk4():
+    from ballbot_casadi.model.dynamics import make_model_functions
+    from ballbot_casadi.model.integrators import make_rk4
+
+    return make_rk4(make_model_functions()["ode"])

@@ -1,0 +1,157 @@
+"""Build of BallbotPlant.fmu: validity, one-table consistency, exports, sources, CLI."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _fmu_support import STATES, plant_build
+
+from ballbot_casadi import PARAM_NAMES, load_params
+from ballbot_casadi.cli import main as cli_main
+from ballbot_casadi.core.params import PARAM_INFO
+from ballbot_casadi.fmi.build import fmu_source_dir, plant_variables
+
+
+@pytest.fixture(scope="module")
+def plant():
+    return plant_build()
+
+
+def test_fmpy_validation_reports_no_problems(plant):
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(plant.fmu)) == []
+
+
+def test_model_description_matches_the_table(plant):
+    from fmpy import read_model_description
+
+    md = read_model_description(str(plant.fmu))
+    assert md.guid == plant.guid
+    assert md.modelExchange is not None and md.coSimulation is not None
+    for t in (md.modelExchange, md.coSimulation):
+        assert t.providesDirectionalDerivative
+        assert t.canGetAndSetFMUstate and t.canSerializeFMUstate
+    by_name = {v.name: v for v in md.modelVariables}
+    rows = plant_variables()
+    assert len(md.modelVariables) == len(rows)
+    for row in rows:
+        v = by_name[row.name]
+        assert v.valueReference == row.vr
+        if row.start is not None:
+            assert float(v.start) == row.start
+    params = load_params()
+    for name in PARAM_NAMES:  # every parameter under its load_params name
+        v = by_name[name]
+        unit, desc, _ = PARAM_INFO[name]
+        assert (v.causality, v.variability) == ("parameter", "fixed")
+        assert v.unit == unit and v.description == desc
+        assert float(v.start) == getattr(params, name)
+    assert by_name["h_internal"].causality == "parameter"
+    # states are outputs with settable start values, derivatives point at them
+    assert [s.variable.name for s in md.derivatives] == [f"der({n})" for n in STATES]
+    assert [d.variable.derivative.name for d in md.derivatives] == list(STATES)
+    assert all(by_name[n].initial == "exact" for n in STATES)
+    outs = {u.variable.name for u in md.outputs}
+    assert set(STATES) <= outs
+    assert {"roll", "pitch", "yaw", "dphi0", "acc_z", "gyro_x", "enc2"} <= outs
+    assert [v.name for v in md.modelVariables if v.causality == "input"] == ["tau0", "tau1",
+                                                                            "tau2"]
+
+
+def test_generated_header_uses_the_same_value_references(plant):
+    text = (plant.unzipped / "sources" / "plant_vr.h").read_text()
+    defs = dict(re.findall(r"#define VR_(\w+) (\d+)", text))
+    for row in plant_variables():
+        key = row.name.replace("(", "_").replace(")", "")
+        assert int(defs[key]) == row.vr
+    assert f'#define PLANT_GUID "{plant.guid}"' in text
+
+
+def test_binary_exports_only_fmi2_and_needs_only_libc_libm(plant):
+    nm = subprocess.run(["nm", "-D", "--defined-only", str(plant.binary)], capture_output=True,
+                        text=True, check=True).stdout
+    syms = [line.split()[-1] for line in nm.splitlines() if line.strip()]
+    assert syms and all(s.startswith("fmi2") for s in syms), [s for s in syms
+                                                               if not s.startswith("fmi2")]
+    assert len(syms) == 44  # the complete FMI 2.0 ME + CS API
+    dyn = subprocess.run(["readelf", "-d", str(plant.binary)], capture_output=True, text=True,
+                         check=True).stdout
+    needed = set(re.findall(r"NEEDED.*\[(.+)\]", dyn))
+    assert needed <= {"libc.so.6", "libm.so.6"}, needed
+
+
+def test_fmu_carries_sources_and_fmpy_compile_rebuilds_it(plant, tmp_path):
+    import sys
+
+    from fmpy import simulate_fmu
+
+    with zipfile.ZipFile(plant.fmu) as zf:
+        names = set(zf.namelist())
+    for f in ("fmi2_common.c", "fmi2_common.h", "plant_model.c", "plant_vars.h", "plant_vr.h",
+              "ballbot_plant_cg.c", "ballbot_plant_cg.h"):
+        assert f"sources/{f}" in names
+    assert "binaries/linux64/BallbotPlant.so" in names
+    if shutil.which("cmake") is None and not (Path(sys.executable).parent / "cmake").exists():
+        pytest.skip("cmake is not available for fmpy compile")
+    copy = tmp_path / "BallbotPlant.fmu"
+    shutil.copyfile(plant.fmu, copy)
+    env = {**os.environ,
+           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    res = subprocess.run([sys.executable, "-m", "fmpy", "compile", str(copy)],
+                         capture_output=True, text=True, env=env)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    with zipfile.ZipFile(copy) as zf:
+        rebuilt = zf.read("binaries/linux64/BallbotPlant.so")
+    assert rebuilt != plant.binary.read_bytes()  # really a new binary from the sources
+    sv = {"tau0": 0.02, "tau1": -0.01, "q1": 0.01, "q0": float(np.sqrt(1 - 1e-4))}
+    r0 = simulate_fmu(str(plant.fmu), fmi_type="CoSimulation", stop_time=0.5,
+                      output_interval=0.005, start_values=sv, output=list(STATES))
+    r1 = simulate_fmu(str(copy), fmi_type="CoSimulation", stop_time=0.5,
+                      output_interval=0.005, start_values=sv, output=list(STATES))
+    for n in STATES:
+        np.testing.assert_allclose(r1[n], r0[n], rtol=0, atol=1e-12)
+
+
+def test_sources_are_installed_package_data():
+    import importlib.resources as res
+
+    d = fmu_source_dir()
+    assert (d / "fmi2_common.c").is_file() and (d / "plant_model.c").is_file()
+    pkg = res.files("ballbot_casadi.fmu_src")
+    assert pkg.joinpath("fmi2_common.h").is_file()
+
+
+def test_generation_is_deterministic(plant):
+    from ballbot_casadi.fmi.build import (
+        model_description_xml,
+        plant_functions,
+        vars_header,
+    )
+
+    rows = plant_variables()
+    a = model_description_xml(rows, plant.guid, ["a.c"])
+    b = model_description_xml(plant_variables(), plant.guid, ["a.c"])
+    assert a == b
+    f = plant_functions()
+    assert vars_header(rows, plant.guid, f) == vars_header(rows, plant.guid, f)
+    again = plant_build.__wrapped__()  # same content hash -> same cached archive
+    assert again.digest == plant.digest
+    assert again.fmu.read_bytes() == plant.fmu.read_bytes()
+
+
+def test_cli_build_info_validate(plant, capsys):
+    out = plant.fmu.parent
+    assert cli_main(["fmu", "build", "--out", str(out)]) == 0
+    assert cli_main(["fmu", "validate", str(plant.fmu)]) == 0
+    assert "valid" in capsys.readouterr().out
+    assert cli_main(["fmu", "info", str(plant.fmu)]) == 0
+    assert "BallbotPlant" in capsys.readouterr().out
+    assert cli_main(["fmu", "validate", str(out / "missing.fmu")]) == 1

@@ -1,0 +1,153 @@
+"""BallbotPlant.fmu in independent importers against the Python model.
+
+Scenario (open loop, reproducible fall): the robot starts at rest tilted by roll 0.2 rad
+and pitch 0.1 rad with zero wheel torques and falls over; the model has no floor, so the
+body swings through and oscillates under the ball.  The instability only amplifies
+errors during the short fall, so tight integrators agree over the whole 5 s.
+Reference: SciPy DOP853 (rtol = atol = 1e-13) on the CasADi ODE Function.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import casadi as ca
+import numpy as np
+import pytest
+from _fmu_support import STATES, plant_build, python_rk4
+from scipy.integrate import solve_ivp
+
+from ballbot_casadi import load_params
+from ballbot_casadi.fmi.build import build_tool
+from ballbot_casadi.model.dynamics import make_model_functions
+from ballbot_casadi.model.numeric import make_state
+
+P = load_params()
+PV = P.to_vector()
+X0 = make_state(roll=0.2, pitch=0.1)
+T_END = 5.0
+DT = 0.005
+N = int(round(T_END / DT))
+TOL = 1e-6  # required state agreement over 5 s
+
+
+@pytest.fixture(scope="module")
+def plant():
+    return plant_build()
+
+
+@pytest.fixture(scope="module")
+def reference():
+    ode = make_model_functions()["ode"]
+    t = np.arange(N + 1) * DT
+    sol = solve_ivp(lambda _t, x: np.asarray(ode(x, np.zeros(3), PV)).ravel(), (0, T_END), X0,
+                    method="DOP853", rtol=1e-13, atol=1e-13, t_eval=t)
+    assert sol.success
+    return t, sol.y.T
+
+
+@pytest.fixture(scope="module")
+def fmpy_cs(plant):
+    from fmpy import simulate_fmu
+
+    r = simulate_fmu(str(plant.fmu), fmi_type="CoSimulation", stop_time=T_END,
+                     output_interval=DT, start_values=dict(zip(STATES, X0.tolist())),
+                     output=list(STATES))
+    return r["time"], np.column_stack([r[n] for n in STATES])
+
+
+def test_the_scenario_really_falls(reference):
+    _, X = reference
+    tilt = 2 * np.arccos(np.clip(np.abs(X[:, 2]), 0, 1))
+    assert tilt.max() > 2.0  # fell far past horizontal
+    assert np.all(np.isfinite(X))
+
+
+def test_fmpy_model_exchange_cvode_matches_python(plant, reference):
+    from fmpy import simulate_fmu
+
+    t, X = reference
+    r = simulate_fmu(str(plant.fmu), fmi_type="ModelExchange", solver="CVode",
+                     relative_tolerance=1e-12, stop_time=T_END, output_interval=DT,
+                     start_values=dict(zip(STATES, X0.tolist())), output=list(STATES))
+    Xm = np.column_stack([r[n] for n in STATES])
+    np.testing.assert_allclose(r["time"], t, rtol=0, atol=1e-9)
+    err = np.max(np.abs(Xm - X))
+    print(f"fmpy ME (CVode, rtol 1e-12) vs Python DOP853: max state error {err:.3e}")
+    assert err <= TOL
+
+
+def test_fmpy_co_simulation_matches_python(reference, fmpy_cs):
+    t, X = reference
+    tc, Xc = fmpy_cs
+    np.testing.assert_allclose(tc, t, rtol=0, atol=1e-9)
+    err = np.max(np.abs(Xc - X))
+    print(f"fmpy CS (RK4, 1 ms) vs Python DOP853: max state error {err:.3e}")
+    assert err <= TOL
+    # and the same RK4 in Python, step for step
+    Xr = python_rk4(X0, np.zeros(3), PV, DT, N)
+    np.testing.assert_allclose(Xc, Xr, rtol=0, atol=1e-10)  # rounding only
+
+
+def test_libcosim_matches_fmpy(plant, fmpy_cs):
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.ERROR)
+    ex = CosimExecution.from_step_size(step_size=int(round(DT * 1e9)))
+    idx = ex.add_local_slave(CosimLocalSlave(fmu_path=str(plant.fmu), instance_name="plant"))
+    ref = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
+    for name, value in zip(STATES, X0):
+        assert ex.real_initial_value(idx, ref[name], float(value))
+    obs = CosimObserver.create_last_value()
+    ex.add_observer(obs)
+    vr = [ref[n] for n in STATES]
+    out = []
+    for _ in range(N):
+        assert ex.step()
+        out.append(obs.last_real_values(idx, vr))
+    Xl = np.array(out)
+    _, Xc = fmpy_cs
+    err = np.max(np.abs(Xl - Xc[1:]))
+    print(f"libcosim vs fmpy CS: max state difference {err:.3e}")
+    np.testing.assert_allclose(Xl, Xc[1:], rtol=0, atol=1e-12)
+
+
+def test_casadi_daebuilder_reproduces_ode_and_jacobian(plant):
+    f = make_model_functions()
+    dae = ca.DaeBuilder("plant", str(plant.unzipped), {})
+    assert dae.x() == list(STATES)
+    assert dae.u() == ["tau0", "tau1", "tau2"]
+    assert dae.provides_directional_derivatives()
+    fmu_ode = dae.create("fmu_ode", ["x", "u"], ["ode"])
+    fmu_jac = fmu_ode.factory("fmu_jac", ["x", "u"], ["jac:ode:x", "jac:ode:u"])
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        x = make_state(roll=rng.normal() * 0.2, pitch=rng.normal() * 0.2, yaw=rng.normal(),
+                       dx=rng.normal(), dy=rng.normal(), omega_body=rng.normal(size=3))
+        u = rng.normal(size=3) * 0.5
+        np.testing.assert_allclose(np.asarray(fmu_ode(x, u)).ravel(),
+                                   np.asarray(f["ode"](x, u, PV)).ravel(), rtol=0, atol=1e-12)
+        A, B = (np.asarray(m) for m in fmu_jac(x, u))
+        A0, B0 = (np.asarray(m) for m in f["jac"](x, u, PV))
+        np.testing.assert_allclose(A, A0, rtol=0, atol=1e-11)
+        np.testing.assert_allclose(B, B0, rtol=0, atol=1e-11)
+
+
+def test_c_host_runs_the_binary_without_python(plant):
+    exe = build_tool(plant, "host")
+    tau = [0.02, -0.01, 0.005]
+    res = subprocess.run([str(exe), str(plant.binary), plant.guid, "200", "0.005", *map(str, tau),
+                          "0.002"], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)
+    x0 = make_state(roll=0.002)
+    ref = python_rk4(x0, np.array(tau), PV, 0.005, 200)[-1]
+    assert out["t"] == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(out["x"], ref, rtol=0, atol=1e-12)
+    bad = subprocess.run([str(exe), str(plant.binary), "{wrong}", "1", "0.005", "0", "0", "0",
+                          "0"], capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 4 and "wrong GUID" in bad.stderr

@@ -1,0 +1,90 @@
+"""Acceptance studies (issue 4): every scenario meets its spec for FLC and SMC; the CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from ballbot_casadi.studies import study
+
+from ballbot_casadi.analysis import metrics
+from ballbot_casadi.cli import main
+from ballbot_casadi.sim.closed_loop import ClosedLoop, load_log
+from ballbot_casadi.sim.scenarios import STUDY_NAMES
+
+
+@pytest.fixture(scope="module")
+def sim() -> ClosedLoop:
+    return ClosedLoop(compiled=True)
+
+
+@pytest.fixture(scope="module")
+def results(sim, tmp_path_factory) -> dict:
+    out = tmp_path_factory.mktemp("study")
+    return {(n, c): study.run_study(n, c, out / n / c, sim, plot=False)
+            for n in STUDY_NAMES for c in study.CONTROLLERS}
+
+
+@pytest.mark.parametrize("controller", study.CONTROLLERS)
+@pytest.mark.parametrize("name", STUDY_NAMES)
+def test_study_meets_spec(results, name, controller):
+    res = results[(name, controller)]
+    failed = [f"{r['metric']}={r['value']} (spec {r['op']} {r['threshold']})" for r in res["spec"] if not r["ok"]]
+    assert res["passed"], f"{name}/{controller} misses its spec: {failed}"
+
+
+def test_downstream_metric_keys(results):
+    sine = results[("sine", "flc")]["metrics"]
+    for key in ("roll_lag_s", "pitch_error_max_deg", "yaw_error_max_deg", "torque_total_variation"):
+        assert isinstance(sine[key], float)
+    com = results[("com", "flc")]["metrics"]
+    for key in ("equilibrium_roll_deg", "equilibrium_pitch_deg", "final_speed_mps", "runaway_speed_mps"):
+        assert isinstance(com[key], float)
+
+
+def test_com_equilibrium_matches_analytic_tilt(results):
+    for c in study.CONTROLLERS:
+        m = results[("com", c)]["metrics"]
+        roll, pitch = metrics.com_equilibrium_deg(-0.02, -0.03, 0.4213 + 0.03)
+        assert m["equilibrium_roll_deg"] == pytest.approx(roll, abs=0.05)
+        assert m["equilibrium_pitch_deg"] == pytest.approx(pitch, abs=0.05)
+        assert m["runaway_speed_mps"] > 10 * max(m["final_speed_mps"], 1e-3)
+
+
+def test_cli_writes_outputs_and_log_round_trips(tmp_path, capsys):
+    out = tmp_path / "sine"
+    rc = main(["study", "sine", "--controller", "smc", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert "study sine (smc)" in text and "roll_lag_s" in text
+    data = json.loads((out / "metrics.json").read_text())
+    assert data["controller"] == "smc" and data["study"] == "sine"
+    assert rc == (0 if data["passed"] else 1)
+    assert (out / "plot.png").stat().st_size > 1000
+    log = load_log(out / "run.npz")
+    assert log.scenario["name"] == "sine" and log.scenario["controller"] == "smc"
+    m = metrics.study_metrics("sine", [log])
+    assert m["roll_lag_s"] == pytest.approx(data["metrics"]["roll_lag_s"], rel=0, abs=1e-15)
+
+
+def test_cli_exit_code_when_spec_missed(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(metrics.SPECS, "push", [("recovery_time_s", "<", 0.0, "impossible")])
+    rc = main(["study", "push", "--quiet", "--no-plot", "--out", str(tmp_path / "p")])
+    assert rc == 1
+    assert capsys.readouterr().out == ""
+    data = json.loads((tmp_path / "p" / "metrics.json").read_text())
+    assert data["passed"] is False
+
+
+def test_com_writes_both_runs(tmp_path):
+    study.run_study("com", "flc", tmp_path, plot=False)
+    cascade, alone = load_log(tmp_path / "run.npz"), load_log(tmp_path / "run_balance_only.npz")
+    assert cascade.scenario["cascade"] and not alone.scenario["cascade"]
+    assert np.hypot(*alone["state"][-1, 6:8]) > np.hypot(*cascade["state"][-1, 6:8])
+
+
+def test_cli_rejects_unknown_study(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["study", "chirp"])
+    assert exc.value.code == 2
+    assert "invalid choice" in capsys.readouterr().err
