@@ -18,6 +18,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.model.linearization import NR, LinearModel
 from ballbot_casadi.model.dynamics import NX, make_model_functions
 from ballbot_casadi.core.params import Params
@@ -32,8 +33,6 @@ __all__ = [
     "analyze_closed_loop",
 ]
 
-#: Control period of the cascade (s): 200 Hz, thesis §7.1.
-TS_CONTROL = 0.005
 #: Offset of the velocity reference at which the velocity controller is differentiated
 #: (m/s); its speed limiter ``sqrt(vx^2 + vy^2)`` has a NaN derivative at exactly zero.
 _VREF_EPS = 1e-9

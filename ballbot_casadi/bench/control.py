@@ -11,14 +11,16 @@ Keys
 ``mission_100s_s``
     Wall time of a 100 s cascade mission (20000 control periods at 200 Hz, 1 ms RK4,
     true-state feedback) run from Python as one call of the compiled closed loop (the
-    zero-copy C entry point of :mod:`~ballbot_casadi.mission_driver`).  Target <= 0.5 s.
+    zero-copy C entry point of :mod:`~ballbot_casadi.sim.driver`).  Target <= 0.5 s.
     ``mission_100s_casadi_call_s`` is the same mission through the CasADi mission
     Function (same generated code plus numpy <-> DM conversion of every element).
 ``python_loop_ratio``
     The same loop written as a Python loop of CasADi calls (velocity controller,
-    balance controller, numpy torque limit and saturation, RK4 step Function; best of 3 blocks of 400
-    periods) divided by the per-period time of the single compiled call.
-    Target >= 50.
+    balance controller, torque limits, RK4 step Function: the period of
+    :func:`~ballbot_casadi.sim.period.control_period` on numpy values; best of 3 blocks of
+    400 periods) divided by the per-period time of the single compiled call.  A
+    measurement, not a target: the baseline is CasADi's own virtual machine, so the
+    ratio measures gcc against that interpreter.
 """
 
 from __future__ import annotations
@@ -35,15 +37,19 @@ from ballbot_casadi.control import (
     default_balance_gains,
     make_balance_controller,
     make_velocity_controller,
-    saturate_torques,
 )
-from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.core.toolchain import CFLAGS, build_root
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.model.dynamics import make_affine, make_ode
-from ballbot_casadi.model.integrators import make_rk4_n
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.period import (
+    CONSTANT_INPUTS,
+    SEQUENCE_INPUTS,
+    PeriodBlocks,
+    control_period,
+    rk4_plant,
+)
 from ballbot_casadi.sim.scenarios import Scenario, initial_state
 
 __all__ = ["bench_control", "mission_inputs"]
@@ -80,26 +86,23 @@ def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
     return data
 
 
-def _python_loop_period_s(sim, inputs: dict, n: int) -> float:
-    """Seconds per period of the closed loop as a Python loop of symbolic CasADi calls."""
+def _python_loop_period_s(sim: ClosedLoop, inputs: dict, n: int) -> float:
+    """Seconds per period of the closed loop as a Python loop of symbolic CasADi calls.
 
-    bal = make_balance_controller("flc", make_affine())
-    vel = make_velocity_controller()
-    rk4 = make_rk4_n(make_ode(), sim.n_sub)
-    p, pc = inputs["p_plant"], inputs["p_ctrl"]
-    tau_max = p[PARAM_NAMES.index("tau_max")]
-    tau_max_ctrl = pc[PARAM_NAMES.index("tau_max")]
-    kb, kv, Ts = inputs["k_bal"], inputs["k_vel"], inputs["Ts"]
+    Each period is :func:`~ballbot_casadi.sim.period.control_period` evaluated on numpy
+    values (the same definition as the compiled step) with the RK4 plant Function.
+    """
+    blocks = PeriodBlocks(make_balance_controller("flc", make_affine()), make_velocity_controller())
+    const = {k: inputs[k] for k in CONSTANT_INPUTS}
+    plant = rk4_plant(make_ode(), sim.n_sub, const["p_plant"], const["Ts"])
     x, z = inputs["x0"].copy(), inputs["z0"].copy()
-    v_ref = inputs["v_ref"]
     best = float("inf")
     for rep in range(3):  # best of 3 blocks: the machine may be shared
         t0 = time.perf_counter()
         for k in range(rep * n, (rep + 1) * n):
-            qr, dqr, ddqr, z = vel(x, v_ref[k], z, pc, kv, Ts)
-            tau, _ = bal(x, qr, dqr, ddqr, pc, kb)
-            tau = np.clip(saturate_torques(np.asarray(tau).ravel(), tau_max_ctrl), -tau_max, tau_max)
-            x = np.asarray(rk4(x, tau, p, Ts)).ravel()
+            out = control_period(blocks, x, z, {key: inputs[key][k] for key in SEQUENCE_INPUTS},
+                                 const, plant)
+            x, z = out["x_next"], out["z_next"]
         best = min(best, (time.perf_counter() - t0) / n)
     return best
 
@@ -136,5 +139,4 @@ def bench_control(n_calls: int = 100000, repeats: int = 3) -> dict[str, float]:
     data["python_loop_ratio"] = py / (best / n)
     data["control_step_target_us"] = 5.0
     data["mission_100s_target_s"] = 0.5
-    data["python_loop_ratio_target"] = 50.0
     return data

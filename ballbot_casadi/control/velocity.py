@@ -63,6 +63,7 @@ import scipy.linalg
 
 from ballbot_casadi.control.flc import FLC_DEFAULT_GAINS
 from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.constants import THESIS_LIMITS, TS_CONTROL
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import BallbotTypeError, ScenarioError, ShapeError
 
@@ -93,9 +94,10 @@ VELOCITY_LIMIT_NAMES = (
 #: 10 rad/s^2 of the specification: the wheels (1.98 N m) give the default robot about
 #: 3.4 rad/s^2 of tilt acceleration, of which gravity uses ~0.9 rad/s^2 at 5 deg, so a
 #: faster reference would only saturate the torques.
-VELOCITY_DEFAULT_LIMITS = np.array(
-    [math.radians(5), math.radians(20), 2.0, 0.5, 1.0, 2.0, 10.0, 10.0]
-)
+VELOCITY_DEFAULT_LIMITS = np.array([
+    THESIS_LIMITS["tilt_max"], THESIS_LIMITS["tilt_rate_max"], 2.0, THESIS_LIMITS["v_max"],
+    THESIS_LIMITS["yaw_rate_max"], 2.0, THESIS_LIMITS["yaw_acc_max"], 10.0,
+])
 VELOCITY_NKV = 2 * _NX_LQR + len(VELOCITY_LIMIT_NAMES)
 
 #: Default LQR weights (Bryson's rule: 1/max^2 of the acceptable excursion).
@@ -172,7 +174,7 @@ def design_model(
 def design_velocity_lqr(
     jac: ca.Function,
     p: Any,
-    Ts: float = 0.005,
+    Ts: float = TS_CONTROL,
     Qw: Any = None,
     Rw: Any = None,
     inner: tuple[float, float] = _INNER_DEFAULT,
@@ -217,7 +219,7 @@ def design_velocity_lqr(
     return np.asarray(K)
 
 
-def default_velocity_gains(jac: ca.Function, p: Any, Ts: float = 0.005) -> np.ndarray:
+def default_velocity_gains(jac: ca.Function, p: Any, Ts: float = TS_CONTROL) -> np.ndarray:
     """Default ``k`` (NKV = 30): the LQR gain of :func:`design_velocity_lqr` and the limits."""
     K = design_velocity_lqr(jac, p, Ts)
     return np.concatenate([K.ravel(), VELOCITY_DEFAULT_LIMITS])

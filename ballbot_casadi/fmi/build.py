@@ -16,11 +16,14 @@ and zipped with their sources (so ``fmpy compile`` can rebuild the binary elsewh
 The binary exports only ``fmi2*`` symbols (``-fvisibility=hidden``; the FMI headers mark
 the API) and links only libc and libm.  Builds are cached under
 ``<build>/fmu/cache/<hash>/`` keyed by the SHA-256 of every source, the compiler and its
-flags.  The FMI 2.0 headers are the ones shipped with fmpy (``fmpy/c-code``).
+flags, with a ``MANIFEST.json`` (size and SHA-256 of every file) that is verified on every
+use: a damaged cache is rebuilt, and an archive is checked (zip CRCs, binary hash) before
+it is published.  The FMI 2.0 headers are the ones shipped with fmpy (``fmpy/c-code``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -28,7 +31,7 @@ import shutil
 import tempfile
 import uuid
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Sequence
@@ -39,7 +42,16 @@ import fmpy
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES, load_params
-from ballbot_casadi.core.toolchain import build_root, generate_sources, run_tool
+from ballbot_casadi.core.files import check_manifest, sha256_file, write_manifest
+from ballbot_casadi.core.toolchain import (
+    MANIFEST,
+    build_lock,
+    build_root,
+    cached_file,
+    compiler_command,
+    generate_sources,
+    run_tool,
+)
 from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.model.dynamics import (
@@ -66,6 +78,8 @@ __all__ = [
     "fmu_source_dir",
     "build_fmu",
     "build_tool",
+    "binary_member",
+    "validate_fmu_archive",
     "H_INTERNAL_DEFAULT",
 ]
 
@@ -161,6 +175,9 @@ def plant_variables() -> list[FmuVar]:
     for i, name in enumerate(INPUT_NAMES):
         add(name=name, kind="input", start=0.0, unit="N.m",
             description=f"wheel {i} torque (thesis wheel order), saturated at +-tau_max")
+    for i in range(NU):
+        add(name=f"tau_dist{i}", kind="input", start=0.0, unit="N.m",
+            description=f"wheel {i} disturbance torque, added after the saturation")
     for name, unit, desc in _OUTPUTS:
         add(name=name, kind="output", start=None, unit=unit, description=desc)
     for name in PARAM_NAMES:
@@ -326,6 +343,7 @@ def vars_header(rows: Sequence[FmuVar], guid: str,
         f"#define PLANT_VR_STATE0 {_first(rows, 'state')}",
         f"#define PLANT_VR_DER0 {_first(rows, 'derivative')}",
         f"#define PLANT_VR_INPUT0 {_first(rows, 'input')}",
+        f"#define PLANT_VR_DIST0 {next(v.vr for v in rows if v.name == 'tau_dist0')}",
         f"#define PLANT_VR_OUTPUT0 {_first(rows, 'output')}",
         f"#define PLANT_VR_PARAM0 {_first(rows, 'parameter')}",
         f"#define PLANT_VR_H_INTERNAL {h_int}",
@@ -410,6 +428,7 @@ class FmuBuild:
     binary: Path  #: the shared library inside ``unzipped``
     guid: str
     digest: str
+    status: str = field(default="cached", compare=False)  #: cached, built or rebuilt: <why>
 
 
 def _write_zip(root: Path, target: Path) -> None:
@@ -430,20 +449,122 @@ def platform_dir() -> str:
     return fmpy.platform
 
 
+def binary_member() -> str:
+    """Archive path of the FMU binary, ``binaries/<platform>/BallbotPlant.so``."""
+    return f"binaries/{platform_dir()}/{MODEL_IDENTIFIER}.so"
+
+
+def validate_fmu_archive(path: str | Path, binary_sha256: str | None = None) -> None:
+    """Check an FMU archive before it is published or used.
+
+    The zip must be readable with every member's CRC intact, hold
+    ``modelDescription.xml`` and the binary of this platform, and (when
+    ``binary_sha256`` is given) the binary must have that SHA-256.
+
+    Raises
+    ------
+    BuildError
+        Saying what is wrong with the archive.
+    """
+    path = Path(path)
+    try:
+        with zipfile.ZipFile(path) as zf:
+            bad = zf.testzip()
+            if bad is not None:
+                raise BuildError(f"{path} is corrupt: member {bad} fails its CRC check")
+            names = set(zf.namelist())
+            for need in ("modelDescription.xml", binary_member()):
+                if need not in names:
+                    raise BuildError(f"{path} lacks {need}")
+            if binary_sha256 is not None:
+                got = hashlib.sha256(zf.read(binary_member())).hexdigest()
+                if got != binary_sha256:
+                    raise BuildError(f"{path}: {binary_member()} differs from the built binary "
+                                     "(SHA-256 mismatch)")
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, OSError, ValueError) as exc:
+        raise BuildError(f"{path} is not a valid FMU archive ({exc})") from None
+
+
+def _cache_files(cache: Path) -> list[str]:
+    """Relative paths of every file of a cache folder except the manifest and tools."""
+    return sorted(p.relative_to(cache).as_posix() for p in (cache / "unzipped").rglob("*")
+                  if p.is_file()) + [f"{MODEL_IDENTIFIER}.fmu"]
+
+
+def _verify_cache(cache: Path) -> str | None:
+    """``None`` if the cached build in ``cache`` matches its manifest (and the archive is
+    sound), else the reason it cannot be used."""
+    problem = check_manifest(cache, [f"{MODEL_IDENTIFIER}.fmu", f"unzipped/{binary_member()}",
+                                     "unzipped/modelDescription.xml"], MANIFEST)
+    if problem is not None:
+        return problem
+    try:
+        validate_fmu_archive(cache / f"{MODEL_IDENTIFIER}.fmu",
+                             sha256_file(cache / "unzipped" / binary_member()))
+    except BuildError as exc:
+        return str(exc)
+    return None
+
+
+def _build_into(tmp: Path, xml: str, files: dict[str, str], c_sources: list[str],
+                ccmd: list[str]) -> None:
+    """Write, compile and zip one FMU into the empty folder ``tmp``; manifest last."""
+    troot = tmp / "unzipped"
+    (troot / "sources").mkdir(parents=True)
+    (troot / "binaries" / platform_dir()).mkdir(parents=True)
+    (troot / "modelDescription.xml").write_text(xml)
+    for name, text in files.items():
+        (troot / "sources" / name).write_text(text)
+    cmd = [*ccmd, *CFLAGS, "-I", str(troot / "sources"), "-I", str(fmi_headers_dir()),
+           *[str(troot / "sources" / s) for s in c_sources], *LDFLAGS, "-o",
+           str(troot / binary_member()), "-lm"]
+    run_tool(cmd, "compiling BallbotPlant")
+    _write_zip(troot, tmp / f"{MODEL_IDENTIFIER}.fmu")
+    write_manifest(tmp, _cache_files(tmp), MANIFEST)
+
+
+def _publish(cached: Path, final: Path) -> None:
+    """Copy the verified cached archive to ``final`` (atomically) unless it is already there."""
+    want = sha256_file(cached)
+    if final.is_file() and final.stat().st_size == cached.stat().st_size:
+        with contextlib.suppress(OSError):
+            if sha256_file(final) == want:
+                return
+    tmp = final.with_name(f".{final.name}.{os.getpid()}.tmp")
+    try:
+        shutil.copyfile(cached, tmp)
+        if sha256_file(tmp) != want:
+            raise BuildError(f"copying {cached} to {final} produced a different file")
+        validate_fmu_archive(tmp)
+        os.replace(tmp, final)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
 def build_fmu(out: str | Path | None = None, cc: str | None = None) -> FmuBuild:
-    """Generate, compile and zip ``BallbotPlant.fmu`` (cached by content hash).
+    """Generate, compile and zip ``BallbotPlant.fmu`` (cached by content hash, verified).
+
+    The build lives in ``<out>/cache/<digest>/`` (the archive, the unpacked tree and a
+    ``MANIFEST.json`` with the size and SHA-256 of every file).  Every call verifies the
+    manifest and the archive (zip CRCs, binary hash) and rebuilds a damaged or partial
+    cache: a new build is made in a private folder and renamed into place as a whole
+    (the damaged folder is moved aside first), under a lock shared by concurrent
+    builders.  The archive is then published as ``<out>/BallbotPlant.fmu`` (copied,
+    checked, renamed into place) unless an identical file is already there.
 
     Parameters
     ----------
     out
         Directory that receives ``BallbotPlant.fmu`` (default ``<build>/fmu``).
     cc
-        C compiler, default ``$CC`` or ``gcc``.
+        C compiler command, default ``$CC`` or ``gcc`` (``"ccache gcc"`` allowed).
 
     Returns
     -------
     FmuBuild
-        Paths of the FMU, its unpacked tree and binary, the GUID and the cache digest.
+        Paths of the FMU, its unpacked tree and binary, the GUID, the cache digest and
+        what was done (``status``).
 
     Raises
     ------
@@ -451,7 +572,7 @@ def build_fmu(out: str | Path | None = None, cc: str | None = None) -> FmuBuild:
         Missing compiler, headers or sources, or a compile error.
     """
     out = Path(out) if out is not None else build_root() / "fmu"
-    cc = cc or os.environ.get("CC", "gcc")
+    ccmd = compiler_command(cc)
     rows = plant_variables()
     funcs = plant_functions()
     cg_c, cg_h = generate_sources(CG_NAME, funcs)
@@ -470,60 +591,55 @@ def build_fmu(out: str | Path | None = None, cc: str | None = None) -> FmuBuild:
     vr_h, vars_h = vars_header(rows, guid, funcs)
     files = {**hand, "plant_vr.h": vr_h, "plant_vars.h": vars_h, f"{CG_NAME}.c": cg_c, f"{CG_NAME}.h": cg_h}
     digest = hashlib.sha256(
-        "\0".join([xml, *[f"{k}\n{v}" for k, v in sorted(files.items())], cc, *CFLAGS, *LDFLAGS,
-                   platform_dir()]).encode()
+        "\0".join([xml, *[f"{k}\n{v}" for k, v in sorted(files.items())], *ccmd, *CFLAGS,
+                   *LDFLAGS, platform_dir()]).encode()
     ).hexdigest()[:16]
-    cache = out / "cache" / digest
+    cache_root = out / "cache"
+    cache = cache_root / digest
     fmu_path = cache / f"{MODEL_IDENTIFIER}.fmu"
     unz = cache / "unzipped"
-    binary = unz / "binaries" / platform_dir() / f"{MODEL_IDENTIFIER}.so"
-    if not (fmu_path.is_file() and binary.is_file()):
-        (out / "cache").mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=out / "cache"))
-        try:
-            troot = tmp / "unzipped"
-            (troot / "sources").mkdir(parents=True)
-            (troot / "binaries" / platform_dir()).mkdir(parents=True)
-            (troot / "modelDescription.xml").write_text(xml)
-            for name, text in files.items():
-                (troot / "sources" / name).write_text(text)
-            cmd = [cc, *CFLAGS, "-I", str(troot / "sources"), "-I", str(fmi_headers_dir()),
-                   *[str(troot / "sources" / s) for s in c_sources], *LDFLAGS, "-o",
-                   str(troot / "binaries" / platform_dir() / f"{MODEL_IDENTIFIER}.so"), "-lm"]
-            run_tool(cmd, "compiling BallbotPlant")
-            _write_zip(troot, tmp / fmu_path.name)
-            try:
-                os.replace(tmp, cache)
-            except OSError:  # another process finished the same build first
-                if not fmu_path.is_file():
-                    raise
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
+    binary = unz / binary_member()
+    status = "cached"
+    problem = _verify_cache(cache)
+    if problem is not None:
+        with build_lock(cache_root / f".{digest}.lock"):
+            problem = _verify_cache(cache)  # another process may have built it meanwhile
+            if problem is not None:
+                status = f"rebuilt: {problem}" if cache.exists() else "built"
+                tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=cache_root))
+                try:
+                    _build_into(tmp, xml, files, c_sources, ccmd)
+                    if cache.exists():  # damaged: move aside, then delete
+                        trash = Path(tempfile.mkdtemp(prefix=".trash-", dir=cache_root))
+                        os.replace(cache, trash / "old")
+                        shutil.rmtree(trash, ignore_errors=True)
+                    os.replace(tmp, cache)
+                finally:
+                    shutil.rmtree(tmp, ignore_errors=True)
     out.mkdir(parents=True, exist_ok=True)
     final = out / fmu_path.name
-    if not final.is_file() or final.read_bytes() != fmu_path.read_bytes():
-        tmp_final = out / f".{fmu_path.name}.{os.getpid()}.tmp"
-        shutil.copyfile(fmu_path, tmp_final)
-        os.replace(tmp_final, final)
-    return FmuBuild(final, unz, binary, guid, digest)
+    _publish(fmu_path, final)
+    return FmuBuild(final, unz, binary, guid, digest, status)
 
 
 def build_tool(build: FmuBuild, name: str, cc: str | None = None) -> Path:
     """Compile the C host program ``fmu/<name>.c`` (``host`` or ``fuzz``) for ``build``.
 
     The program includes the generated ``plant_vr.h`` and the fmpy FMI headers and loads
-    the FMU binary with ``dlopen`` at run time; it is cached next to the FMU build.
+    the FMU binary with ``dlopen`` at run time; it is cached (verified, see
+    :func:`~ballbot_casadi.core.toolchain.cached_file`) next to the FMU build.
     """
-    cc = cc or os.environ.get("CC", "gcc")
+    ccmd = compiler_command(cc)
     src = fmu_source_dir() / f"{name}.c"
     if not src.is_file():
         raise BuildError(f"no C host program {src}")
     text = src.read_text()
-    tag = hashlib.sha256("\0".join([text, cc, *CFLAGS]).encode()).hexdigest()[:12]
+    tag = hashlib.sha256("\0".join([text, *ccmd, *CFLAGS]).encode()).hexdigest()[:12]
     exe = build.unzipped.parent / f"{name}-{tag}"
-    if not exe.is_file():
-        tmp = exe.with_name(f".{exe.name}.{os.getpid()}.tmp")
-        run_tool([cc, *CFLAGS, "-I", str(build.unzipped / "sources"), "-I", str(fmi_headers_dir()),
-              "-o", str(tmp), str(src), "-ldl", "-lm"], f"compiling {name}.c")
-        os.replace(tmp, exe)
-    return exe
+
+    def make(tmp: Path) -> None:
+        run_tool([*ccmd, *CFLAGS, "-I", str(build.unzipped / "sources"), "-I",
+                  str(fmi_headers_dir()), "-o", str(tmp), str(src), "-ldl", "-lm"],
+                 f"compiling {name}.c")
+
+    return cached_file(exe, make)

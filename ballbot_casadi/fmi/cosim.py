@@ -7,23 +7,25 @@ the FMU, through the one definition of a control period in
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
-from ballbot_casadi.control import (
-    BALANCE_CONTROLLERS,
-    make_velocity_controller,
-    saturate_torques,
-)
+from ballbot_casadi.control import BALANCE_CONTROLLERS, make_velocity_controller
+from ballbot_casadi.core.layout import DISTURBANCE, STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.build import MODEL_IDENTIFIER, build_fmu
-from ballbot_casadi.model.dynamics import STATE_NAMES, make_affine
-from ballbot_casadi.sim.closed_loop import N_SUB_DEFAULT
+from ballbot_casadi.model.dynamics import make_affine
+from ballbot_casadi.sim.period import (
+    CONSTANT_INPUTS,
+    SEQUENCE_INPUTS,
+    PeriodBlocks,
+    control_period,
+)
+from ballbot_casadi.sim.scenarios import Scenario
 
 __all__ = ["cosim_open_loop", "closed_loop_cosim"]
 
@@ -41,27 +43,28 @@ def cosim_open_loop(fmu: str | Path, tau: np.ndarray, stop_time: float, step: fl
                         output_interval=step, start_values=sv)
 
 
-def closed_loop_cosim(scenario, fmu: str | Path | None = None, n_sub: int | None = None,
+def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: int | None = None,
                       controllers: tuple | None = None) -> dict[str, np.ndarray]:
-    """Closed-loop co-simulation: the plant FMU stepped by a Python master that runs the
-    package's controllers once per control period (zero-order hold, as in
-    :mod:`ballbot_casadi.simulation`).
+    """Closed-loop co-simulation: the plant FMU stepped by a Python master.
 
-    Per period ``k`` the master reads the plant state from the FMU, runs the velocity
-    controller (cascade scenarios) and the balance controller on the controller's
-    internal-model parameters, sets the wheel torques (the FMU saturates them at the
-    plant's ``tau_max``) and calls ``fmi2DoStep(t_k, Ts)``; the FMU integrates with RK4
-    sub-steps of ``Ts / n_sub`` (parameter ``h_internal``).  The plant FMU gets every
-    plant parameter of the scenario.
+    Every control period is :func:`ballbot_casadi.sim.period.control_period` (the same
+    definition as the compiled mission) evaluated on numpy values, with the plant FMU as
+    the plant: the master reads the FMU's state, runs the velocity controller (cascade
+    scenarios) and the balance controller on the controller's internal-model parameters
+    and its torque limit, sets the FMU inputs ``tau0..2`` (the FMU saturates them at the
+    plant's ``tau_max``) and ``tau_dist0..2`` (added after the saturation), and calls
+    ``fmi2DoStep(t_k, Ts)``; the FMU integrates with RK4 sub-steps of ``Ts / n_sub``
+    (parameter ``h_internal``).  The plant FMU gets every plant parameter of the scenario.
 
     Parameters
     ----------
     scenario
-        A :class:`~ballbot_casadi.scenarios.Scenario` without attitude pushes.
+        A :class:`~ballbot_casadi.sim.scenarios.Scenario` without attitude pushes (an FMU
+        in co-simulation cannot have its state set between steps).
     fmu
         The plant FMU (default: build it).
     n_sub
-        RK4 sub-steps per period (default that of :mod:`ballbot_casadi.simulation`).
+        RK4 sub-steps per period (default: the scenario's).
     controllers
         Optional ``(balance, velocity)`` CasADi Functions (default: built from the
         symbolic model).
@@ -69,33 +72,35 @@ def closed_loop_cosim(scenario, fmu: str | Path | None = None, n_sub: int | None
     Returns
     -------
     dict
-        ``time`` (N+1), ``state`` (N+1, 12; row k the state at ``t_k``), ``tau_cmd``
-        (N, 3) and ``tau`` (N, 3, as saturated inside the FMU).
+        ``time`` (N+1), ``state`` (N+1, 12; row k the state at ``t_k``), ``z``
+        (N+1, NZ), ``tau_cmd`` (N, 3) and ``tau`` (N, 3, the torque acting on the plant).
     """
-
-    n_sub = N_SUB_DEFAULT if n_sub is None else int(n_sub)
+    n_sub = scenario.n_sub if n_sub is None else int(n_sub)
     if controllers is None:
         controllers = (BALANCE_CONTROLLERS[scenario.controller](make_affine()),
                        make_velocity_controller())
-    balance, velocity = controllers
+    blocks = PeriodBlocks(*controllers)
     inp = scenario.inputs()
     w = np.asarray(inp["w"], float)
-    if np.any(w[:, :3] != 0.0):
+    if np.any(w[:, DISTURBANCE["push"]] != 0.0):
         raise ScenarioError("closed_loop_cosim: attitude pushes cannot be applied through the "
                             "FMU's inputs; use a scenario without pushes")
-    if fmu is None:
-        unzipped = build_fmu().unzipped
-    else:
-        unzipped = Path(extract(str(fmu)))
+    unzipped = build_fmu().unzipped if fmu is None else Path(extract(str(fmu)))
     md = read_model_description(str(unzipped))
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    sx = [vr[n] for n in STATE_NAMES]
+    sx = [vr[n] for n in STATE.names]
     su = [vr[f"tau{i}"] for i in range(3)]
-    Ts, cascade = float(inp["Ts"]), bool(inp["cascade"])
+    sd = [vr[f"tau_dist{i}"] for i in range(3)]
+    const = {k: inp[k] for k in CONSTANT_INPUTS}
+    Ts = float(const["Ts"])
     n = w.shape[0]
     plant = FMU2Slave(guid=md.guid, unzipDirectory=str(unzipped),
                       modelIdentifier=MODEL_IDENTIFIER, instanceName="plant")
     plant.instantiate()
+    states = np.zeros((n + 1, STATE.size))
+    zs = np.zeros((n + 1, np.size(inp["z0"])))
+    tau_cmd = np.zeros((n, 3))
+    tau = np.zeros((n, 3))
     try:
         plant.setupExperiment(startTime=0.0)
         plant.enterInitializationMode()
@@ -104,27 +109,25 @@ def closed_loop_cosim(scenario, fmu: str | Path | None = None, n_sub: int | None
         plant.setReal(sx, [float(v) for v in inp["x0"]])
         plant.exitInitializationMode()
         z = np.asarray(inp["z0"], float)
-        p_ctrl, k_bal, k_vel = inp["p_ctrl"], inp["k_bal"], inp["k_vel"]
-        states = np.zeros((n + 1, len(sx)))
-        tau_cmd = np.zeros((n, 3))
-        tau = np.zeros((n, 3))
-        for k in range(n):
-            x = np.array(plant.getReal(sx))
-            states[k] = x
-            if cascade:
-                qr, dqr, ddqr, z_next = velocity(x, inp["v_ref"][k], z, p_ctrl, k_vel, Ts)
-                z = np.asarray(z_next, float).ravel()
-            else:
-                qr, dqr, ddqr = inp["q_ref"][k], inp["dq_ref"][k], inp["ddq_ref"][k]
-            u, _ = balance(x, qr, dqr, ddqr, p_ctrl, k_bal)
-            tau_cmd[k] = np.asarray(u, float).ravel()
-            u_lim = saturate_torques(tau_cmd[k], p_ctrl[PARAM_NAMES.index("tau_max")])
-            plant.setReal(su, (u_lim + w[k, 3:6]).tolist())
+        zs[0] = z
+        k = 0
+
+        def fmu_plant(xk: np.ndarray, tau_k: np.ndarray, tau_lim: np.ndarray,
+                      tau_dist: np.ndarray) -> np.ndarray:
+            plant.setReal(su, [float(v) for v in tau_lim])
+            plant.setReal(sd, [float(v) for v in tau_dist])
             plant.doStep(k * Ts, Ts)
-            tmax = float(inp["p_plant"][PARAM_NAMES.index("tau_max")])
-            tau[k] = np.clip(u_lim + w[k, 3:6], -tmax, tmax)
-        states[n] = plant.getReal(sx)
+            return np.array(plant.getReal(sx))
+
+        x = np.array(plant.getReal(sx))
+        for k in range(n):
+            seq = {key: inp[key][k] for key in SEQUENCE_INPUTS}
+            out = control_period(blocks, x, z, seq, const, fmu_plant)
+            states[k], tau_cmd[k], tau[k] = out["x"], out["tau_cmd"], out["tau"]
+            x, z = out["x_next"], out["z_next"]
+            zs[k + 1] = z
+        states[n] = x
         plant.terminate()
     finally:
         plant.freeInstance()
-    return {"time": np.arange(n + 1) * Ts, "state": states, "tau_cmd": tau_cmd, "tau": tau}
+    return {"time": np.arange(n + 1) * Ts, "state": states, "z": zs, "tau_cmd": tau_cmd, "tau": tau}

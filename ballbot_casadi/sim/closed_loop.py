@@ -1,35 +1,21 @@
-"""Closed-loop simulation: plant, sampled controllers and the whole mission as CasADi Functions.
+"""Closed-loop missions: the control period as a Function, chained over a whole mission.
 
-Structure (thesis Fig. 7.1 cascade, Fig. 8.1 balance-only)
-----------------------------------------------------------
 One control period ``Ts`` (200 Hz, thesis §7.1) is the Function
-``ballbot_cl_step_<ctrl>``:
-
-1. a disturbance jump of the plant attitude (a push, thesis §8.4.3): the attitude is
-   rotated in {K} by the rotation vector ``w[0:3]``, ``q <- exp(w/2) o q`` and
-   ``dq <- exp(w/2) o dq`` (body rates unchanged);
-2. the velocity controller ``ballbot_velocity`` (outer loop, thesis §7.3) runs once per
-   period and produces ``q_ref, dq_ref, ddq_ref``; with ``cascade = 0`` the references
-   come from the input sequences instead (balance controller alone, thesis Fig. 8.1);
-3. the balance controller (``ballbot_flc`` thesis 8.26/8.44 or ``ballbot_smc``) computes
-   the wheel torques on its *own* internal-model parameters ``p_ctrl``;
-4. the torques are limited without changing their direction at ``tau_max`` of the
-   controller parameters ``p_ctrl`` and then saturated per wheel at ``+-tau_max`` of the
-   *plant* parameters ``p_plant``,
-   an input disturbance torque ``w[3:6]`` is added, and the result is held (zero-order
-   hold) over the period while the plant is integrated with ``n_sub`` classical RK4 steps
-   of size ``Ts / n_sub`` (:func:`~ballbot_casadi.integrators.make_rk4_n`).
+``ballbot_cl_step_<ctrl>``: :func:`ballbot_casadi.sim.period.control_period` (push,
+velocity controller, balance controller, torque limits, disturbance torque, plant) on
+CasADi symbols, with ``n_sub`` classical RK4 steps of ``Ts / n_sub`` as the plant.
 
 Every block is a *called* Function (ODE inside RK4, RK4 and controllers inside the
 step), so the generated C holds one copy of each.  The mission over ``N`` periods is
 ``step.mapaccum(N)`` (CasADi nests it in log-depth folds): one call runs a whole
-mission.  The compiled variant (:func:`closed_loop_library`, built once, cached by hash)
-holds the step and a chunk of :data:`CHUNK` periods (``ballbot_cl_chunk_<ctrl>``, the
-step's ``mapaccum`` in C); a mission of any length chains compiled chunks and runs the
-remainder through the compiled step's ``mapaccum``, composed into one Function, so
-missions run as a single call without regenerating C.  By default the same chain runs
-through the zero-copy C entry point of :mod:`~ballbot_casadi.mission_driver` (one C
-call per mission, numpy buffers in place; identical results).
+mission.  The compiled variant (:func:`closed_loop_library`, built once per ``n_sub``,
+cached by hash) holds the step and a chunk of :data:`CHUNK` periods
+(``ballbot_cl_chunk_<ctrl>``, the step's ``mapaccum`` in C); a mission of any length
+chains compiled chunks and runs the remainder through the compiled step's ``mapaccum``,
+composed into one Function, so missions run as a single call without regenerating C.
+By default the same chain runs through the zero-copy C entry point of
+:mod:`~ballbot_casadi.sim.driver` (one C call per mission, numpy buffers in place;
+identical results).
 
 Log layout: ``state[k]`` (k < N) is the state the controllers saw at ``t_k = k Ts`` (after
 a push), ``state[N]`` the final state; torques and references of period k apply on
@@ -41,32 +27,32 @@ need no regeneration.
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
 import casadi as ca
 import numpy as np
 
-from ballbot_casadi.control import (
-    BALANCE_CONTROLLERS,
-    make_velocity_controller,
-    saturate_torques,
-)
-from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.core.params import PARAM_NAMES, Params
-from ballbot_casadi.core.toolchain import build_library, load_library
+from ballbot_casadi.control import BALANCE_CONTROLLERS, make_velocity_controller
+from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
+from ballbot_casadi.core.layout import DISTURBANCE
+from ballbot_casadi.core.toolchain import Library, build_library, load_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
-from ballbot_casadi.model.dynamics import NP, NU, NX, STATE_NAMES, make_affine, make_ode
-from ballbot_casadi.model.integrators import make_rk4_n
+from ballbot_casadi.model.dynamics import NP, NX, make_affine, make_ode
 from ballbot_casadi.sim.driver import MissionDriver
+from ballbot_casadi.sim.log import SimulationLog, load_log, save_log
+from ballbot_casadi.sim.period import (
+    CONSTANT_INPUTS,
+    PERIOD_OUTPUTS,
+    SEQUENCE_INPUTS,
+    PeriodBlocks,
+    check_blocks,
+    control_period,
+    rk4_plant,
+)
 from ballbot_casadi.sim.scenarios import Scenario
 
 __all__ = [
-    "TS_DEFAULT",
-    "N_SUB_DEFAULT",
-    "ND_W",
     "make_closed_loop_step",
     "make_mission",
     "make_chunk",
@@ -80,60 +66,22 @@ __all__ = [
     "run_scenario",
 ]
 
-#: Control period (s): 200 Hz, thesis §7.1.
-TS_DEFAULT = 0.005
-#: RK4 sub-steps per control period: 1 ms plant step by default.
-N_SUB_DEFAULT = 5
-#: Size of the per-period disturbance input ``w = [attitude jump (3), torque (3)]``.
-ND_W = 6
 #: Control periods per compiled chunk (1 s at 200 Hz).
 CHUNK = 200
-#: Step inputs that are per-period sequences (the others are constants).
-_SEQ_INPUTS = (1, 2, 3, 4, 5)
-
-_TAU_MAX = PARAM_NAMES.index("tau_max")
-
-
-def _sizes(balance: ca.Function, velocity: ca.Function) -> dict[str, int]:
-    """Check the controller signatures of the interface contract and return the sizes."""
-    if not isinstance(balance, ca.Function) or balance.n_in() != 6 or balance.n_out() != 2:
-        raise ScenarioError(
-            "balance controller must be a CasADi Function "
-            "(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)"
-        )
-    if not isinstance(velocity, ca.Function) or velocity.n_in() != 6 or velocity.n_out() != 4:
-        raise ScenarioError(
-            "velocity controller must be a CasADi Function "
-            "(x, v_ref, z, p, k, Ts) -> (q_ref, dq_ref, ddq_ref, z_next)"
-        )
-    want_b = [NX, 4, 4, 4, NP]
-    got_b = [balance.numel_in(i) for i in range(5)]
-    if got_b != want_b or balance.numel_out(0) != NU:
-        raise ScenarioError(f"balance controller input sizes {got_b} (expected {want_b} + gains)")
-    nz = velocity.numel_in(2)
-    want_v = [NX, 3, nz, NP]
-    got_v = [velocity.numel_in(i) for i in range(4)]
-    if got_v != want_v or [velocity.numel_out(i) for i in range(4)] != [4, 4, 4, nz]:
-        raise ScenarioError(f"velocity controller sizes {got_v} do not match {want_v}")
-    return {
-        "nk": balance.numel_in(5),
-        "nd": balance.numel_out(1),
-        "nz": nz,
-        "nkv": velocity.numel_in(4),
-    }
-
-
-def _block_name(balance: ca.Function) -> str:
-    return balance.name().removeprefix("ballbot_")
+#: Positions of the step inputs that are per-period sequences (the others are constants).
+_SEQ_INPUTS = tuple(range(1, 1 + len(SEQUENCE_INPUTS)))
 
 
 def make_closed_loop_step(
     balance: ca.Function,
     velocity: ca.Function,
     ode: ca.Function,
-    n_sub: int = N_SUB_DEFAULT,
+    n_sub: int = N_SUB,
 ) -> ca.Function:
-    """One control period of the closed loop, ``ballbot_cl_step_<ctrl>``.
+    """One control period of the closed loop as a Function, ``ballbot_cl_step_<ctrl>``.
+
+    The period is :func:`ballbot_casadi.sim.period.control_period` evaluated on CasADi
+    symbols with the RK4 plant (:func:`~ballbot_casadi.sim.period.rk4_plant`).
 
     Parameters
     ----------
@@ -151,46 +99,28 @@ def make_closed_loop_step(
     casadi.Function
         Inputs ``xz = [x; z]`` (accumulated), per-period ``q_ref, dq_ref, ddq_ref``
         (4 each, used when ``cascade = 0``), ``v_ref`` (3, used when ``cascade = 1``),
-        ``w`` (6: attitude jump rotation vector in {K}, wheel-torque disturbance),
-        then the constants ``p_plant, p_ctrl, k_bal, k_vel, Ts, cascade``.  Outputs
-        ``xz_next``, ``x`` (state the controllers saw, after the jump), ``tau_cmd``
-        (controller output), ``tau`` (saturated), the references used and ``diag``.
+        ``w`` (6, :data:`~ballbot_casadi.core.layout.DISTURBANCE`: attitude jump rotation
+        vector in {K}, wheel-torque disturbance), then the constants ``p_plant, p_ctrl,
+        k_bal, k_vel, Ts, cascade``.  Outputs ``xz_next``, ``x`` (state the controllers
+        saw, after the jump), ``tau_cmd`` (controller output), ``tau`` (torque acting on
+        the plant: saturated, plus the disturbance), the references used and ``diag``.
     """
-    s = _sizes(balance, velocity)
-    rk4 = make_rk4_n(ode, n_sub)
+    blocks = PeriodBlocks(balance, velocity)
+    s = check_blocks(blocks, NP)
     MX = ca.MX.sym
     xz = MX("xz", NX + s["nz"])
-    q_ref, dq_ref, ddq_ref = MX("q_ref", 4), MX("dq_ref", 4), MX("ddq_ref", 4)
-    v_ref, w = MX("v_ref", 3), MX("w", ND_W)
-    p_plant, p_ctrl = MX("p_plant", NP), MX("p_ctrl", NP)
-    k_bal, k_vel = MX("k_bal", s["nk"]), MX("k_vel", s["nkv"])
-    Ts, cascade = MX("Ts"), MX("cascade")
-
-    x, z = xz[:NX], xz[NX:]
-    r = Q.from_rotation_vector(w[0:3])  # push (thesis §8.4.3): exact identity for w = 0
-    xk = ca.vertcat(x[0:2], Q.mul(r, x[2:6]), x[6:8], Q.mul(r, x[8:12]))
-
-    qv, dqv, ddqv, z_next = velocity(xk, v_ref, z, p_ctrl, k_vel, Ts)
-    on = cascade > 0.5
-    qr = ca.if_else(on, qv, q_ref)
-    dqr = ca.if_else(on, dqv, dq_ref)
-    ddqr = ca.if_else(on, ddqv, ddq_ref)
-    z_next = ca.if_else(on, z_next, z)
-
-    tau_cmd, diag = balance(xk, qr, dqr, ddqr, p_ctrl, k_bal)
-    # Direction-preserving limit at the controller's own tau_max, then the plant's
-    # physical per-wheel saturation (a no-op unless the plant's limit is lower).
-    tau_lim = saturate_torques(tau_cmd, p_ctrl[_TAU_MAX])
-    tau_max = p_plant[_TAU_MAX]
-    tau = ca.fmin(ca.fmax(tau_lim, -tau_max), tau_max)
-    x_next = rk4(xk, tau + w[3:6], p_plant, Ts)
+    seq = {"q_ref": MX("q_ref", 4), "dq_ref": MX("dq_ref", 4), "ddq_ref": MX("ddq_ref", 4),
+           "v_ref": MX("v_ref", 3), "w": MX("w", DISTURBANCE.size)}
+    const = {"p_plant": MX("p_plant", NP), "p_ctrl": MX("p_ctrl", NP), "k_bal": MX("k_bal", s["nk"]),
+             "k_vel": MX("k_vel", s["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade")}
+    plant = rk4_plant(ode, n_sub, const["p_plant"], const["Ts"])
+    out = control_period(blocks, xz[:NX], xz[NX:], seq, const, plant)
     return ca.Function(
-        f"ballbot_cl_step_{_block_name(balance)}",
-        [xz, q_ref, dq_ref, ddq_ref, v_ref, w, p_plant, p_ctrl, k_bal, k_vel, Ts, cascade],
-        [ca.vertcat(x_next, z_next), xk, tau_cmd, tau, qr, dqr, ddqr, diag],
-        ["xz", "q_ref", "dq_ref", "ddq_ref", "v_ref", "w",
-         "p_plant", "p_ctrl", "k_bal", "k_vel", "Ts", "cascade"],
-        ["xz_next", "x", "tau_cmd", "tau", "q_ref_used", "dq_ref_used", "ddq_ref_used", "diag"],
+        f"ballbot_cl_step_{blocks.name}",
+        [xz, *seq.values(), *const.values()],
+        [ca.vertcat(out["x_next"], out["z_next"]), *(out[k] for k in PERIOD_OUTPUTS)],
+        ["xz", *SEQUENCE_INPUTS, *CONSTANT_INPUTS],
+        ["xz_next", *PERIOD_OUTPUTS],
     )
 
 
@@ -260,7 +190,7 @@ def _compose_mission(step: ca.Function, chunk: ca.Function, n_chunk: int, n_peri
     return ca.Function(name, args, outs, step.name_in(), step.name_out())
 
 
-def closed_loop_functions(n_sub: int = N_SUB_DEFAULT) -> tuple[dict[str, ca.Function], list[ca.Function]]:
+def closed_loop_functions(n_sub: int = N_SUB) -> tuple[dict[str, ca.Function], list[ca.Function]]:
     """Symbolic step Functions of every balance controller, and everything to export in C.
 
     Returns
@@ -271,7 +201,6 @@ def closed_loop_functions(n_sub: int = N_SUB_DEFAULT) -> tuple[dict[str, ca.Func
         The step and chunk (:func:`make_chunk`) Functions plus the controllers
         ``ballbot_flc``, ``ballbot_smc``, ``ballbot_velocity`` (for the C benchmark).
     """
-
     ode, affine = make_ode(), make_affine()
     velocity = make_velocity_controller()
     steps: dict[str, ca.Function] = {}
@@ -284,19 +213,54 @@ def closed_loop_functions(n_sub: int = N_SUB_DEFAULT) -> tuple[dict[str, ca.Func
     return steps, exported
 
 
-def closed_loop_library(n_sub: int = N_SUB_DEFAULT, root: Path | None = None):
-    """Generate and compile ``ballbot_closed_loop`` (steps, chunks and controllers).
+def library_name(n_sub: int) -> str:
+    """Name of the compiled closed-loop library for ``n_sub`` RK4 sub-steps per period."""
+    return "ballbot_closed_loop" if n_sub == N_SUB else f"ballbot_closed_loop_sub{n_sub}"
 
-    Cached by the hash of the generated C (see :func:`~ballbot_casadi.codegen.build_library`).
+
+def closed_loop_library(n_sub: int = N_SUB, root: Path | None = None) -> tuple[Library, dict[str, ca.Function]]:
+    """Generate and compile the closed-loop library (steps, chunks and controllers).
+
+    Cached by the hash of the generated C (see :func:`~ballbot_casadi.core.toolchain.build_library`).
 
     Returns
     -------
     library, steps
-        The :class:`~ballbot_casadi.codegen.Library` and the symbolic step Functions.
+        The :class:`~ballbot_casadi.core.toolchain.Library` and the symbolic step Functions.
     """
-
     steps, exported = closed_loop_functions(n_sub)
-    return build_library("ballbot_closed_loop", exported, root), steps
+    return build_library(library_name(n_sub), exported, root), steps
+
+
+class _Variant:
+    """The step Functions of one ``n_sub`` (compiled or symbolic) and their missions."""
+
+    def __init__(self, symbolic: Mapping[str, ca.Function], lib: Library | None, use_driver: bool) -> None:
+        self.library = lib
+        self.symbolic = dict(symbolic)
+        self.chunks: dict[str, ca.Function] = {}
+        self.driver: MissionDriver | None = None
+        self.missions: dict[tuple[str, int], ca.Function] = {}
+        if lib is None:
+            self.steps = dict(symbolic)
+            return
+        names = [f.name() for f in symbolic.values()]
+        chunk_names = [n.replace("ballbot_cl_step_", "ballbot_cl_chunk_") for n in names]
+        ext = load_library(lib, names + chunk_names)
+        self.steps = {k: ext[f.name()] for k, f in symbolic.items()}
+        self.chunks = {k: ext[c] for k, c in zip(symbolic, chunk_names)}
+        if use_driver:
+            self.driver = MissionDriver(lib, symbolic, CHUNK, _SEQ_INPUTS)
+
+    def mission(self, controller: str, n_periods: int) -> ca.Function:
+        key = (controller, int(n_periods))
+        if key not in self.missions:
+            step = self.steps[controller]
+            if controller in self.chunks:
+                self.missions[key] = _compose_mission(step, self.chunks[controller], CHUNK, key[1])
+            else:
+                self.missions[key] = make_mission(step, key[1])
+        return self.missions[key]
 
 
 class ClosedLoop:
@@ -307,85 +271,98 @@ class ClosedLoop:
     compiled
         Run the generated C (default) or the symbolic Functions.
     n_sub
-        RK4 sub-steps per control period.
+        Default RK4 sub-steps per control period; a mission may ask for another
+        (:meth:`simulate`), whose library is then built (cached by hash) on first use.
     steps
         Optional ``{controller name: step Function}`` to use instead of the package's
         controllers (e.g. a stand-in in tests); with ``compiled`` those are compiled
-        (library ``ballbot_closed_loop_custom``).
+        (library ``ballbot_closed_loop_custom``).  Such steps have a fixed ``n_sub``.
     root
-        Build root (default :func:`~ballbot_casadi.codegen.build_root`).
+        Build root (default :func:`~ballbot_casadi.core.toolchain.build_root`).
     use_driver
         With ``compiled``: run missions through the zero-copy C entry point of
-        :mod:`~ballbot_casadi.mission_driver` (same generated chunk and step code, no
+        :mod:`~ballbot_casadi.sim.driver` (same generated chunk and step code, no
         numpy <-> DM conversion); otherwise call the CasADi mission Function.
 
     Notes
     -----
-    Mission Functions are cached per ``(controller, N)`` on the instance, so reuse one
-    instance for many runs.
+    Mission Functions are cached per ``(n_sub, controller, N)`` on the instance, so reuse
+    one instance for many runs.
     """
 
     def __init__(
         self,
         compiled: bool = True,
-        n_sub: int = N_SUB_DEFAULT,
+        n_sub: int = N_SUB,
         steps: Mapping[str, ca.Function] | None = None,
         root: Path | None = None,
         use_driver: bool = True,
     ) -> None:
+        if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
+            raise ScenarioError(f"n_sub must be an int >= 1, got {n_sub!r}")
         self.n_sub = int(n_sub)
         self.compiled = bool(compiled)
-        lib = None
-        if steps is None:
+        self.root = root
+        self.use_driver = bool(use_driver)
+        self._custom = steps is not None
+        self._variants: dict[int, _Variant] = {}
+        if steps is not None:
+            lib = None
             if compiled:
-                lib, symbolic = closed_loop_library(self.n_sub, root)
-            else:
-                symbolic, _ = closed_loop_functions(self.n_sub)
-        else:
-            symbolic = dict(steps)
-            if compiled:
-                funcs = [g for f in symbolic.values() for g in (f, make_chunk(f))]
+                funcs = [g for f in steps.values() for g in (f, make_chunk(f))]
                 lib = build_library("ballbot_closed_loop_custom", funcs, root)
-        self.library = lib
-        self.symbolic_steps = symbolic
-        self.chunks: dict[str, ca.Function] = {}
-        if lib is not None:
-            names = [f.name() for f in symbolic.values()]
-            chunk_names = [n.replace("ballbot_cl_step_", "ballbot_cl_chunk_") for n in names]
-            ext = load_library(lib, names + chunk_names)
-            self.steps = {k: ext[f.name()] for k, f in symbolic.items()}
-            self.chunks = {k: ext[c] for k, c in zip(symbolic, chunk_names)}
+            self._variants[self.n_sub] = _Variant(steps, lib, self.use_driver)
         else:
-            self.steps = dict(symbolic)
-        self._missions: dict[tuple[str, int], ca.Function] = {}
-        self.driver = None
-        if lib is not None and use_driver:
-            self.driver = MissionDriver(lib, symbolic, CHUNK, _SEQ_INPUTS)
+            self._variant(self.n_sub)
+
+    def _variant(self, n_sub: int) -> _Variant:
+        if n_sub not in self._variants:
+            if self._custom:
+                raise ScenarioError(
+                    f"these custom steps integrate with n_sub = {self.n_sub}; n_sub = {n_sub} "
+                    "needs steps built for it"
+                )
+            if self.compiled:
+                lib, symbolic = closed_loop_library(n_sub, self.root)
+            else:
+                lib, (symbolic, _) = None, closed_loop_functions(n_sub)
+            self._variants[n_sub] = _Variant(symbolic, lib, self.use_driver)
+        return self._variants[n_sub]
+
+    @property
+    def library(self) -> Library | None:
+        """The compiled library of the default ``n_sub`` (``None`` when symbolic)."""
+        return self._variant(self.n_sub).library
+
+    @property
+    def driver(self) -> MissionDriver | None:
+        """The zero-copy C mission entry point of the default ``n_sub`` (if any)."""
+        return self._variant(self.n_sub).driver
+
+    @property
+    def symbolic_steps(self) -> dict[str, ca.Function]:
+        """The symbolic step Functions of the default ``n_sub``."""
+        return self._variant(self.n_sub).symbolic
 
     @property
     def controllers(self) -> tuple[str, ...]:
         """Names of the available balance controllers."""
-        return tuple(self.steps)
+        return tuple(self._variant(self.n_sub).steps)
 
-    def step(self, controller: str) -> ca.Function:
+    def step(self, controller: str, n_sub: int | None = None) -> ca.Function:
         """The step Function of ``controller`` (compiled or symbolic)."""
+        steps = self._variant(self.n_sub if n_sub is None else int(n_sub)).steps
         try:
-            return self.steps[controller]
+            return steps[controller]
         except KeyError:
             raise ScenarioError(
-                f"unknown controller {controller!r}; allowed: {', '.join(self.steps)}"
+                f"unknown controller {controller!r}; allowed: {', '.join(steps)}"
             ) from None
 
-    def mission(self, controller: str, n_periods: int) -> ca.Function:
+    def mission(self, controller: str, n_periods: int, n_sub: int | None = None) -> ca.Function:
         """The ``n_periods`` mission Function of ``controller`` (cached)."""
-        key = (controller, int(n_periods))
-        if key not in self._missions:
-            step = self.step(controller)
-            if controller in self.chunks:
-                self._missions[key] = _compose_mission(step, self.chunks[controller], CHUNK, key[1])
-            else:
-                self._missions[key] = make_mission(step, key[1])
-        return self._missions[key]
+        self.step(controller, n_sub)  # validates the name
+        return self._variant(self.n_sub if n_sub is None else int(n_sub)).mission(controller, n_periods)
 
     def simulate(
         self,
@@ -402,23 +379,29 @@ class ClosedLoop:
         ddq_ref: np.ndarray,
         v_ref: np.ndarray,
         w: np.ndarray,
-        Ts: float = TS_DEFAULT,
+        Ts: float = TS_CONTROL,
         cascade: bool = False,
+        n_sub: int | None = None,
     ) -> dict[str, np.ndarray]:
         """Run one mission in a single Function call.
 
-        Sequences are ``(N, size)`` arrays (one row per control period).  Returns the
+        Sequences are ``(N, size)`` arrays (one row per control period).  ``n_sub``
+        (default: the instance's) sets the RK4 sub-steps per period.  Returns the
         named arrays of the log: ``time`` (N+1), ``state`` (N+1, 12; row k < N is the
         state the controllers saw at ``t_k``, the last row the final state),
-        ``z`` (N+1, NZ), ``tau_cmd``, ``tau`` (N, 3), ``q_ref``, ``dq_ref``,
-        ``ddq_ref`` (N, 4, the references used), ``v_ref`` (N, 3), ``w`` (N, 6),
-        ``diag`` (N, ND).
+        ``z`` (N+1, NZ), ``tau_cmd``, ``tau`` (N, 3; ``tau`` acts on the plant:
+        saturated plus the disturbance), ``q_ref``, ``dq_ref``, ``ddq_ref`` (N, 4, the
+        references used), ``v_ref`` (N, 3), ``w`` (N, 6), ``diag`` (N, ND).
         """
+        n_sub = self.n_sub if n_sub is None else n_sub
+        if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
+            raise ScenarioError(f"n_sub must be an int >= 1, got {n_sub!r}")
         seqs = {"q_ref": q_ref, "dq_ref": dq_ref, "ddq_ref": ddq_ref, "v_ref": v_ref, "w": w}
+        widths = {"q_ref": 4, "dq_ref": 4, "ddq_ref": 4, "v_ref": 3, "w": DISTURBANCE.size}
         n = None
         for key, val in seqs.items():
             arr = np.asarray(val, dtype=float)
-            width = 3 if key == "v_ref" else ND_W if key == "w" else 4
+            width = widths[key]
             if arr.ndim != 2 or arr.shape[1] != width:
                 raise ShapeError(f"{key} must have shape (N, {width}), got {arr.shape}")
             if not np.all(np.isfinite(arr)):
@@ -428,125 +411,51 @@ class ClosedLoop:
                 raise ShapeError(f"{key} has {arr.shape[0]} rows, the other sequences {n}")
             seqs[key] = arr
         xz0 = np.concatenate([np.asarray(x0, float).reshape(NX), np.asarray(z0, float).reshape(-1)])
-        args = [xz0, seqs["q_ref"], seqs["dq_ref"], seqs["ddq_ref"], seqs["v_ref"], seqs["w"],
+        args = [xz0, *(seqs[k] for k in SEQUENCE_INPUTS),
                 np.asarray(p_plant, float), np.asarray(p_ctrl, float), np.asarray(k_bal, float),
                 np.asarray(k_vel, float), float(Ts), 1.0 if cascade else 0.0]
-        step = self.step(controller)
+        step = self.step(controller, n_sub)
         for i, a in enumerate(args[6:], start=6):
             if np.size(a) != step.size1_in(i):
                 raise ShapeError(f"{step.name_in(i)} has {np.size(a)} entries, expected {step.size1_in(i)}")
-        if self.driver is not None and controller in self.chunks:
-            res = self.driver.run(controller, n, args)
+        variant = self._variant(int(n_sub))
+        if variant.driver is not None and controller in variant.chunks:
+            res = variant.driver.run(controller, n, args)
         else:
-            mission = self.mission(controller, n)
+            mission = variant.mission(controller, n)
             res = [np.asarray(r).T for r in mission(*[a.T if i in _SEQ_INPUTS else a
                                                        for i, a in enumerate(args)])]
-        xz_next, xs, tau_cmd, tau, qr, dqr, ddqr, diag = res
-        state = np.vstack([xs, xz_next[-1:, :NX]])
-        z = np.vstack([xz0[None, NX:], xz_next[:, NX:]])
+        out = dict(zip(["xz_next", *PERIOD_OUTPUTS], res))
+        xz_next = out["xz_next"]
         return {
             "time": np.arange(n + 1) * float(Ts),
-            "state": state,
-            "z": z,
-            "tau_cmd": tau_cmd,
-            "tau": tau,
-            "q_ref": qr,
-            "dq_ref": dqr,
-            "ddq_ref": ddqr,
+            "state": np.vstack([out["x"], xz_next[-1:, :NX]]),
+            "z": np.vstack([xz0[None, NX:], xz_next[:, NX:]]),
+            "tau_cmd": out["tau_cmd"],
+            "tau": out["tau"],
+            "q_ref": out["q_ref_used"],
+            "dq_ref": out["dq_ref_used"],
+            "ddq_ref": out["ddq_ref_used"],
             "v_ref": seqs["v_ref"],
             "w": seqs["w"],
-            "diag": diag,
+            "diag": out["diag"],
         }
 
 
-@dataclass
-class SimulationLog:
-    """Result of a closed-loop run: named numpy arrays plus the run's metadata.
-
-    Attributes
-    ----------
-    arrays
-        ``time``, ``state``, ``z``, ``tau_cmd``, ``tau``, ``q_ref``, ``dq_ref``,
-        ``ddq_ref``, ``v_ref``, ``w``, ``diag`` (see :meth:`ClosedLoop.simulate`).
-    scenario
-        The scenario as a JSON-compatible dict.
-    params, ctrl_params
-        Plant and controller internal-model parameter sets.
-    diag_names
-        Names of the ``diag`` columns.
-    """
-
-    arrays: dict[str, np.ndarray]
-    scenario: dict[str, Any]
-    params: Params
-    ctrl_params: Params
-    diag_names: tuple[str, ...] = ()
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    def __getitem__(self, key: str) -> np.ndarray:
-        return self.arrays[key]
-
-    def __contains__(self, key: object) -> bool:
-        return key in self.arrays
-
-    def keys(self):
-        """Names of the logged arrays."""
-        return self.arrays.keys()
-
-    def save(self, path: str | Path) -> Path:
-        """Write the log to ``path`` (``.npz``); see :func:`save_log`."""
-        return save_log(self, path)
-
-
-def save_log(log: SimulationLog, path: str | Path) -> Path:
-    """Save a log to ``.npz``: the arrays plus parameters and scenario as a JSON string."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    meta = {
-        "scenario": log.scenario,
-        "params": log.params.as_dict(),
-        "ctrl_params": log.ctrl_params.as_dict(),
-        "diag_names": list(log.diag_names),
-        "state_names": list(STATE_NAMES),
-        "extra": log.extra,
-    }
-    np.savez_compressed(path, **log.arrays, meta_json=np.array(json.dumps(meta)))
-    return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
-
-
-def load_log(path: str | Path) -> SimulationLog:
-    """Load a log written by :func:`save_log`."""
-    with np.load(Path(path), allow_pickle=False) as data:
-        arrays = {k: np.array(data[k]) for k in data.files if k != "meta_json"}
-        if "meta_json" not in data.files:
-            raise ScenarioError(f"{path}: not a ballbot simulation log (no meta_json entry)")
-        meta = json.loads(str(data["meta_json"]))
-    return SimulationLog(
-        arrays=arrays,
-        scenario=meta["scenario"],
-        params=Params(**meta["params"]),
-        ctrl_params=Params(**meta["ctrl_params"]),
-        diag_names=tuple(meta.get("diag_names", ())),
-        extra=meta.get("extra", {}),
-    )
-
-
 def run_scenario(scenario: Any, sim: ClosedLoop | None = None) -> SimulationLog:
-    """Run a :class:`~ballbot_casadi.scenarios.Scenario` and return its log.
+    """Run a :class:`~ballbot_casadi.sim.scenarios.Scenario` and return its log.
 
     Parameters
     ----------
     scenario
-        The scenario (validated on construction).
+        The scenario (validated on construction); its ``Ts`` and ``n_sub`` are used.
     sim
         A :class:`ClosedLoop` to reuse (compiled C by default); ``None`` builds one.
     """
-
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"run_scenario needs a Scenario, got {type(scenario).__name__}")
     sim = ClosedLoop() if sim is None else sim
-    inputs = scenario.inputs()
-    arrays = sim.simulate(scenario.controller, **inputs)
+    arrays = sim.simulate(scenario.controller, **scenario.inputs(), n_sub=scenario.n_sub)
     return SimulationLog(
         arrays=arrays,
         scenario=scenario.to_dict(),

@@ -25,6 +25,7 @@ from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
+from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.errors import ScenarioError, ShapeError
 
 __all__ = [
@@ -39,15 +40,8 @@ __all__ = [
     "FIG93_ACCEL",
 ]
 
-#: Design specifications of thesis §7.1 (SI units).
-SPEC = {
-    "v_max": 0.5,  # m/s, translational velocity
-    "a_max": 1.0,  # m/s^2, linear acceleration
-    "yaw_rate_max": 1.0,  # rad/s, heading velocity
-    "yaw_acc_max": 10.0,  # rad/s^2, angular acceleration
-    "tilt_max": math.radians(5.0),  # rad, inclination
-    "tilt_rate_max": math.radians(20.0),  # rad/s, inclination rate
-}
+#: Design specifications of thesis §7.1 (SI units): :data:`ballbot_casadi.core.constants.THESIS_LIMITS`.
+SPEC = THESIS_LIMITS
 
 
 class Signal(NamedTuple):

@@ -39,6 +39,7 @@ from ballbot_casadi.control import (
     velocity_initial_state,
 )
 from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
 from ballbot_casadi.core.validation import check_state
 from ballbot_casadi.errors import ScenarioError
@@ -173,8 +174,8 @@ class Scenario:
     ctrl_changes: Mapping[str, Any] = field(default_factory=dict)
     k_bal: tuple = ()
     k_vel: tuple = ()
-    Ts: float = 0.005
-    n_sub: int = 5
+    Ts: float = TS_CONTROL
+    n_sub: int = N_SUB
     study: str = ""
     description: str = ""
 

@@ -62,8 +62,8 @@ def test_model_description_matches_the_table(plant):
     outs = {u.variable.name for u in md.outputs}
     assert set(STATES) <= outs
     assert {"roll", "pitch", "yaw", "dphi0", "acc_z", "gyro_x", "enc2"} <= outs
-    assert [v.name for v in md.modelVariables if v.causality == "input"] == ["tau0", "tau1",
-                                                                            "tau2"]
+    assert [v.name for v in md.modelVariables if v.causality == "input"] == [
+        "tau0", "tau1", "tau2", "tau_dist0", "tau_dist1", "tau_dist2"]
 
 
 def test_generated_header_uses_the_same_value_references(plant):

@@ -120,7 +120,7 @@ def test_casadi_daebuilder_reproduces_ode_and_jacobian(plant):
     f = make_model_functions()
     dae = ca.DaeBuilder("plant", str(plant.unzipped), {})
     assert dae.x() == list(STATES)
-    assert dae.u() == ["tau0", "tau1", "tau2"]
+    assert dae.u() == ["tau0", "tau1", "tau2", "tau_dist0", "tau_dist1", "tau_dist2"]
     assert dae.provides_directional_derivatives()
     fmu_ode = dae.create("fmu_ode", ["x", "u"], ["ode"])
     fmu_jac = fmu_ode.factory("fmu_jac", ["x", "u"], ["jac:ode:x", "jac:ode:u"])
@@ -128,13 +128,14 @@ def test_casadi_daebuilder_reproduces_ode_and_jacobian(plant):
     for _ in range(3):
         x = make_state(roll=rng.normal() * 0.2, pitch=rng.normal() * 0.2, yaw=rng.normal(),
                        dx=rng.normal(), dy=rng.normal(), omega_body=rng.normal(size=3))
-        u = rng.normal(size=3) * 0.5
-        np.testing.assert_allclose(np.asarray(fmu_ode(x, u)).ravel(),
-                                   np.asarray(f["ode"](x, u, PV)).ravel(), rtol=0, atol=1e-12)
-        A, B = (np.asarray(m) for m in fmu_jac(x, u))
-        A0, B0 = (np.asarray(m) for m in f["jac"](x, u, PV))
+        u, d = rng.normal(size=3) * 0.5, rng.normal(size=3) * 0.5
+        # the disturbance torque adds to the (unsaturated) motor torque
+        np.testing.assert_allclose(np.asarray(fmu_ode(x, np.r_[u, d])).ravel(),
+                                   np.asarray(f["ode"](x, u + d, PV)).ravel(), rtol=0, atol=1e-12)
+        A, B = (np.asarray(m) for m in fmu_jac(x, np.r_[u, d]))
+        A0, B0 = (np.asarray(m) for m in f["jac"](x, u + d, PV))
         np.testing.assert_allclose(A, A0, rtol=0, atol=1e-11)
-        np.testing.assert_allclose(B, B0, rtol=0, atol=1e-11)
+        np.testing.assert_allclose(B, np.hstack([B0, B0]), rtol=0, atol=1e-11)
 
 
 def test_c_host_runs_the_binary_without_python(plant):

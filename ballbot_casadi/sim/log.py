@@ -1,0 +1,88 @@
+"""Logs of closed-loop runs: named numpy arrays plus the run's metadata, saved as ``.npz``."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ballbot_casadi.core.layout import STATE
+from ballbot_casadi.core.params import Params
+from ballbot_casadi.errors import ScenarioError
+
+__all__ = ["SimulationLog", "save_log", "load_log"]
+
+
+@dataclass
+class SimulationLog:
+    """Result of a closed-loop run: named numpy arrays plus the run's metadata.
+
+    Attributes
+    ----------
+    arrays
+        ``time``, ``state``, ``z``, ``tau_cmd``, ``tau``, ``q_ref``, ``dq_ref``,
+        ``ddq_ref``, ``v_ref``, ``w``, ``diag`` (see :meth:`ClosedLoop.simulate`).
+    scenario
+        The scenario as a JSON-compatible dict.
+    params, ctrl_params
+        Plant and controller internal-model parameter sets.
+    diag_names
+        Names of the ``diag`` columns.
+    """
+
+    arrays: dict[str, np.ndarray]
+    scenario: dict[str, Any]
+    params: Params
+    ctrl_params: Params
+    diag_names: tuple[str, ...] = ()
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return self.arrays[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self.arrays
+
+    def keys(self):
+        """Names of the logged arrays."""
+        return self.arrays.keys()
+
+    def save(self, path: str | Path) -> Path:
+        """Write the log to ``path`` (``.npz``); see :func:`save_log`."""
+        return save_log(self, path)
+
+
+def save_log(log: SimulationLog, path: str | Path) -> Path:
+    """Save a log to ``.npz``: the arrays plus parameters and scenario as a JSON string."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    meta = {
+        "scenario": log.scenario,
+        "params": log.params.as_dict(),
+        "ctrl_params": log.ctrl_params.as_dict(),
+        "diag_names": list(log.diag_names),
+        "state_names": list(STATE.names),
+        "extra": log.extra,
+    }
+    np.savez_compressed(path, **log.arrays, meta_json=np.array(json.dumps(meta)))
+    return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+
+
+def load_log(path: str | Path) -> SimulationLog:
+    """Load a log written by :func:`save_log`."""
+    with np.load(Path(path), allow_pickle=False) as data:
+        arrays = {k: np.array(data[k]) for k in data.files if k != "meta_json"}
+        if "meta_json" not in data.files:
+            raise ScenarioError(f"{path}: not a ballbot simulation log (no meta_json entry)")
+        meta = json.loads(str(data["meta_json"]))
+    return SimulationLog(
+        arrays=arrays,
+        scenario=meta["scenario"],
+        params=Params(**meta["params"]),
+        ctrl_params=Params(**meta["ctrl_params"]),
+        diag_names=tuple(meta.get("diag_names", ())),
+        extra=meta.get("extra", {}),
+    )

@@ -1,0 +1,215 @@
+"""One control period of the closed loop, defined once (thesis Fig. 7.1 cascade, Fig. 8.1).
+
+The sequence of one period ``[t_k, t_k + Ts)`` is
+
+1. **push** - a disturbance jump of the plant attitude (thesis §8.4.3): ``q`` and ``dq``
+   are rotated in {K} by the rotation vector ``w[push]``,
+   ``q <- exp(w/2) o q``, ``dq <- exp(w/2) o dq`` (body rates unchanged);
+2. **velocity controller** (outer loop, thesis §7.3) produces ``q_ref, dq_ref, ddq_ref``
+   and its next state ``z``; with ``cascade = 0`` the references come from the input
+   sequences instead (balance controller alone, thesis Fig. 8.1) and ``z`` is held;
+3. **balance controller** (FLC thesis 8.26/8.44, or SMC) computes ``tau_cmd`` on its own
+   internal-model parameters ``p_ctrl``;
+4. **torque limits** - a direction-preserving limit at the controller's ``tau_max``
+   (:func:`~ballbot_casadi.control.saturate_torques`), then the plant's physical
+   per-wheel saturation at the plant's ``tau_max``;
+5. **disturbance** - the wheel-torque disturbance ``w[tau_dist]`` is added *after* the
+   saturation (it is an external torque on the wheel axes, not a motor command);
+6. **plant** - the resulting torque is held over the period (zero-order hold) while the
+   plant advances by ``Ts``.
+
+:func:`control_period` is that sequence, written once.  It evaluates on CasADi
+symbols (the compiled mission's step Function, :mod:`ballbot_casadi.sim.closed_loop`)
+and on numpy values (the FMU co-simulation master :mod:`ballbot_casadi.fmi.cosim` and
+the Python-loop benchmark), with the plant supplied by the caller: classical RK4 on the
+model's ODE (:func:`rk4_plant`), or an FMU stepped by ``fmi2DoStep``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping
+
+import casadi as ca
+import numpy as np
+
+from ballbot_casadi.control import saturate_torques
+from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.layout import DISTURBANCE, STATE
+from ballbot_casadi.core.params import PARAM_NAMES
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.model.integrators import make_rk4_n
+
+__all__ = [
+    "SEQUENCE_INPUTS",
+    "CONSTANT_INPUTS",
+    "PeriodBlocks",
+    "check_blocks",
+    "apply_push",
+    "actuate",
+    "control_period",
+    "rk4_plant",
+    "PERIOD_OUTPUTS",
+]
+
+#: Per-period input sequences of a period, in order (sizes: 4, 4, 4, 3, 6).
+SEQUENCE_INPUTS = ("q_ref", "dq_ref", "ddq_ref", "v_ref", "w")
+#: Inputs constant over a mission, in order.
+CONSTANT_INPUTS = ("p_plant", "p_ctrl", "k_bal", "k_vel", "Ts", "cascade")
+#: Per-period outputs of :func:`control_period` besides the next plant and controller states.
+PERIOD_OUTPUTS = ("x", "tau_cmd", "tau", "q_ref_used", "dq_ref_used", "ddq_ref_used", "diag")
+
+_TAU_MAX = PARAM_NAMES.index("tau_max")
+_SYMBOLIC = (ca.SX, ca.MX)
+
+
+@dataclass(frozen=True)
+class PeriodBlocks:
+    """The controller blocks of a period (CasADi Functions).
+
+    Attributes
+    ----------
+    balance
+        ``(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)``.
+    velocity
+        ``(x, v_ref, z, p, k, Ts) -> (q_ref, dq_ref, ddq_ref, z_next)``.
+    """
+
+    balance: ca.Function
+    velocity: ca.Function
+
+    @property
+    def name(self) -> str:
+        """The balance controller's name without the ``ballbot_`` prefix (``flc``, ``smc``)."""
+        return self.balance.name().removeprefix("ballbot_")
+
+
+def check_blocks(blocks: PeriodBlocks, n_p: int) -> dict[str, int]:
+    """Check the controller signatures and return the sizes ``nk, nd, nz, nkv``."""
+    balance, velocity = blocks.balance, blocks.velocity
+    if not isinstance(balance, ca.Function) or balance.n_in() != 6 or balance.n_out() != 2:
+        raise ScenarioError(
+            "balance controller must be a CasADi Function "
+            "(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)"
+        )
+    if not isinstance(velocity, ca.Function) or velocity.n_in() != 6 or velocity.n_out() != 4:
+        raise ScenarioError(
+            "velocity controller must be a CasADi Function "
+            "(x, v_ref, z, p, k, Ts) -> (q_ref, dq_ref, ddq_ref, z_next)"
+        )
+    want_b = [STATE.size, 4, 4, 4, n_p]
+    got_b = [balance.numel_in(i) for i in range(5)]
+    if got_b != want_b or balance.numel_out(0) != 3:
+        raise ScenarioError(f"balance controller input sizes {got_b} (expected {want_b} + gains)")
+    nz = velocity.numel_in(2)
+    want_v = [STATE.size, 3, nz, n_p]
+    got_v = [velocity.numel_in(i) for i in range(4)]
+    if got_v != want_v or [velocity.numel_out(i) for i in range(4)] != [4, 4, 4, nz]:
+        raise ScenarioError(f"velocity controller sizes {got_v} do not match {want_v}")
+    return {"nk": balance.numel_in(5), "nd": balance.numel_out(1), "nz": nz,
+            "nkv": velocity.numel_in(4)}
+
+
+def _symbolic(*args: Any) -> bool:
+    return any(isinstance(a, _SYMBOLIC) for a in args)
+
+
+def _value(v: Any) -> Any:
+    """Numeric results of a Function call as flat numpy arrays (symbols unchanged)."""
+    return v if isinstance(v, _SYMBOLIC) else np.asarray(v, dtype=float).reshape(-1)
+
+
+def _select(on: Any, a: Any, b: Any) -> Any:
+    """``a if on else b``; a CasADi ``if_else`` when ``on`` is symbolic."""
+    if _symbolic(on):
+        return ca.if_else(on, a, b)
+    return a if bool(on) else b
+
+
+def apply_push(x: Any, push: Any) -> Any:
+    """Rotate the plant attitude ``q`` and its rate ``dq`` in {K} by the rotation vector ``push``.
+
+    An exact identity for ``push = 0`` (thesis §8.4.3 attitude disturbance).
+    """
+    r = Q.from_rotation_vector(push)
+    q, dq = x[STATE["q"]], x[STATE["dq"]]
+    parts = [x[0:STATE["q"].start], Q.mul(r, q), x[STATE["q"].stop:STATE["dq"].start], Q.mul(r, dq)]
+    return ca.vertcat(*parts) if _symbolic(x, push) else np.concatenate([np.ravel(p) for p in parts])
+
+
+def actuate(tau_lim: Any, tau_dist: Any, tau_max: Any) -> Any:
+    """Torque acting on the plant: per-wheel saturation at the plant's ``tau_max``, plus the
+    disturbance torque (added after the saturation)."""
+    if _symbolic(tau_lim, tau_dist, tau_max):
+        return ca.fmin(ca.fmax(tau_lim, -tau_max), tau_max) + tau_dist
+    return np.clip(tau_lim, -tau_max, tau_max) + np.asarray(tau_dist, dtype=float)
+
+
+def control_period(
+    blocks: PeriodBlocks,
+    x: Any,
+    z: Any,
+    seq: Mapping[str, Any],
+    const: Mapping[str, Any],
+    plant: Callable[[Any, Any, Any, Any], Any],
+) -> dict[str, Any]:
+    """One control period (see the module docstring): symbolic or numeric.
+
+    Parameters
+    ----------
+    blocks
+        The controllers.
+    x, z
+        Plant state at ``t_k`` (before a push) and velocity-controller state.
+    seq
+        This period's :data:`SEQUENCE_INPUTS` (``q_ref``, ``dq_ref``, ``ddq_ref``,
+        ``v_ref``, ``w``).
+    const
+        The :data:`CONSTANT_INPUTS` (``p_plant``, ``p_ctrl``, ``k_bal``, ``k_vel``,
+        ``Ts``, ``cascade``).
+    plant
+        ``plant(xk, tau, tau_lim, tau_dist) -> x_next``: advance the plant over the
+        period from the pushed state ``xk``; ``tau`` is the torque acting on the plant
+        (:func:`actuate`), ``tau_lim`` and ``tau_dist`` its two parts for a plant that
+        saturates its motor torque itself (an FMU).
+
+    Returns
+    -------
+    dict
+        ``x_next``, ``z_next`` and the :data:`PERIOD_OUTPUTS`: ``x`` (the state the
+        controllers saw), ``tau_cmd`` (controller output), ``tau`` (torque acting on the
+        plant), the references used and ``diag``.
+    """
+    w = seq["w"]
+    p_plant, p_ctrl = const["p_plant"], const["p_ctrl"]
+    xk = apply_push(x, w[DISTURBANCE["push"]])
+
+    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(xk, seq["v_ref"], z, p_ctrl,
+                                                            const["k_vel"], const["Ts"]))
+    on = const["cascade"] > 0.5 if _symbolic(const["cascade"]) else bool(const["cascade"])
+    qr = _select(on, qv, seq["q_ref"])
+    dqr = _select(on, dqv, seq["dq_ref"])
+    ddqr = _select(on, ddqv, seq["ddq_ref"])
+    z_next = _select(on, zv, z)
+
+    tau_cmd, diag = (_value(v) for v in blocks.balance(xk, qr, dqr, ddqr, p_ctrl, const["k_bal"]))
+    tau_lim = saturate_torques(tau_cmd, p_ctrl[_TAU_MAX])
+    tau_dist = w[DISTURBANCE["tau_dist"]]
+    tau = actuate(tau_lim, tau_dist, p_plant[_TAU_MAX])
+    x_next = plant(xk, tau, tau_lim, tau_dist)
+    return {"x_next": x_next, "z_next": z_next, "x": xk, "tau_cmd": tau_cmd, "tau": tau,
+            "q_ref_used": qr, "dq_ref_used": dqr, "ddq_ref_used": ddqr, "diag": diag}
+
+
+def rk4_plant(ode: ca.Function, n_sub: int, p_plant: Any, Ts: Any) -> Callable[[Any, Any, Any, Any], Any]:
+    """The plant of the simulation: ``n_sub`` classical RK4 steps of ``Ts / n_sub`` on ``ode``.
+
+    Returns the ``plant`` callback of :func:`control_period`; the RK4 Function
+    (:func:`~ballbot_casadi.model.integrators.make_rk4_n`) is built once and called.
+    """
+    rk4 = make_rk4_n(ode, n_sub)
+
+    def plant(xk: Any, tau: Any, tau_lim: Any, tau_dist: Any) -> Any:
+        return _value(rk4(xk, tau, p_plant, Ts))
+
+    return plant
