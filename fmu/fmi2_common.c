@@ -9,8 +9,15 @@
  *    non-physical parameter, NULL pointers, bad sizes) return fmi2Error with a message
  *    and change nothing: setters validate all values before storing any.
  *  - Numerical failure (non-finite derivatives) returns fmi2Error and puts the instance
- *    into the error state; a failed co-simulation step returns fmi2Discard, restores the
- *    state at the start of the step and enters the stepFailed state.
+ *    into the error state, where fmi2GetReal keeps returning fmi2Error (never values that
+ *    may be NaN) until fmi2Reset or fmi2SetFMUstate; a failed co-simulation step returns
+ *    fmi2Discard, restores the state at the start of the step and enters the stepFailed
+ *    state.
+ *  - FMU states (fmi2SetFMUstate, fmi2DeSerializeFMUstate) are validated before they are
+ *    restored: exactly one mode bit, matching FMU type, finite time, every value accepted
+ *    by the model's value checks and the start-value checks of
+ *    fmi2ExitInitializationMode (the checksum of a serialised state is public, so a
+ *    crafted state must not bypass them).
  *  - Logging: categories logStatusError and logStatusWarning are on by default, so every
  *    error is reported; logCalls (call tracing) is off unless loggingOn is true.  Nothing
  *    is logged on success unless logCalls is enabled.
@@ -146,6 +153,8 @@ static fmu_instance *enter(fmi2Component c, const char *fn, unsigned allowed, in
 #define ALL_STATES                                                                          \
     (FMU_ST_INSTANTIATED | FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_STEP_COMPLETE |  \
      FMU_ST_STEP_FAILED | FMU_ST_TERMINATED | FMU_ST_ERROR)
+#define ME_ONLY_STATES (FMU_ST_EVENT | FMU_ST_CONT)
+#define CS_ONLY_STATES (FMU_ST_STEP_COMPLETE | FMU_ST_STEP_FAILED)
 #define RESULT_STATES                                                                       \
     (FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_STEP_COMPLETE | FMU_ST_STEP_FAILED |   \
      FMU_ST_TERMINATED | FMU_ST_ERROR)
@@ -345,7 +354,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     fmu_instance *inst = enter(c, "fmi2ExitInitializationMode", FMU_ST_INIT, 0, 0);
     if (inst == NULL) return fmi2Error;
     inst->msg[0] = '\0';
-    if (fmu_model.check_initial(inst->r, inst->msg, sizeof inst->msg) != 0) {
+    if (fmu_model.check_initial(inst->r, 0, inst->msg, sizeof inst->msg) != 0) {
         LOG_ERR(inst, "fmi2ExitInitializationMode: %s", inst->msg);
         return fmi2Error;
     }
@@ -384,8 +393,12 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         LOG_ERR(inst, "fmi2GetReal: value is NULL");
         return fmi2Error;
     }
-    if (inst->state != FMU_ST_ERROR && refresh(inst, "fmi2GetReal") != fmi2OK)
+    if (inst->state == FMU_ST_ERROR) { /* no values until fmi2Reset (they may be NaN) */
+        LOG_ERR(inst, "fmi2GetReal: the instance is in the error state after a failed call "
+                      "at t = %g; call fmi2Reset (or fmi2SetFMUstate) first", inst->time);
         return fmi2Error;
+    }
+    if (refresh(inst, "fmi2GetReal") != fmi2OK) return fmi2Error;
     for (i = 0; i < nvr; ++i) value[i] = inst->r[vr[i]];
     return fmi2OK;
 }
@@ -537,8 +550,16 @@ static int snapshot_valid(fmu_instance *inst, const fmu_snapshot *s, const char 
                 s->type == fmi2ModelExchange ? "Model Exchange" : "Co-Simulation");
         return 0;
     }
-    if (!(s->state & ALL_STATES)) {
-        LOG_ERR(inst, "%s: the FMU state has an invalid mode", fn);
+    if (!((unsigned)s->state & ALL_STATES) ||
+        ((unsigned)s->state & ((unsigned)s->state - 1u)) != 0) {
+        LOG_ERR(inst, "%s: the FMU state has an invalid mode 0x%x (exactly one mode bit must "
+                "be set)", fn, (unsigned)s->state);
+        return 0;
+    }
+    if ((unsigned)s->state & (s->type == fmi2ModelExchange ? CS_ONLY_STATES : ME_ONLY_STATES)) {
+        LOG_ERR(inst, "%s: the FMU state's mode %s does not exist for a %s instance", fn,
+                state_name(s->state),
+                s->type == fmi2ModelExchange ? "Model Exchange" : "Co-Simulation");
         return 0;
     }
     if (!isfinite(s->time) || !isfinite(s->t_start)) {
@@ -548,12 +569,18 @@ static int snapshot_valid(fmu_instance *inst, const fmu_snapshot *s, const char 
     for (i = 0; i < fmu_model.n_reals; ++i) {
         if (fmu_model.kind[i] == FMU_KIND_DERIVATIVE || fmu_model.kind[i] == FMU_KIND_OUTPUT)
             continue;
+        inst->msg[0] = '\0';
         if (!isfinite(s->r[i]) || fmu_model.check_value(i, s->r[i], inst->msg,
                                                         sizeof inst->msg) != 0) {
-            LOG_ERR(inst, "%s: the FMU state has an invalid value of '%s'", fn,
-                    fmu_model.names[i]);
+            LOG_ERR(inst, "%s: the FMU state has an invalid value of '%s' (%g)%s%s", fn,
+                    fmu_model.names[i], s->r[i], inst->msg[0] ? ": " : "", inst->msg);
             return 0;
         }
+    }
+    inst->msg[0] = '\0'; /* the start-value checks of fmi2ExitInitializationMode */
+    if (fmu_model.check_initial(s->r, 1, inst->msg, sizeof inst->msg) != 0) {
+        LOG_ERR(inst, "%s: the FMU state is inconsistent: %s", fn, inst->msg);
+        return 0;
     }
     return 1;
 }

@@ -67,8 +67,11 @@ typedef struct {
     /* Check one value before it is stored; return 0 if acceptable, else write a
      * reason into msg (size msg_len) and return nonzero. */
     int (*check_value)(size_t vr, double value, char *msg, size_t msg_len);
-    /* Check the complete start point at the end of initialisation (0 = ok). */
-    int (*check_initial)(const double *r, char *msg, size_t msg_len);
+    /* Check the complete start point (0 = ok, else a reason in msg): at the end of
+     * initialisation (restored = 0) and for every FMU state that fmi2SetFMUstate or
+     * fmi2DeSerializeFMUstate would restore (restored = 1; a state the model integrated
+     * may have drifted by its integration error, so the model may be less strict). */
+    int (*check_initial)(const double *r, int restored, char *msg, size_t msg_len);
     /* Evaluate derivatives and outputs from states, inputs and parameters in r.
      * Return 0 on success (all results finite). */
     int (*evaluate)(fmu_instance *inst, double *r);

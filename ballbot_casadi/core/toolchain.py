@@ -1,40 +1,66 @@
-"""C code generation and compilation of CasADi Functions, with a build cache.
+"""C code generation and compilation of CasADi Functions, with a self-verifying build cache.
 
-Generated sources go to ``<build>/codegen/<name>.c|.h``; compiled libraries to
-``<build>/codegen/<hash>/lib<name>.so|.a`` where ``<hash>`` is the SHA-256 of the
-generated sources and the compiler command, so an unchanged model is never
-recompiled.  The build root is ``$BALLBOT_BUILD_DIR`` if set, else ``build/`` of the
-source checkout the package runs from, else ``~/.cache/ballbot-casadi``.
+Everything of one library lives in ``<build>/codegen/<hash>/``: the generated
+``<name>.c|.h``, ``lib<name>.so|.a`` and ``MANIFEST.json``, where ``<hash>`` is the
+SHA-256 of the generated sources, the compiler command and the CasADi version, so an
+unchanged model is never recompiled.  The build root is ``$BALLBOT_BUILD_DIR`` if set,
+else ``build/`` of the source checkout the package runs from, else
+``~/.cache/ballbot-casadi``.
+
+The cache heals itself.  ``MANIFEST.json`` records the size and SHA-256 of the four
+files and is written last (atomically), after every file was moved into place with
+:func:`os.replace`.  Every :func:`build_library` call (and so ``ballbot codegen``)
+verifies it; a missing, truncated, emptied or altered file is rebuilt instead of being
+loaded (loading a truncated shared library kills the process with SIGBUS).  Builds of the
+same library are serialised by a lock file (``codegen/.<hash>.lock``) and compiled in a
+private temporary folder, so concurrent processes or Dask workers never see a partial
+file, and a process that already loaded the library keeps its mapping (files are
+replaced, never rewritten in place).
+
+The compiler is ``cc`` or ``$CC`` (default ``gcc``), split like a shell word list, so
+``CC="ccache gcc"`` works; a missing compiler raises :class:`BuildError`.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
+import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Iterable
+from typing import Callable, Iterable, Iterator, Sequence
 
 import casadi as ca
 
+from ballbot_casadi.core.files import check_manifest, write_manifest
 from ballbot_casadi.errors import BuildError
 
 __all__ = [
     "CFLAGS",
+    "MANIFEST",
     "build_root",
+    "compiler_command",
     "generate_sources",
     "build_library",
+    "verify_library",
     "load_library",
+    "cached_file",
+    "build_lock",
     "Library",
     "run_tool",
 ]
 
 #: Strict C99 flags every generated file must compile with.
 CFLAGS = ("-std=c99", "-O3", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-fPIC")
+#: Name of the manifest (size + SHA-256 of every cached file) in a library's hash folder.
+MANIFEST = "MANIFEST.json"
 
 _CG_OPTIONS = {
     "with_header": True,
@@ -89,14 +115,38 @@ def generate_sources(name: str, functions: Iterable[ca.Function]) -> tuple[str, 
     return _strict_c(c_src), h_src
 
 
-def _write_if_changed(path: Path, text: str) -> None:
-    if not path.is_file() or path.read_text() != text:
-        path.write_text(text)
+def compiler_command(cc: str | Sequence[str] | None = None) -> list[str]:
+    """The C compiler as an argument list: ``cc``, else ``$CC``, else ``gcc``.
+
+    A string is split like a shell command (``"ccache gcc"`` -> ``["ccache", "gcc"]``).
+
+    Raises
+    ------
+    BuildError
+        Empty command, or its program is not found on ``PATH``.
+    """
+    src = "the cc argument"
+    if cc is None:
+        cc, src = os.environ.get("CC") or "gcc", "$CC" if os.environ.get("CC") else "default"
+    try:
+        cmd = shlex.split(cc) if isinstance(cc, str) else [str(c) for c in cc]
+    except ValueError as exc:
+        raise BuildError(f"C compiler {cc!r} ({src}) is not a valid command: {exc}") from None
+    if not cmd:
+        raise BuildError(f"C compiler ({src}) is empty; set CC to e.g. 'gcc' or 'ccache gcc'")
+    if shutil.which(cmd[0]) is None:
+        raise BuildError(f"C compiler {cmd[0]!r} ({src}: {cc!r}) not found; install gcc or set "
+                         "CC to an installed compiler")
+    return cmd
 
 
 @dataclass(frozen=True)
 class Library:
-    """Paths of one generated and compiled library."""
+    """Paths of one generated and compiled library (all inside ``<build>/codegen/<digest>/``).
+
+    ``status`` (not part of equality) tells what :func:`build_library` did: ``cached``
+    (verified), ``built`` or ``rebuilt: <reason the cached copy was refused>``.
+    """
 
     name: str
     source: Path
@@ -104,6 +154,17 @@ class Library:
     shared: Path
     static: Path
     digest: str
+    status: str = field(default="cached", compare=False)
+
+    @property
+    def folder(self) -> Path:
+        """The hash folder holding every file of the library."""
+        return self.shared.parent
+
+    @property
+    def files(self) -> tuple[Path, ...]:
+        """Source, header, shared and static library."""
+        return (self.source, self.header, self.shared, self.static)
 
 
 def run_tool(cmd: list[str], what: str) -> None:
@@ -111,18 +172,43 @@ def run_tool(cmd: list[str], what: str) -> None:
     try:
         res = subprocess.run(cmd, capture_output=True, text=True)
     except FileNotFoundError:
-        raise BuildError(f"{what}: compiler {cmd[0]!r} not found; install gcc") from None
+        raise BuildError(f"{what}: program {cmd[0]!r} not found; install gcc/binutils or set "
+                         "CC") from None
+    except OSError as exc:
+        raise BuildError(f"{what}: cannot run {cmd[0]!r}: {exc}") from None
     if res.returncode != 0:
         raise BuildError(f"{what} failed ({' '.join(cmd)}):\n{res.stderr[-4000:]}")
+
+
+@contextlib.contextmanager
+def build_lock(path: Path) -> Iterator[None]:
+    """Exclusive inter-process lock on the file ``path`` (created) while building."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def verify_library(lib: Library) -> str | None:
+    """``None`` if every file of ``lib`` matches its manifest, else the reason it does not."""
+    return check_manifest(lib.folder, [p.name for p in lib.files], MANIFEST)
+
+
+def _library_paths(name: str, folder: Path, digest: str) -> Library:
+    return Library(name, folder / f"{name}.c", folder / f"{name}.h", folder / f"lib{name}.so",
+                   folder / f"lib{name}.a", digest)
 
 
 def build_library(
     name: str,
     functions: Iterable[ca.Function],
     root: Path | None = None,
-    cc: str | None = None,
+    cc: str | Sequence[str] | None = None,
 ) -> Library:
-    """Generate, write and compile a shared and a static library (cached by hash).
+    """Generate, write and compile a shared and a static library (cached by hash, verified).
 
     Parameters
     ----------
@@ -133,41 +219,116 @@ def build_library(
     root
         Build root, default :func:`build_root`.
     cc
-        C compiler, default ``$CC`` or ``gcc``.
+        C compiler command, default ``$CC`` or ``gcc`` (see :func:`compiler_command`).
+
+    Returns
+    -------
+    Library
+        Paths inside ``<root>/codegen/<digest>/``; the files match their manifest.
+
+    Raises
+    ------
+    BuildError
+        No functions, compiler missing or compilation failed.
     """
     root = build_root() if root is None else Path(root)
-    cc = cc or os.environ.get("CC", "gcc")
+    ccmd = compiler_command(cc)
     c_src, h_src = generate_sources(name, functions)
     digest = hashlib.sha256(
-        "\0".join([c_src, h_src, cc, *CFLAGS, ca.__version__]).encode()
+        "\0".join([c_src, h_src, *ccmd, *CFLAGS, ca.__version__]).encode()
     ).hexdigest()[:16]
     out = root / "codegen"
-    out.mkdir(parents=True, exist_ok=True)
-    source, header = out / f"{name}.c", out / f"{name}.h"
-    _write_if_changed(source, c_src)
-    _write_if_changed(header, h_src)
-    cache = out / digest
-    shared, static = cache / f"lib{name}.so", cache / f"lib{name}.a"
-    if not (shared.is_file() and static.is_file()):
-        tmp = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=out))
+    lib = _library_paths(name, out / digest, digest)
+    problem = verify_library(lib)
+    if problem is None:
+        return lib
+    with build_lock(out / f".{digest}.lock"):
+        problem = verify_library(lib)  # another process may have built it meanwhile
+        if problem is None:
+            return lib
+        first = not lib.folder.exists()
+        _compile_library(lib, c_src, h_src, ccmd)
+    return replace(lib, status="built" if first else f"rebuilt: {problem}")
+
+
+def _compile_library(lib: Library, c_src: str, h_src: str, ccmd: list[str]) -> None:
+    """Compile into a private folder, move the files into place, write the manifest last."""
+    folder = lib.folder
+    folder.mkdir(parents=True, exist_ok=True)
+    with contextlib.suppress(FileNotFoundError):
+        (folder / MANIFEST).unlink()  # "incomplete" until the new manifest is written
+    tmp = Path(tempfile.mkdtemp(prefix=f".{lib.name}-", dir=folder))
+    try:
+        tsrc, thdr = tmp / lib.source.name, tmp / lib.header.name
+        tsrc.write_text(c_src)
+        thdr.write_text(h_src)
+        obj = tmp / f"{lib.name}.o"
+        run_tool([*ccmd, *CFLAGS, "-shared", "-o", str(tmp / lib.shared.name), str(tsrc), "-lm"],
+                 f"compiling {lib.name} (shared)")
+        run_tool([*ccmd, *CFLAGS, "-c", "-o", str(obj), str(tsrc)],
+                 f"compiling {lib.name} (object)")
+        run_tool(["ar", "rcs", str(tmp / lib.static.name), str(obj)], f"archiving {lib.name}")
+        for p in lib.files:
+            os.replace(tmp / p.name, p)  # never rewrite a file in place (mapped copies live on)
+        write_manifest(folder, [p.name for p in lib.files], MANIFEST)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def cached_file(target: Path, make: Callable[[Path], None], key: str = "") -> Path:
+    """A verified cached build product: return ``target``, building it first if needed.
+
+    ``target`` is reused when its sidecar manifest ``.<name>.manifest.json`` (size and
+    SHA-256, plus ``key``) matches; otherwise ``make(tmp)`` must create the file ``tmp``
+    (in a private folder next to ``target``), which is then moved over ``target`` and
+    recorded.  Concurrent callers are serialised by ``.<name>.lock``.  Use it for any
+    compiled artifact that is loaded with ``dlopen`` (e.g. a mission driver).
+    """
+    target = Path(target)
+    manifest = f".{target.name}.manifest.json"
+
+    def ok() -> bool:
+        if check_manifest(target.parent, [target.name], manifest) is not None:
+            return False
+        return key == "" or _manifest_key(target.parent / manifest) == key
+
+    if ok():
+        return target
+    with build_lock(target.parent / f".{target.name}.lock"):
+        if ok():
+            return target
+        with contextlib.suppress(FileNotFoundError):
+            (target.parent / manifest).unlink()
+        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}-", dir=target.parent))
         try:
-            tsrc = tmp / f"{name}.c"
-            tsrc.write_text(c_src)
-            (tmp / f"{name}.h").write_text(h_src)
-            run_tool([cc, *CFLAGS, "-shared", "-o", str(tmp / shared.name), str(tsrc), "-lm"],
-                 f"compiling {name} (shared)")
-            run_tool([cc, *CFLAGS, "-c", "-o", str(tmp / f"{name}.o"), str(tsrc)],
-                 f"compiling {name} (object)")
-            run_tool(["ar", "rcs", str(tmp / static.name), str(tmp / f"{name}.o")],
-                 f"archiving {name}")
-            cache.mkdir(exist_ok=True)
-            os.replace(tmp / shared.name, shared)
-            os.replace(tmp / static.name, static)
+            make(tmp / target.name)
+            if not (tmp / target.name).is_file():
+                raise BuildError(f"building {target.name} produced no file")
+            os.replace(tmp / target.name, target)
+            write_manifest(target.parent, [target.name], manifest, extra={"key": key})
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
-    return Library(name, source, header, shared, static, digest)
+    return target
+
+
+def _manifest_key(path: Path) -> str:
+    try:
+        return str(json.loads(path.read_text()).get("extra", {}).get("key", ""))
+    except (OSError, ValueError, AttributeError):
+        return ""
 
 
 def load_library(lib: Library, names: Iterable[str]) -> dict[str, ca.Function]:
-    """Load compiled Functions from a library with ``casadi.external``."""
-    return {n: ca.external(n, str(lib.shared)) for n in names}
+    """Load compiled Functions from a library with ``casadi.external``.
+
+    Raises
+    ------
+    BuildError
+        The library cannot be loaded or lacks one of ``names``.
+    """
+    try:
+        return {n: ca.external(n, str(lib.shared)) for n in names}
+    except RuntimeError as exc:
+        first = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise BuildError(f"loading {lib.shared} failed ({first}); delete {lib.folder} to force "
+                         "a rebuild") from None
