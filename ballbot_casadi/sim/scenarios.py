@@ -40,6 +40,7 @@ from ballbot_casadi.control import (
 )
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
+from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
 from ballbot_casadi.core.validation import check_state
 from ballbot_casadi.errors import ScenarioError
@@ -151,6 +152,10 @@ class Scenario:
     pushes
         Rows ``(t, roll_deg, pitch_deg, yaw_deg)``: at the control instant nearest ``t``
         the plant attitude is rotated (in {K}) by that rotation (thesis §8.4.3).
+    torque_disturbances
+        Rows ``(t_start, t_end, tau0, tau1, tau2)`` in s and N m: a wheel-torque
+        disturbance acting on the plant over the control periods that start in
+        ``[t_start, t_end)``, added after the motor saturation (overlapping rows add).
     plant_changes, ctrl_changes
         ``{param: [op, value]}`` with op ``set``/``scale``/``add``, applied to the nominal
         parameters for the plant and for the controller's internal model.
@@ -170,6 +175,7 @@ class Scenario:
     attitude: Mapping[str, Any] = field(default_factory=dict)
     velocity_keyframes: tuple = ()
     pushes: tuple = ()
+    torque_disturbances: tuple = ()
     plant_changes: Mapping[str, Any] = field(default_factory=dict)
     ctrl_changes: Mapping[str, Any] = field(default_factory=dict)
     k_bal: tuple = ()
@@ -205,7 +211,7 @@ class Scenario:
             raise ScenarioError(f"scenario {self.name!r}: attitude axes {unknown} unknown; allowed roll, pitch, yaw")
         for axis, spec in self.attitude.items():
             _check_signal(axis, spec)
-        for what in ("velocity_keyframes", "pushes", "k_bal", "k_vel"):
+        for what in ("velocity_keyframes", "pushes", "torque_disturbances", "k_bal", "k_vel"):
             arr = np.asarray(getattr(self, what), dtype=float)
             if not np.all(np.isfinite(arr)):
                 raise ScenarioError(f"scenario {self.name!r}: {what} contains NaN or Inf")
@@ -215,6 +221,12 @@ class Scenario:
                 raise ScenarioError(
                     f"scenario {self.name!r}: push {row!r} must be (t, roll_deg, pitch_deg, "
                     f"yaw_deg) with 0 <= t < duration"
+                )
+        for row in self.torque_disturbances:
+            if len(row) != 5 or not 0 <= row[0] < row[1]:
+                raise ScenarioError(
+                    f"scenario {self.name!r}: torque disturbance {row!r} must be (t_start, t_end, "
+                    f"tau0, tau1, tau2) with 0 <= t_start < t_end"
                 )
         if self.velocity_keyframes:
             R.velocity_profile(np.zeros(1), self.velocity_keyframes)  # validates
@@ -253,12 +265,16 @@ class Scenario:
         return R.velocity_profile(t, self.velocity_keyframes).value
 
     def disturbance(self) -> np.ndarray:
-        """Per-period disturbance ``w`` (N, 6): attitude jumps (rotation vectors) and torques."""
-        w = np.zeros((self.n_periods, 6))
+        """Per-period disturbance ``w`` (N, 6, :data:`~ballbot_casadi.core.layout.DISTURBANCE`):
+        attitude jumps (rotation vectors) and wheel-torque disturbances."""
+        w = np.zeros((self.n_periods, DISTURBANCE.size))
         for t, roll, pitch, yaw in self.pushes:
             k = min(int(round(t / self.Ts)), self.n_periods - 1)
             q = Q.from_rpy(math.radians(roll), math.radians(pitch), math.radians(yaw))
-            w[k, 0:3] += Q.to_rotation_vector(q)
+            w[k, DISTURBANCE["push"]] += Q.to_rotation_vector(q)
+        t = self.time()
+        for t0, t1, *tau in self.torque_disturbances:
+            w[(t >= t0 - 1e-12) & (t < t1 - 1e-12), DISTURBANCE["tau_dist"]] += tau
         return w
 
     def diag_names(self) -> tuple[str, ...]:
