@@ -106,6 +106,12 @@ def test_velocity_metrics_delay():
     assert m["velocity_lag_s"] == pytest.approx(0.25, abs=1e-9)
     assert m["velocity_error_rms_delayed_mps"] < 1e-12
     assert m["velocity_error_max_mps"] == pytest.approx(0.25, abs=1e-9)
+    # a residual 1 Hz ripple of 10 mm/s on top: RMS and max must tell it apart (A/sqrt(2), A)
+    state[:-1, 7] = 0.01 * np.sin(2 * np.pi * t)
+    m = velocity_metrics({**log, "state": state})
+    assert m["velocity_lag_s"] == pytest.approx(0.25, abs=1e-9)
+    assert m["velocity_error_rms_delayed_mps"] == pytest.approx(0.01 / np.sqrt(2), rel=1e-3)
+    assert m["velocity_error_max_delayed_mps"] == pytest.approx(0.01, rel=1e-3)
 
 
 def test_check_spec():
