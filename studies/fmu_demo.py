@@ -13,7 +13,7 @@ from ballbot_casadi.model.dynamics import STATE_NAMES, make_model_functions
 from ballbot_casadi.model.integrators import make_rk4
 from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.scenarios import study_scenarios
+from ballbot_casadi.studies.registry import study_scenarios
 
 __all__ = ["demo_step"]
 

@@ -1,40 +1,29 @@
-"""``ballbot study <name>``: the closed-loop acceptance studies of issue 4.
+"""Running a study of :mod:`ballbot_casadi.studies.registry`: logs, metrics, specs, plots.
 
-Each study (``zero``, ``sine``, ``robustness``, ``com``, ``push``, ``velocity``; see
-:mod:`ballbot_casadi.scenarios`) runs its scenario(s) with true-state feedback through
-the compiled closed loop, writes ``DIR/metrics.json``, the run log ``DIR/run.npz``
-(``com`` also ``DIR/run_balance_only.npz``) and ``DIR/plot.png``, prints a short summary
-and exits with status 1 when the study's spec (:data:`ballbot_casadi.metrics.SPECS`)
-is not met.  ``ballbot study all`` runs every study for both balance controllers and
+Each study runs its scenario(s) through the compiled closed loop, writes
+``DIR/metrics.json``, the run log ``DIR/run.npz`` (``com`` also
+``DIR/run_balance_only.npz``) and ``DIR/plot.png``; the command (``ballbot study``)
+prints a short summary and exits with status 1 when a spec of the study is missed.  ``ballbot study all`` runs every study for both balance controllers and
 writes the FLC and SMC results side by side (``summary.json``, ``summary.md``).
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 from pathlib import Path
 from typing import Any, Sequence
 
 import matplotlib
-import matplotlib.pyplot as plt
-import numpy as np
 
-from ballbot_casadi.analysis.metrics import (
-    attitude_error_deg,
-    check_spec,
-    rpy_deg,
-    study_metrics,
-    tilt_deg,
-)
-from ballbot_casadi.sim.closed_loop import (
-    ClosedLoop,
-    SimulationLog,
-    run_scenario,
-    save_log,
-)
-from ballbot_casadi.sim.scenarios import STUDY_NAMES, study_scenarios
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless backend)
+import numpy as np
+from ballbot_casadi.studies.registry import STUDY_NAMES, get_study
+
+from ballbot_casadi.analysis.metrics import attitude_error_deg, rpy_deg, tilt_deg
+from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.log import SimulationLog, save_log
 
 __all__ = ["run_study", "run_all", "demo_sine", "demo_com", "CONTROLLERS"]
 
@@ -55,7 +44,6 @@ def _jsonable(v: Any) -> Any:
 def plot_study(name: str, logs: Sequence[SimulationLog], path: Path) -> Path:
     """Euler angles vs references, tracking error, speed and torques of the main run (PNG)."""
 
-    matplotlib.use("Agg")
 
     log = logs[-1]
     a = log.arrays
@@ -114,11 +102,12 @@ def run_study(
         ``{"study", "controller", "passed", "metrics", "spec"}`` (also ``metrics.json``).
     """
     out = Path(out) if out is not None else DEFAULT_OUT / name / controller
-    scenarios = study_scenarios(name, controller)
+    study = get_study(name)
+    scenarios = study.scenarios(controller)
     sim = ClosedLoop() if sim is None else sim
     logs = [run_scenario(s, sim) for s in scenarios]
-    metrics = study_metrics(name, logs)
-    spec = check_spec(name, metrics)
+    metrics = study.compute_metrics(logs)
+    spec = study.check(metrics)
     result = {
         "study": name,
         "controller": controller,

@@ -1,24 +1,21 @@
-"""Metrics of closed-loop runs, computed from the log arrays only, and the acceptance specs.
+"""Metrics of closed-loop runs, computed from the log arrays only.
 
 Angles are ZYX roll/pitch/yaw of the attitude quaternion (the thesis reports errors in
 Euler angles, Fig. 8.6, 8.8); *errors* are ``angle - reference angle`` wrapped to
 (-180, 180] deg.  Logs are the arrays of
-:class:`~ballbot_casadi.simulation.SimulationLog`: ``time`` (N+1), ``state`` (N+1, 12),
-``q_ref`` (N, 4), ``v_ref`` (N, 3), ``tau_cmd`` / ``tau`` (N, 3), ...
-
-:data:`SPECS` holds the pass/fail thresholds of every study (issue 4); :func:`check_spec`
-applies them.
+:class:`~ballbot_casadi.sim.log.SimulationLog`: ``time`` (N+1), ``state`` (N+1, 12),
+``q_ref`` (N, 4), ``v_ref`` (N, 3), ``tau_cmd`` / ``tau`` (N, 3), ...  Which metrics a
+study reports and its specs are in :mod:`ballbot_casadi.studies.registry`.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping
 
 import numpy as np
 
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.errors import ScenarioError
 
 __all__ = [
     "rpy_deg",
@@ -33,9 +30,6 @@ __all__ = [
     "com_metrics",
     "velocity_metrics",
     "com_equilibrium_deg",
-    "study_metrics",
-    "SPECS",
-    "check_spec",
 ]
 
 
@@ -258,85 +252,3 @@ def velocity_metrics(log: Any, max_delay_s: float = 1.0) -> dict[str, float]:
         "max_tilt_deg": float(np.max(tilt_deg(x[:, 2:6]))),
         "max_abs_roll_pitch_deg": float(np.max(np.abs(rpy_deg(x[:, 2:6])[:, :2]))),
     }
-
-
-def study_metrics(name: str, logs: Sequence[Any]) -> dict[str, Any]:
-    """Metrics of acceptance study ``name`` from its logs (in ``study_scenarios`` order)."""
-    main = logs[-1]
-    out: dict[str, Any] = dict(base_metrics(main))
-    if name in ("zero", "robustness"):
-        out.update(zero_metrics(main))
-    elif name == "sine":
-        spec = main.scenario["attitude"]["roll"]
-        out.update(sine_metrics(main, spec["frequency_hz"]))
-    elif name == "push":
-        t_push = main.scenario["pushes"][0][0]
-        out.update(push_metrics(main, t_push))
-        out.update(zero_metrics(main))
-    elif name == "com":
-        out.update(com_metrics(logs[0], main, main.params))
-    elif name == "velocity":
-        out.update(velocity_metrics(main))
-    else:
-        raise ScenarioError(f"no metrics defined for study {name!r}")
-    return out
-
-
-#: Acceptance thresholds: study -> [(metric, op, threshold, source)].
-SPECS: dict[str, list[tuple[str, str, float, str]]] = {
-    "zero": [
-        ("finite", "==", True, "run completed"),
-        ("steady_state_error_deg", "<", 0.01, "issue 4: converges, steady-state error < 0.01 deg"),
-    ],
-    "sine": [
-        ("finite", "==", True, "run completed"),
-        ("roll_lag_s", "abs<=", 0.02, "issue 4 (thesis §8.2.5: < 0.1 s)"),
-        ("pitch_error_max_deg", "<=", 0.01, "issue 4 (thesis: <= 0.25 deg)"),
-        ("yaw_error_max_deg", "<=", 0.01, "issue 4 (thesis: < 0.1 deg)"),
-        ("torque_tv_ratio", "<=", 1.5, "no chattering (thesis Fig. 8.7)"),
-    ],
-    "robustness": [
-        ("finite", "==", True, "run completed"),
-        ("steady_state_error_deg", "<", 0.01, "converges despite mass/inertia error (thesis §8.4.1)"),
-    ],
-    "com": [
-        ("finite", "==", True, "run completed"),
-        ("runaway_speed_mps", ">", 0.5, "balance controller alone runs away (thesis §8.4.2)"),
-        ("final_speed_mps", "<", 0.01, "velocity loop stops the runaway (thesis §9.2)"),
-        ("equilibrium_error_deg", "<", 0.1, "tilt settles with the COM over the ball centre"),
-    ],
-    "push": [
-        ("finite", "==", True, "run completed"),
-        ("push_max_tilt_deg", ">=", 3.9, "the push was applied"),
-        ("steady_state_error_deg", "<", 0.01, "recovers to upright (thesis §8.4.3)"),
-    ],
-    "velocity": [
-        ("finite", "==", True, "run completed"),
-        ("max_abs_roll_pitch_deg", "<=", 5.0, "inclination limit +-5 deg (thesis §7.1)"),
-        ("velocity_error_rms_delayed_mps", "<=", 0.05,
-         "tracked with no significant error (thesis §9.2): rms <= 10 % of v_max after the "
-         "non-minimum-phase delay"),
-        ("final_velocity_error_mps", "<=", 0.01, "reaches the final reference"),
-    ],
-}
-
-_OPS = {
-    "<": lambda a, b: a < b,
-    "<=": lambda a, b: a <= b,
-    ">": lambda a, b: a > b,
-    ">=": lambda a, b: a >= b,
-    "==": lambda a, b: a == b,
-    "abs<=": lambda a, b: abs(a) <= b,
-}
-
-
-def check_spec(name: str, metrics: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """Evaluate :data:`SPECS` of study ``name``; one row per criterion with ``ok``."""
-    if name not in SPECS:
-        raise ScenarioError(f"no spec for study {name!r}; allowed: {', '.join(SPECS)}")
-    rows = []
-    for key, op, thr, src in SPECS[name]:
-        val = metrics.get(key)
-        ok = val is not None and not (isinstance(val, float) and math.isnan(val)) and bool(_OPS[op](val, thr))
-        rows.append({"metric": key, "value": val, "op": op, "threshold": thr, "ok": ok, "source": src})
-    return rows

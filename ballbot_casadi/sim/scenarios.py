@@ -6,18 +6,10 @@ the V2019 baseline of thesis §8.3), whether the velocity loop closes the cascad
 (thesis Fig. 8.1), the initial state, the references, pushes, and how the plant and
 the controller's internal model deviate from the nominal parameters (thesis §8.4).
 :meth:`Scenario.inputs` turns it into the input sequences of
-:meth:`ballbot_casadi.simulation.ClosedLoop.simulate`.
+:meth:`ballbot_casadi.sim.closed_loop.ClosedLoop.simulate`.
 
-The acceptance scenarios of issue 4 are built by :func:`study_scenarios`:
-
-============  ===========================================================================
-``zero``      zero reference from roll = pitch = 5 deg (thesis §8.2.3)
-``sine``      roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
-``robustness`` plant mass +10 %, inertias x3.2, controller nominal (thesis §8.4.1)
-``com``       COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2) and cascade (§9.2)
-``push``      4 deg roll jump of the plant attitude (thesis §8.4.3)
-``velocity``  velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
-============  ===========================================================================
+The thesis experiments built from scenarios are the studies of
+:mod:`ballbot_casadi.studies.registry`.
 """
 
 from __future__ import annotations
@@ -49,14 +41,9 @@ from ballbot_casadi.sim import references as R
 
 __all__ = [
     "Scenario",
-    "STUDY_NAMES",
-    "study_scenarios",
     "initial_state",
     "apply_changes",
 ]
-
-#: Names of the acceptance studies (``ballbot study <name>``).
-STUDY_NAMES = ("zero", "sine", "robustness", "com", "push", "velocity")
 
 _SIGNAL_TYPES = ("const", "sine", "step", "chirp")
 _CHANGE_OPS = ("set", "scale", "add")
@@ -347,54 +334,3 @@ def _jsonable(obj: Any) -> Any:
     if isinstance(obj, Mapping):
         return dict(obj)
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
-
-
-# -- the acceptance scenarios of issue 4 ---------------------------------------------------
-
-#: COM offset of thesis §8.4.2 / §9.2: (-2, -3, +3) cm in the body frame.
-COM_CHANGES = {"com_x": ["set", -0.02], "com_y": ["set", -0.03], "l": ["add", 0.03]}
-
-
-def _sine_initial_state(amplitude_deg: float, frequency_hz: float) -> tuple:
-    """Plant at rest on the ground, body on the sine reference at t = 0 (q, dq)."""
-    sig = R.sine(np.zeros(1), math.radians(amplitude_deg), frequency_hz)
-    q, dq, _ = R.rpy_reference(sig, 0.0, 0.0)
-    return tuple(float(v) for v in np.concatenate([[0.0, 0.0], q[0], [0.0, 0.0], dq[0]]))
-
-
-def study_scenarios(name: str, controller: str = "flc") -> tuple[Scenario, ...]:
-    """The scenario(s) of acceptance study ``name`` (see the module docstring).
-
-    ``com`` returns two runs: balance controller alone (runaway, thesis §8.4.2) and the
-    cascade with the velocity loop (thesis §9.2); every other study returns one.
-    """
-    if name not in STUDY_NAMES:
-        raise ScenarioError(f"unknown study {name!r}; allowed: {', '.join(STUDY_NAMES)}")
-    c = controller
-    if name == "zero":
-        return (Scenario("zero", c, 5.0, initial_state(5, 5), study="zero",
-                         description="zero reference from roll = pitch = 5 deg (thesis §8.2.3)"),)
-    if name == "sine":
-        return (Scenario("sine", c, 10.0, _sine_initial_state(3.0, 0.5),
-                         attitude={"roll": {"type": "sine", "amplitude_deg": 3.0, "frequency_hz": 0.5}},
-                         study="sine",
-                         description="roll sine 3 deg at 0.5 Hz (thesis §8.2.5), plant starts on the reference"),)
-    if name == "robustness":
-        changes = {"Mb": ["scale", 1.1], "Jbx": ["scale", 3.2], "Jby": ["scale", 3.2], "Jbz": ["scale", 3.2]}
-        return (Scenario("robustness", c, 8.0, initial_state(5, -5), plant_changes=changes,
-                         study="robustness",
-                         description="plant mass +10 %, inertias x3.2, controller on the nominal model, "
-                                     "from roll 5, pitch -5 deg (thesis §8.4.1, Fig. 8.10)"),)
-    if name == "com":
-        return (
-            Scenario("com_balance_only", c, 5.0, initial_state(), plant_changes=COM_CHANGES, study="com",
-                     description="COM offset (-2, -3, +3) cm, balance controller alone: runaway (thesis §8.4.2)"),
-            Scenario("com", c, 30.0, initial_state(), cascade=True, plant_changes=COM_CHANGES, study="com",
-                     description="COM offset (-2, -3, +3) cm with the velocity loop (thesis §9.2)"),
-        )
-    if name == "push":
-        return (Scenario("push", c, 6.0, initial_state(), pushes=((1.0, 4.0, 0.0, 0.0),), study="push",
-                         description="4 deg roll jump of the plant attitude at t = 1 s (thesis §8.4.3)"),)
-    return (Scenario("velocity", c, 22.0, initial_state(), cascade=True,
-                     velocity_keyframes=R.FIG93_KEYFRAMES, study="velocity",
-                     description="velocity profile in the spirit of thesis Fig. 9.3 (§9.2)"),)

@@ -6,10 +6,9 @@ import math
 
 import numpy as np
 import pytest
+from ballbot_casadi.studies.registry import STUDIES, Spec, get_study
 
 from ballbot_casadi.analysis.metrics import (
-    SPECS,
-    check_spec,
     com_equilibrium_deg,
     rpy_deg,
     sine_lag,
@@ -114,13 +113,16 @@ def test_velocity_metrics_delay():
     assert m["velocity_error_max_delayed_mps"] == pytest.approx(0.01, rel=1e-3)
 
 
-def test_check_spec():
-    rows = check_spec("sine", {"finite": True, "roll_lag_s": -0.005, "pitch_error_max_deg": 0.02,
-                               "yaw_error_max_deg": math.nan, "torque_tv_ratio": 1.0})
+def test_specs_evaluate_each_criterion():
+    rows = STUDIES["sine"].check({"finite": True, "roll_lag_s": -0.005, "pitch_error_max_deg": 0.02,
+                                  "yaw_error_max_deg": math.nan, "torque_tv_ratio": 1.0})
     ok = {r["metric"]: r["ok"] for r in rows}
     assert ok == {"finite": True, "roll_lag_s": True, "pitch_error_max_deg": False,
                   "yaw_error_max_deg": False, "torque_tv_ratio": True}
-    assert set(SPECS) == {"zero", "sine", "robustness", "com", "push", "velocity"}
-    assert check_spec("zero", {})[1]["ok"] is False
-    with pytest.raises(ValueError, match="no spec"):
-        check_spec("chirp", {})
+    assert STUDIES["zero"].check({})[1]["ok"] is False  # a missing metric fails
+    # boundaries: strict and non-strict operators differ exactly at the threshold
+    assert Spec("m", "<", 1.0, "").evaluate({"m": 1.0})["ok"] is False
+    assert Spec("m", "<=", 1.0, "").evaluate({"m": 1.0})["ok"] is True
+    assert Spec("m", "abs<=", 1.0, "").evaluate({"m": -1.0})["ok"] is True
+    with pytest.raises(ValueError, match="unknown study"):
+        get_study("nope")

@@ -6,7 +6,10 @@ from __future__ import annotations
 import numpy as np
 
 from ballbot_casadi.control import default_velocity_gains, make_velocity_controller
-from ballbot_casadi.control.velocity import VELOCITY_DEFAULT_LIMITS, VELOCITY_LIMIT_NAMES
+from ballbot_casadi.control.velocity import (
+    VELOCITY_DEFAULT_LIMITS,
+    VELOCITY_LIMIT_NAMES,
+)
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
 from ballbot_casadi.core.params import load_params

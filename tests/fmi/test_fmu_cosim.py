@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from _fmu_support import plant_build
+from ballbot_casadi.studies.registry import study_scenarios
 
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.cosim import closed_loop_cosim
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.scenarios import study_scenarios
 
 
 @pytest.fixture(scope="module")

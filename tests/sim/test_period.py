@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from ballbot_casadi.studies.registry import study_scenarios
 
 from ballbot_casadi.control import (
-    default_balance_gains,
     make_balance_controller,
     make_velocity_controller,
     saturate_torques,
@@ -26,7 +26,7 @@ from ballbot_casadi.sim.period import (
     control_period,
     rk4_plant,
 )
-from ballbot_casadi.sim.scenarios import Scenario, initial_state, study_scenarios
+from ballbot_casadi.sim.scenarios import Scenario, initial_state
 
 TAU_MAX = PARAM_NAMES.index("tau_max")
 

@@ -7,19 +7,13 @@ import math
 
 import numpy as np
 import pytest
+from ballbot_casadi.studies.registry import STUDY_NAMES, study_scenarios
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError, StateError
 from ballbot_casadi.sim import references as R
-from ballbot_casadi.sim.scenarios import (
-    COM_CHANGES,
-    STUDY_NAMES,
-    Scenario,
-    apply_changes,
-    initial_state,
-    study_scenarios,
-)
+from ballbot_casadi.sim.scenarios import Scenario, apply_changes, initial_state
 
 
 def test_unknown_controller_rejected_with_allowed_names():
@@ -101,7 +95,7 @@ def test_study_scenarios_definitions():
     assert pc == nominal
     bal, cas = study_scenarios("com")
     assert not bal.cascade and cas.cascade
-    assert bal.plant_changes == cas.plant_changes == COM_CHANGES
+    assert bal.plant_changes == cas.plant_changes
     p = cas.plant_params()
     assert (p.com_x, p.com_y) == (-0.02, -0.03) and p.l == pytest.approx(nominal.l + 0.03, abs=1e-15)
     (vel,) = study_scenarios("velocity")

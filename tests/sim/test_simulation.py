@@ -7,6 +7,7 @@ import json
 import casadi as ca
 import numpy as np
 import pytest
+from ballbot_casadi.studies.registry import study_scenarios
 
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError, ShapeError
@@ -22,7 +23,7 @@ from ballbot_casadi.sim.closed_loop import (
     run_scenario,
     save_log,
 )
-from ballbot_casadi.sim.scenarios import Scenario, initial_state, study_scenarios
+from ballbot_casadi.sim.scenarios import Scenario, initial_state
 
 
 @pytest.fixture(scope="module")

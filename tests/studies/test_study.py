@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 from ballbot_casadi.studies import study
-
 from ballbot_casadi.analysis import metrics
+from ballbot_casadi.studies.registry import STUDIES, STUDY_NAMES, Spec
+
 from ballbot_casadi.cli import main
 from ballbot_casadi.sim.closed_loop import ClosedLoop, load_log
-from ballbot_casadi.sim.scenarios import STUDY_NAMES
 
 
 @pytest.fixture(scope="module")
@@ -63,12 +64,13 @@ def test_cli_writes_outputs_and_log_round_trips(tmp_path, capsys):
     assert (out / "plot.png").stat().st_size > 1000
     log = load_log(out / "run.npz")
     assert log.scenario["name"] == "sine" and log.scenario["controller"] == "smc"
-    m = metrics.study_metrics("sine", [log])
+    m = STUDIES["sine"].compute_metrics([log])
     assert m["roll_lag_s"] == pytest.approx(data["metrics"]["roll_lag_s"], rel=0, abs=1e-15)
 
 
 def test_cli_exit_code_when_spec_missed(tmp_path, monkeypatch, capsys):
-    monkeypatch.setitem(metrics.SPECS, "push", [("recovery_time_s", "<", 0.0, "impossible")])
+    impossible = dataclasses.replace(STUDIES["push"], specs=(Spec("recovery_time_s", "<", 0.0, "impossible"),))
+    monkeypatch.setattr(study, "get_study", lambda name: impossible)
     rc = main(["study", "push", "--quiet", "--no-plot", "--out", str(tmp_path / "p")])
     assert rc == 1
     assert capsys.readouterr().out == ""
