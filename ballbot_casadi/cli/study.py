@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ballbot_casadi.sim.scenarios import STUDY_NAMES
+from ballbot_casadi.studies.registry import STUDY_NAMES
 from ballbot_casadi.studies.study import CONTROLLERS, format_summary, run_all, run_study
 
 __all__ = ["add_parser"]
