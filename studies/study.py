@@ -19,11 +19,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless backend)
 import numpy as np
-from ballbot_casadi.studies.registry import STUDY_NAMES, get_study
 
 from ballbot_casadi.analysis.metrics import attitude_error_deg, rpy_deg, tilt_deg
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
+from ballbot_casadi.studies.registry import STUDY_NAMES, get_study
 
 __all__ = ["run_study", "run_all", "demo_sine", "demo_com", "CONTROLLERS"]
 
