@@ -8,21 +8,73 @@ serves every parameter set.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any, Mapping, NamedTuple
 
 import numpy as np
 import tomllib
 
 from ballbot_casadi.errors import BallbotTypeError, ParameterError
 
-__all__ = ["PARAM_NAMES", "PARAM_INFO", "Params", "ParamView", "load_params", "default_params_path"]
+__all__ = [
+    "PARAM_NAMES",
+    "PARAM_INFO",
+    "PARAM_RULES",
+    "RangeRule",
+    "SENSOR_TABLE",
+    "Params",
+    "ParamView",
+    "load_params",
+    "default_params_path",
+    "to_float",
+    "check_value",
+    "read_param_file",
+    "flatten_tables",
+]
 
-# name: (unit, description, rule)
-# rules: "pos" > 0, "nonneg" >= 0, "any" finite, "alpha" in (0, pi/2), "gamma" in (0, pi)
+
+class RangeRule(NamedTuple):
+    """Allowed range of a parameter: ``lo < v < hi`` or with ``<=`` where a side is closed.
+
+    A plain tuple ``(lo, hi, lo_open, hi_open, text)`` so other modules (the FMU's
+    start-value checks, generated C tables) can read it without this class.  Values
+    are in SI units and radians; ``text`` is the human-readable rule used in error
+    messages (angles there in degrees).  Every rule also requires a finite value.
+    """
+
+    lo: float
+    hi: float
+    lo_open: bool
+    hi_open: bool
+    text: str
+
+    def contains(self, v: float) -> bool:
+        """True when ``v`` is finite and inside the range."""
+        if not math.isfinite(v):
+            return False
+        above = v > self.lo if self.lo_open else v >= self.lo
+        below = v < self.hi if self.hi_open else v <= self.hi
+        return above and below
+
+
+#: The parameter range rules, defined once: rule key -> :class:`RangeRule`.
+#: ``PARAM_INFO`` (and the sensor parameter table) refer to them by key.
+PARAM_RULES: Mapping[str, RangeRule] = MappingProxyType({
+    "pos": RangeRule(0.0, math.inf, True, False, "a finite number > 0"),
+    "nonneg": RangeRule(0.0, math.inf, False, False, "a finite number >= 0"),
+    "any": RangeRule(-math.inf, math.inf, False, False, "a finite number"),
+    "alpha": RangeRule(0.0, math.pi / 2, True, True, "an angle strictly between 0 and 90 deg"),
+    "gamma": RangeRule(0.0, math.pi, True, True, "an angle strictly between 0 and 180 deg"),
+    # small mounting misalignment of a sensor (rotation-vector component)
+    "misalignment": RangeRule(-math.pi / 4, math.pi / 4, False, False,
+                              "an angle between -45 and 45 deg (a small mounting misalignment)"),
+})
+
+# name: (unit, description, rule key of PARAM_RULES)
 PARAM_INFO: Mapping[str, tuple[str, str, str]] = MappingProxyType({
     "Mb": ("kg", "body mass including wheels and motors", "pos"),
     "l": ("m", "distance from ball centre to body centre of mass", "pos"),
@@ -49,13 +101,15 @@ PARAM_INFO: Mapping[str, tuple[str, str, str]] = MappingProxyType({
 
 PARAM_NAMES: tuple[str, ...] = tuple(PARAM_INFO)
 
-_RULE_TEXT = {
-    "pos": "a finite number > 0",
-    "nonneg": "a finite number >= 0",
-    "any": "a finite number",
-    "alpha": "an angle strictly between 0 and 90 deg",
-    "gamma": "an angle strictly between 0 and 180 deg",
-}
+#: Top-level TOML table holding the sensor parameters (read by
+#: :func:`ballbot_casadi.core.sensor_params.load_sensor_params`, skipped by :func:`load_params`).
+SENSOR_TABLE = "sensors"
+
+_ANGLE_UNITS: Mapping[str, str] = MappingProxyType({
+    "deg": "deg", "degree": "deg", "degrees": "deg",
+    "rad": "rad", "radian": "rad", "radians": "rad",
+})
+_ANGLE_RE = re.compile(r"^\s*(\S+?)\s*([A-Za-z]+)\s*$")
 
 
 def default_params_path() -> Path:
@@ -63,41 +117,66 @@ def default_params_path() -> Path:
     return Path(str(resources.files("ballbot_casadi.core") / "default_params.toml"))
 
 
-def _to_float(name: str, value: Any) -> float:
-    """Convert one raw parameter value to float (angles may carry a unit string)."""
+def to_float(label: str, value: Any, unit: str) -> float:
+    """Convert one raw parameter value to float.
+
+    Values whose ``unit`` is ``"rad"`` may also be strings ``"<number> <unit>"`` with
+    unit ``deg``/``degree``/``degrees`` or ``rad``/``radian``/``radians`` (the space
+    is optional: ``"45deg"``); plain numbers are radians.
+
+    Raises
+    ------
+    BallbotTypeError
+        A bool, a non-numeric type, or a string that is not an angle with a unit.
+    """
     if isinstance(value, bool):
-        raise BallbotTypeError(f"parameter {name!r}: got a bool, expected a real number")
+        raise BallbotTypeError(f"parameter {label!r}: got a bool, expected a real number")
     if isinstance(value, str):
-        unit = PARAM_INFO[name][0]
-        text = value.strip().split()
-        if unit == "rad" and len(text) == 2 and text[1] in ("deg", "rad"):
-            try:
-                num = float(text[0])
-            except ValueError:
-                num = math.nan
-            return math.radians(num) if text[1] == "deg" else num
-        allowed = "a number or '<value> deg' / '<value> rad'" if unit == "rad" else "a number"
-        raise BallbotTypeError(f"parameter {name!r}: got string {value!r}, expected {allowed}")
+        if unit == "rad":
+            m = _ANGLE_RE.match(value)
+            kind = _ANGLE_UNITS.get(m.group(2).lower()) if m else None
+            if kind is not None:
+                try:
+                    num = float(m.group(1))
+                except ValueError:
+                    kind = None
+                else:
+                    return math.radians(num) if kind == "deg" else num
+            raise BallbotTypeError(
+                f"parameter {label!r}: got string {value!r}, expected a number in radians or "
+                "a string '<value> deg' / '<value> rad' (e.g. \"45 deg\")"
+            )
+        raise BallbotTypeError(f"parameter {label!r}: got string {value!r}, expected a number")
     if isinstance(value, (int, float, np.integer, np.floating)):
         return float(value)
     raise BallbotTypeError(
-        f"parameter {name!r}: got {type(value).__name__}, expected a real number"
+        f"parameter {label!r}: got {type(value).__name__}, expected a real number"
     )
 
 
-def _check(name: str, v: float) -> None:
-    rule = PARAM_INFO[name][2]
-    ok = math.isfinite(v)
-    if ok and rule == "pos":
-        ok = v > 0
-    elif ok and rule == "nonneg":
-        ok = v >= 0
-    elif ok and rule == "alpha":
-        ok = 0 < v < math.pi / 2
-    elif ok and rule == "gamma":
-        ok = 0 < v < math.pi
-    if not ok:
-        raise ParameterError(f"parameter {name!r} = {v!r} is invalid: must be {_RULE_TEXT[rule]}")
+def check_value(label: str, v: float, rule: str, unit: str, raw: Any = None) -> None:
+    """Raise :class:`ParameterError` unless ``v`` satisfies ``PARAM_RULES[rule]``.
+
+    ``raw`` is the value as the user gave it; when an angle (``unit == "rad"``) was
+    given as a plain number that is out of range, the message says that numbers are
+    radians and suggests the degree string.
+    """
+    r = PARAM_RULES[rule]
+    if r.contains(v):
+        return
+    shown = repr(v)
+    if unit == "rad" and math.isfinite(v):
+        shown = f"{v!r} rad ({math.degrees(v):g} deg)"
+    msg = f"parameter {label!r} = {shown} is invalid: must be {r.text}"
+    plain = raw is None or (isinstance(raw, (int, float, np.integer, np.floating))
+                            and not isinstance(raw, bool))
+    if unit == "rad" and plain and math.isfinite(v):
+        msg += "; plain numbers are radians"
+        if r.contains(math.radians(v)):
+            msg += f": did you mean \"{v:g} deg\"?"
+        else:
+            msg += ", give degrees as a string such as \"45 deg\""
+    raise ParameterError(msg)
 
 
 @dataclass(frozen=True)
@@ -135,8 +214,10 @@ class Params:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            value = _to_float(f.name, getattr(self, f.name))
-            _check(f.name, value)
+            raw = getattr(self, f.name)
+            unit, _, rule = PARAM_INFO[f.name]
+            value = to_float(f.name, raw, unit)
+            check_value(f.name, value, rule, unit, raw)
             object.__setattr__(self, f.name, value)
 
     @property
@@ -172,16 +253,21 @@ def _reject_unknown(values: Mapping[str, Any]) -> None:
     unknown = sorted(set(values) - set(PARAM_NAMES))
     if unknown:
         raise ParameterError(
-            f"unknown parameter name(s) {unknown}; allowed names: {', '.join(PARAM_NAMES)}"
+            f"unknown parameter name(s) {unknown}; allowed names: {', '.join(PARAM_NAMES)} "
+            f"(sensor parameters belong in the [{SENSOR_TABLE}] table)"
         )
 
 
-def _flatten(table: Mapping[str, Any], path: str, out: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Flatten TOML tables (sections are only for readability); reject duplicates."""
+def flatten_tables(table: Mapping[str, Any], path: str,
+                   out: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Flatten TOML tables (sections are only for readability); reject duplicates.
+
+    Lists (array values) are kept as values, only tables are descended into.
+    """
     out = {} if out is None else out
     for key, value in table.items():
         if isinstance(value, Mapping):
-            _flatten(value, path, out)
+            flatten_tables(value, path, out)
         elif key in out:
             raise ParameterError(f"{path}: parameter {key!r} is given twice")
         else:
@@ -189,7 +275,19 @@ def _flatten(table: Mapping[str, Any], path: str, out: dict[str, Any] | None = N
     return out
 
 
-def _read_toml(path: Path) -> dict[str, Any]:
+def read_param_file(path: str | Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Read a parameter TOML file into ``(model_values, sensor_table)``.
+
+    ``model_values`` are the flattened model parameters (every table except
+    ``[sensors]``); ``sensor_table`` is the raw ``[sensors]`` table (``{}`` if absent),
+    handed to :func:`ballbot_casadi.core.sensor_params.load_sensor_params`.
+
+    Raises
+    ------
+    ParameterError
+        Missing file, invalid TOML, or ``sensors`` that is not a table.
+    """
+    path = Path(path)
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
@@ -197,7 +295,16 @@ def _read_toml(path: Path) -> dict[str, Any]:
         raise ParameterError(f"parameter file {str(path)!r} does not exist") from None
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(f"parameter file {str(path)!r} is not valid TOML: {exc}") from None
-    values = _flatten(data, str(path))
+    sensors = data.pop(SENSOR_TABLE, {})
+    if not isinstance(sensors, Mapping):
+        raise ParameterError(
+            f"{path}: {SENSOR_TABLE!r} must be a table ([{SENSOR_TABLE}]), got {sensors!r}"
+        )
+    return flatten_tables(data, str(path)), dict(sensors)
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    values, _ = read_param_file(path)
     _reject_unknown(values)
     return values
 
@@ -210,6 +317,8 @@ def load_params(path: str | Path | None = None, **overrides: Any) -> Params:
     path
         TOML file.  It may give any subset of the parameters (in any tables); the rest
         come from the packaged defaults (thesis App. A).  ``None`` loads the defaults.
+        A ``[sensors]`` table is not read here (see
+        :func:`ballbot_casadi.core.sensor_params.load_sensor_params`).
     **overrides
         Parameter values that replace those of the file.
 

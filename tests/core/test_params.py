@@ -104,3 +104,86 @@ def test_bad_files(tmp_path):
 def test_from_vector_wrong_size():
     with pytest.raises(ParameterError, match="expected 21"):
         Params.from_vector(np.ones(5))
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("45deg", math.radians(45)), ("45 degrees", math.radians(45)), ("45 deg", math.radians(45)),
+    (" 45 DEG ", math.radians(45)), ("30 degree", math.radians(30)), ("0.5rad", 0.5),
+    ("0.5 radians", 0.5), ("1e-1 rad", 0.1),
+])
+def test_angle_strings_with_units(text, expected):
+    assert load_params(alpha=text).alpha == pytest.approx(expected, rel=0, abs=1e-15)
+
+
+def test_angle_given_as_plain_degrees_number_explains_radians():
+    with pytest.raises(ParameterError) as exc:
+        load_params(alpha=45)
+    msg = str(exc.value)
+    assert "'alpha'" in msg and "radians" in msg and '"45 deg"' in msg and "must be" in msg
+    with pytest.raises(ParameterError, match='radians.*"120 deg"'):
+        load_params(gamma=120)
+    # a plain number that is wrong in degrees too: no misleading "did you mean"
+    with pytest.raises(ParameterError, match='radians, give degrees as a string such as "45 deg"'):
+        load_params(alpha=-0.1)
+    for bad in ["45", "45 d", "deg", "x deg", "45 deg deg"]:
+        with pytest.raises(BallbotTypeError, match="'<value> deg'"):
+            load_params(alpha=bad)
+
+
+# Expected rule of every parameter, written out independently of PARAM_INFO.
+_EXPECTED_RULE = {
+    **dict.fromkeys(["Mb", "l", "Jbx", "Jby", "Jbz", "Jw", "rw", "rk", "Mk", "Jk", "tau_max",
+                     "n_ticks"], "pos"),
+    **dict.fromkeys(["Bvk", "Bvm", "Bvb", "g", "beta"], "nonneg"),
+    **dict.fromkeys(["com_x", "com_y"], "any"),
+    "alpha": "alpha",
+    "gamma": "gamma",
+}
+_TINY = 5e-324
+# rule -> (values exactly on or just inside a boundary that must pass, values that must fail)
+_BOUNDARIES = {
+    "pos": ([_TINY, 1e308], [0.0, -0.0, -_TINY, math.inf]),
+    "nonneg": ([0.0, -0.0, _TINY], [-_TINY, math.inf]),
+    "any": ([-1.7e308, 1.7e308, 0.0], [math.inf, -math.inf, math.nan]),
+    "alpha": ([_TINY, math.nextafter(math.pi / 2, 0.0)], [0.0, math.pi / 2, -_TINY]),
+    "gamma": ([_TINY, math.nextafter(math.pi, 0.0)], [0.0, math.pi, -_TINY]),
+}
+
+
+def test_every_parameter_has_its_expected_rule():
+    from ballbot_casadi.core.params import PARAM_INFO
+
+    assert {n: PARAM_INFO[n][2] for n in PARAM_NAMES} == _EXPECTED_RULE
+
+
+@pytest.mark.parametrize("name", list(_EXPECTED_RULE))
+def test_range_boundary_exactly(name):
+    """Sit exactly on each range boundary: a '<' turned into '<=' (or back) fails here."""
+    good, bad = _BOUNDARIES[_EXPECTED_RULE[name]]
+    for v in good:
+        assert getattr(load_params(**{name: v}), name) == v
+    for v in bad:
+        with pytest.raises(ParameterError, match=f"'{name}'.*must be"):
+            load_params(**{name: v})
+
+
+def test_range_rules_defined_once_as_plain_tuples():
+    """PARAM_RULES is the one table; (lo, hi, lo_open, hi_open, text) tuples others can read."""
+    from ballbot_casadi.core.params import PARAM_INFO, PARAM_RULES
+
+    assert {rule for _, _, rule in PARAM_INFO.values()} <= set(PARAM_RULES)
+    for rule in PARAM_RULES.values():
+        lo, hi, lo_open, hi_open, text = rule  # unpacks like the FMU's table
+        assert lo < hi and isinstance(lo_open, bool) and isinstance(hi_open, bool) and text
+        # contains() agrees with the tuple on its own boundaries
+        assert rule.contains(lo) is (not lo_open) or not math.isfinite(lo)
+        assert rule.contains(hi) is (not hi_open) or not math.isfinite(hi)
+    assert PARAM_RULES["alpha"][:4] == (0.0, math.pi / 2, True, True)
+    with pytest.raises(TypeError):
+        PARAM_RULES["pos"] = PARAM_RULES["any"]  # read-only
+
+
+def test_sensors_table_is_skipped(tmp_path):
+    f = tmp_path / "with_sensors.toml"
+    f.write_text('[sensors]\nacc_bias = [0.0, 0.0, 0.1]\n[body]\nMb = 17.0\n')
+    assert load_params(f).Mb == 17.0
