@@ -15,6 +15,7 @@ import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ballbot_casadi.core.layout import STATE_DXY
 from ballbot_casadi.analysis import linear as an
 from ballbot_casadi.model import linearization as lz
 
@@ -239,7 +240,7 @@ def write_markdown(result: dict[str, Any], out: Path, params_source: str, plots:
             "`p = sqrt((a+J) Mb g l / ((a+J)(c+J) - (b-J)^2))`.\n")
         P = result.get("parameters", {})
         exact = (all(P.get(k, 0.0) == 0.0 for k in ("com_x", "com_y", "Bvk", "Bvm", "Bvb"))
-                 and np.allclose(op["state"][6:8], 0.0))
+                 and np.allclose(op["state"][STATE_DXY], 0.0))
         if not exact:
             add("(The planar reduction is exact only at rest with a centred COM and no friction; "
                 "at this operating point it is an approximation.)\n")

@@ -20,6 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless backend)
 import numpy as np
 
+from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.analysis.metrics import attitude_error_deg, rpy_deg, tilt_deg
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
@@ -49,7 +50,7 @@ def plot_study(name: str, logs: Sequence[SimulationLog], path: Path) -> Path:
     a = log.arrays
     n = a["tau"].shape[0]
     t = a["time"]
-    ang = rpy_deg(a["state"][:, 2:6])
+    ang = rpy_deg(a["state"][:, STATE["q"]])
     ref = rpy_deg(a["q_ref"])
     fig, axes = plt.subplots(4, 1, figsize=(8, 10), sharex=True)
     err = attitude_error_deg(log)
@@ -62,16 +63,16 @@ def plot_study(name: str, logs: Sequence[SimulationLog], path: Path) -> Path:
     axes[3].set_yscale("symlog", linthresh=1e-3)
     axes[3].set_ylabel("attitude error (deg)")
     axes[3].legend(loc="upper right", fontsize=7)
-    speed = np.hypot(a["state"][:, 6], a["state"][:, 7])
-    axes[1].plot(t, a["state"][:, 6], label="dx")
-    axes[1].plot(t, a["state"][:, 7], label="dy")
+    speed = np.hypot(a["state"][:, STATE.index("dx")], a["state"][:, STATE.index("dy")])
+    axes[1].plot(t, a["state"][:, STATE.index("dx")], label="dx")
+    axes[1].plot(t, a["state"][:, STATE.index("dy")], label="dy")
     if log.scenario.get("cascade"):
         axes[1].plot(t[:n], a["v_ref"][:, 0], "--", lw=0.8, label="vx ref")
         axes[1].plot(t[:n], a["v_ref"][:, 1], "--", lw=0.8, label="vy ref")
     axes[1].plot(t, speed, ":", label="|v|")
     if len(logs) > 1:
         b = logs[0].arrays
-        axes[1].plot(b["time"], np.hypot(b["state"][:, 6], b["state"][:, 7]), label="|v| balance only")
+        axes[1].plot(b["time"], np.hypot(b["state"][:, STATE.index("dx")], b["state"][:, STATE.index("dy")]), label="|v| balance only")
     axes[1].set_ylabel("ball velocity (m/s)")
     axes[1].legend(loc="upper right", fontsize=7)
     for i in range(3):

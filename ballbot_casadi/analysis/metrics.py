@@ -15,6 +15,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core import quaternion as Q
 
 __all__ = [
@@ -57,7 +58,7 @@ def attitude_error_deg(log: Any) -> np.ndarray:
     """Euler-angle tracking error (N, 3) in deg at the control instants."""
     a = _arrays(log)
     n = a["q_ref"].shape[0]
-    return _wrap(rpy_deg(a["state"][:n, 2:6]) - rpy_deg(a["q_ref"]))
+    return _wrap(rpy_deg(a["state"][:n, STATE["q"]]) - rpy_deg(a["q_ref"]))
 
 
 def _window(t: np.ndarray, t_from: float) -> np.ndarray:
@@ -104,8 +105,8 @@ def base_metrics(log: Any) -> dict[str, float]:
     """Metrics every run reports: tilt, speed, torques, saturation, finiteness."""
     a = _arrays(log)
     x, tau_cmd, tau = a["state"], a["tau_cmd"], a["tau"]
-    tilt = tilt_deg(x[:, 2:6])
-    speed = np.hypot(x[:, 6], x[:, 7])
+    tilt = tilt_deg(x[:, STATE["q"]])
+    speed = np.hypot(x[:, STATE.index("dx")], x[:, STATE.index("dy")])
     sat = np.any(np.abs(tau_cmd - tau) > 1e-12, axis=1)
     return {
         "finite": bool(np.all(np.isfinite(x)) and np.all(np.isfinite(tau_cmd))),
@@ -116,8 +117,8 @@ def base_metrics(log: Any) -> dict[str, float]:
         "max_speed_mps": float(np.max(speed)),
         "max_abs_torque_nm": float(np.max(np.abs(tau))),
         "saturation_fraction": float(np.mean(sat)),
-        "quat_norm_error_max": float(np.max(np.abs(np.linalg.norm(x[:, 2:6], axis=1) - 1))),
-        "final_rpy_deg": [float(v) for v in rpy_deg(x[-1:, 2:6])[0]],
+        "quat_norm_error_max": float(np.max(np.abs(np.linalg.norm(x[:, STATE["q"]], axis=1) - 1))),
+        "final_rpy_deg": [float(v) for v in rpy_deg(x[-1:, STATE["q"]])[0]],
     }
 
 
@@ -152,7 +153,7 @@ def sine_metrics(log: Any, frequency_hz: float, t_from: float = 0.0) -> dict[str
     n = a["q_ref"].shape[0]
     t = a["time"][:n]
     win = _window(t, t_from)
-    ang = rpy_deg(a["state"][:n, 2:6])
+    ang = rpy_deg(a["state"][:n, STATE["q"]])
     ref = rpy_deg(a["q_ref"])
     err = _wrap(ang - ref)
     lag, ratio = sine_lag(t[win], ang[win, 0], ref[win, 0], frequency_hz)
@@ -174,7 +175,7 @@ def push_metrics(log: Any, t_push: float, band_deg: float = 0.1) -> dict[str, fl
     """Recovery from an attitude jump at ``t_push`` (thesis §8.4.3)."""
     a = _arrays(log)
     t = a["time"]
-    tilt = tilt_deg(a["state"][:, 2:6])
+    tilt = tilt_deg(a["state"][:, STATE["q"]])
     after = _window(t, t_push)
     outside = np.nonzero(after & (tilt > band_deg))[0]
     rec = math.inf if outside.size and outside[-1] + 1 >= t.size else (
@@ -198,13 +199,13 @@ def com_metrics(balance_only: Any, cascade: Any, params: Any, window_s: float = 
     b, c = _arrays(balance_only), _arrays(cascade)
     xb, xc = b["state"], c["state"]
     win = _window(c["time"], c["time"][-1] - window_s)
-    ang = rpy_deg(xc[:, 2:6])
+    ang = rpy_deg(xc[:, STATE["q"]])
     roll_a, pitch_a = com_equilibrium_deg(params.com_x, params.com_y, params.l)
     eq_roll, eq_pitch = float(np.mean(ang[win, 0])), float(np.mean(ang[win, 1]))
     return {
-        "runaway_speed_mps": float(np.hypot(xb[-1, 6], xb[-1, 7])),
+        "runaway_speed_mps": float(np.hypot(xb[-1, STATE.index("dx")], xb[-1, STATE.index("dy")])),
         "runaway_distance_m": float(np.hypot(xb[-1, 0], xb[-1, 1])),
-        "final_speed_mps": float(np.hypot(xc[-1, 6], xc[-1, 7])),
+        "final_speed_mps": float(np.hypot(xc[-1, STATE.index("dx")], xc[-1, STATE.index("dy")])),
         "equilibrium_roll_deg": eq_roll,
         "equilibrium_pitch_deg": eq_pitch,
         "equilibrium_roll_analytic_deg": roll_a,
@@ -216,7 +217,7 @@ def com_metrics(balance_only: Any, cascade: Any, params: Any, window_s: float = 
 
 def _yaw_rate(x: np.ndarray) -> np.ndarray:
     """Heading rate: z component of the angular velocity in {K}, ``2 vec(dq o q*)``."""
-    q, dq = x[:, 2:6], x[:, 8:12]
+    q, dq = x[:, STATE["q"]], x[:, STATE["dq"]]
     # z component of dq o conj(q)
     return 2 * (-dq[:, 0] * q[:, 3] + dq[:, 3] * q[:, 0] - dq[:, 1] * q[:, 2] + dq[:, 2] * q[:, 1])
 
@@ -231,12 +232,12 @@ def velocity_metrics(log: Any, max_delay_s: float = 1.0) -> dict[str, float]:
     a = _arrays(log)
     n = a["v_ref"].shape[0]
     t, x, vr = a["time"][:n], a["state"][:n], a["v_ref"]
-    e = np.hypot(x[:, 6] - vr[:, 0], x[:, 7] - vr[:, 1])
+    e = np.hypot(x[:, STATE.index("dx")] - vr[:, 0], x[:, STATE.index("dy")] - vr[:, 1])
     ts = float(t[1] - t[0]) if n > 1 else 1.0
     best = (math.inf, 0.0, math.inf)
     for d in range(int(max_delay_s / ts) + 1):
         vd = np.vstack([np.zeros((d, 3)), vr[: n - d]]) if d else vr
-        ed = np.hypot(x[:, 6] - vd[:, 0], x[:, 7] - vd[:, 1])
+        ed = np.hypot(x[:, STATE.index("dx")] - vd[:, 0], x[:, STATE.index("dy")] - vd[:, 1])
         rms = float(np.sqrt(np.mean(ed**2)))
         if rms < best[0]:
             best = (rms, d * ts, float(np.max(ed)))
@@ -249,6 +250,6 @@ def velocity_metrics(log: Any, max_delay_s: float = 1.0) -> dict[str, float]:
         "velocity_error_max_delayed_mps": best[2],
         "final_velocity_error_mps": float(e[-1]),
         "yaw_rate_error_max_rps": float(np.max(np.abs(yr - vr[:, 2]))),
-        "max_tilt_deg": float(np.max(tilt_deg(x[:, 2:6]))),
-        "max_abs_roll_pitch_deg": float(np.max(np.abs(rpy_deg(x[:, 2:6])[:, :2]))),
+        "max_tilt_deg": float(np.max(tilt_deg(x[:, STATE["q"]]))),
+        "max_abs_roll_pitch_deg": float(np.max(np.abs(rpy_deg(x[:, STATE["q"]])[:, :2]))),
     }

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import casadi as ca
 
+from ballbot_casadi.core.layout import GENERALISED, STATE
 from ballbot_casadi.control.quaternion_error import (
     quaternion_error,
     quaternion_error_rate,
@@ -88,7 +89,7 @@ def error_output_dynamics(
         (normalised scalar part of the sign-fixed error, >= 0) and ``G`` (3x3 torque
         -> body angular acceleration map).
     """
-    q, dq = x[2:6], x[8:12]
+    q, dq = x[STATE["q"]], x[STATE["dq"]]
     qe = quaternion_error(q, q_ref)
     sigma = shortest_path_sign(qe)
     dqe = quaternion_error_rate(q, dq, q_ref, dq_ref)
@@ -96,10 +97,10 @@ def error_output_dynamics(
     drift = (
         ca.mtimes(Q.Phi(Q.conj(ddq_ref)), q)
         + 2 * ca.mtimes(Q.Phi(Q.conj(dq_ref)), dq)
-        + ca.mtimes(Pr, f[2:6])
+        + ca.mtimes(Pr, f[GENERALISED["q"]])
     )
-    E = sigma * ca.mtimes(Pr, g[2:6, :])[1:4, :]
-    G = 2 * ca.mtimes(Q.Phi(q).T, g[2:6, :])[1:4, :]
+    E = sigma * ca.mtimes(Pr, g[GENERALISED["q"], :])[1:4, :]
+    G = 2 * ca.mtimes(Q.Phi(q).T, g[GENERALISED["q"], :])[1:4, :]
     return {
         "qe0": sigma * qe[0] / ca.sqrt(ca.sumsqr(qe)),
         "G": G,

@@ -61,11 +61,18 @@ import control
 import numpy as np
 import scipy.linalg
 
+from ballbot_casadi.core.layout import STATE, STATE_DXY
+from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
 from ballbot_casadi.control.flc import FLC_DEFAULT_GAINS
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import THESIS_LIMITS, TS_CONTROL
 from ballbot_casadi.core.params import PARAM_NAMES
-from ballbot_casadi.errors import BallbotTypeError, ScenarioError, ShapeError
+from ballbot_casadi.errors import (
+    BallbotTypeError,
+    ParameterError,
+    ScenarioError,
+    ShapeError,
+)
 
 __all__ = [
     "VELOCITY_NZ",
@@ -82,7 +89,7 @@ __all__ = [
     "tilt_heading_quaternion",
 ]
 
-VELOCITY_NZ = 8
+VELOCITY_NZ = Z.size
 _NX_LQR = 12  # [v_err(2), theta(2), dtheta(2), theta_r(2), dtheta_r(2), p_e(2)]
 VELOCITY_LIMIT_NAMES = (
     "tilt_max", "tilt_rate_max", "tilt_acc_max", "v_max", "yaw_rate_max", "p_e_max",
@@ -206,6 +213,13 @@ def design_velocity_lqr(
         m/s) within ~15 s with a peak position error ~1.1 m.
     inner
         ``(K_p, K_d)`` of the balance controller's tilt channels (FLC defaults).
+
+    Raises
+    ------
+    ParameterError
+        "no stabilising velocity gain exists for these parameters": the design model
+        cannot be built or is not finite, the discrete Riccati equation has no
+        stabilising solution (e.g. ``g = 0``), or the closed loop is not stable.
     """
 
     if not (isinstance(Ts, (int, float)) and math.isfinite(Ts) and Ts > 0):
@@ -214,9 +228,24 @@ def design_velocity_lqr(
     Rw = _R_DEFAULT if Rw is None else np.asarray(Rw, dtype=float).reshape(-1)
     if Qw.shape != (_NX_LQR,) or Rw.shape != (2,):
         raise ShapeError(f"Qw must have {_NX_LQR} and Rw 2 diagonal entries")
-    _, _, Ad, Bd = design_model(jac, p, Ts, inner)
-    K, _, _ = control.dlqr(Ad, Bd, np.diag(Qw), np.diag(Rw), method="scipy")
-    return np.asarray(K)
+    none = "no stabilising velocity gain exists for these parameters"
+    try:
+        with np.errstate(all="ignore"):
+            _, _, Ad, Bd = design_model(jac, p, Ts, inner)
+    except np.linalg.LinAlgError:
+        raise ParameterError(f"{none}: the balance loop of the design model cannot be "
+                             "linearised (the wheel torques do not reach the tilt axes)") from None
+    if not (np.all(np.isfinite(Ad)) and np.all(np.isfinite(Bd))):
+        raise ParameterError(f"{none}: the discretised design model is not finite")
+    try:
+        K, _, _ = control.dlqr(Ad, Bd, np.diag(Qw), np.diag(Rw), method="scipy")
+    except (np.linalg.LinAlgError, ValueError, ArithmeticError) as exc:
+        raise ParameterError(f"{none} (velocity LQR: {exc})") from None
+    K = np.asarray(K, dtype=float)
+    rho = np.max(np.abs(np.linalg.eigvals(Ad - Bd @ K))) if np.all(np.isfinite(K)) else np.inf
+    if not rho < 1.0:
+        raise ParameterError(f"{none}: the LQR closed loop has spectral radius {rho:.9g} >= 1")
+    return K
 
 
 def default_velocity_gains(jac: ca.Function, p: Any, Ts: float = TS_CONTROL) -> np.ndarray:
@@ -280,14 +309,16 @@ def velocity_initial_state(x0: Any) -> np.ndarray:
     Tilt rates and the position error start at zero, so starting the loop is bumpless.
     """
     x0 = np.asarray(x0, dtype=float).reshape(-1)
-    if x0.shape != (12,) or not np.all(np.isfinite(x0)):
+    if x0.shape != (STATE.size,) or not np.all(np.isfinite(x0)):
         raise ShapeError(f"x0 must be a finite 12-state, got shape {x0.shape}")
-    q = x0[2:6] / np.linalg.norm(x0[2:6])
+    q = x0[STATE["q"]] / np.linalg.norm(x0[STATE["q"]])
     th = measured_tilt(q)
     qt = tilt_heading_quaternion(th[0], th[1], 0.0)
     qz = Q.mul(Q.conj(qt), q)
-    psi = 2 * np.arctan2(qz[3], qz[0])
-    return np.array([th[0], th[1], 0.0, 0.0, 0.0, 0.0, psi, 0.0])
+    z = np.zeros(Z.size)
+    z[Z["theta_r"]] = th
+    z[Z.index("psi_r")] = 2 * np.arctan2(qz[3], qz[0])
+    return z
 
 
 def _reference_function() -> ca.Function:
@@ -329,11 +360,12 @@ def make_velocity_controller() -> ca.Function:
     rr = ca.fmin(ca.fmax(v_ref[2], -r_max), r_max)
 
     # measurements
-    q, dq = x[2:6], x[8:12]
+    q, dq = x[STATE["q"]], x[STATE["dq"]]
     th = measured_tilt(q)
     dth = ca.jtimes(th, q, dq)
-    th_r, dth_r, pe, psi_r, r_r = z[0:2], z[2:4], z[4:6], z[6], z[7]
-    verr = x[6:8] - vr
+    th_r, dth_r, pe = z[Z["theta_r"]], z[Z["dtheta_r"]], z[Z["p_e"]]
+    psi_r, r_r = z[Z.index("psi_r")], z[Z.index("r_r")]
+    verr = x[STATE_DXY] - vr
     X = ca.vertcat(verr, th, dth, th_r, dth_r, pe)
     a = -ca.mtimes(K, X)
     a = ca.fmin(ca.fmax(a, -acc_max), acc_max)

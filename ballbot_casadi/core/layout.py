@@ -13,6 +13,8 @@ Layouts
 :data:`REDUCED_STATE`
     Minimal 10-state model on the quaternion constraint's tangent space (``v`` the
     attitude increment, see :mod:`ballbot_casadi.model.linearization`).
+:data:`GENERALISED`
+    Generalised coordinates ``chi = [x, y, q]`` (thesis C.1), 6 entries.
 :data:`DISTURBANCE`
     Per-period disturbance ``w = [push, tau_dist]``: attitude jump rotation vector in
     {K} (thesis §8.4.3) and a wheel-torque disturbance added after the plant's
@@ -112,6 +114,10 @@ REDUCED_STATE = Layout(
 #: The two tilt components of the reduced attitude (about {K} x and y).
 REDUCED_TILT = slice(REDUCED_STATE["v"].start, REDUCED_STATE["v"].start + 2)
 
+#: Generalised coordinates ``chi = [x, y, q]`` of the Euler-Lagrange model (thesis C.1);
+#: the state is ``[chi, dchi]``.
+GENERALISED = Layout("generalised coordinates chi", [("x", 1), ("y", 1), ("q", 4)])
+
 DISTURBANCE = Layout("disturbance w", [("push", 3), ("tau_dist", 3)])
 
 VELOCITY_CONTROLLER_STATE = Layout(
@@ -120,4 +126,4 @@ VELOCITY_CONTROLLER_STATE = Layout(
     ("theta_rx", "theta_ry", "dtheta_rx", "dtheta_ry", "p_ex", "p_ey", "psi_r", "r_r"),
 )
 
-__all__ += ["STATE_XY", "STATE_DXY", "REDUCED_TILT"]
+__all__ += ["STATE_XY", "STATE_DXY", "REDUCED_TILT", "GENERALISED"]

@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 
+from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import BallbotTypeError, ShapeError, StateError
 
 __all__ = ["as_vector", "check_state", "QUAT_TOL"]
@@ -34,7 +35,7 @@ def as_vector(value: Any, n: int, what: str) -> np.ndarray:
 def check_state(x: Any, what: str = "state") -> np.ndarray:
     """Validate a 12-state ``[x, y, q0..q3, dx, dy, dq0..dq3]``: finite, unit quaternion."""
     arr = as_vector(x, 12, what)
-    nq = float(np.linalg.norm(arr[2:6]))
+    nq = float(np.linalg.norm(arr[STATE["q"]]))
     if abs(nq - 1.0) > QUAT_TOL:
         raise StateError(
             f"{what}: quaternion [q0..q3] has norm {nq:.9g}; it must be 1 within {QUAT_TOL:g}"

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import casadi as ca
 
+from ballbot_casadi.core.layout import GENERALISED, STATE
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.model import kinematics as K
@@ -84,7 +85,7 @@ def lagrangian_terms(x: ca.SX, p: ca.SX) -> dict[str, ca.SX]:
     P = ParamView(p)
     chi, dchi = x[:6], x[6:]
     dx, dy = dchi[0], dchi[1]
-    q, dq = chi[2:6], dchi[2:6]
+    q, dq = chi[GENERALISED["q"]], dchi[GENERALISED["q"]]
 
     # Ball (C.14): translation plus rolling, Jkx = Jky = Jk.
     T_k = 0.5 * (P.Mk + P.Jk / P.rk**2) * (dx**2 + dy**2)
@@ -134,7 +135,7 @@ def constrained_terms(x: ca.SX, p: ca.SX) -> dict[str, ca.SX]:
     """
     P = ParamView(p)
     terms = lagrangian_terms(x, p)
-    q, dq = x[2:6], x[8:12]
+    q, dq = x[STATE["q"]], x[STATE["dq"]]
     # H~ (C.52): keep the x, y rows and the vector part of Phi(q)^T on the quaternion rows.
     Ht = ca.SX.zeros(5, 6)
     Ht[0, 0] = 1
@@ -224,7 +225,7 @@ def projected_terms(x: ca.SX, p: ca.SX) -> dict[str, ca.SX]:
     """
     P = ParamView(p)
     t = lagrangian_terms(x, p)
-    q, dq = x[2:6], x[8:12]
+    q, dq = x[STATE["q"]], x[STATE["dq"]]
     S = ca.diagcat(ca.SX.eye(2), Q.Phi(q)[:, 1:])
     qq = ca.dot(q, q)
     c = -ca.dot(dq, dq) - 2 * P.beta * ca.dot(q, dq) - 0.5 * P.beta**2 * (qq - 1)
@@ -311,7 +312,7 @@ def make_wheel_speeds() -> ca.Function:
     """``ballbot_wheel_speeds(x, p) -> dphi``: motor-shaft speeds (inverse kinematics, B.47)."""
     x, _, p = symbols()
     P = ParamView(p)
-    dphi = K.wheel_speeds(x[2:6], x[8:12], x[6], x[7], P)
+    dphi = K.wheel_speeds(x[STATE["q"]], x[STATE["dq"]], x[STATE.index("dx")], x[STATE.index("dy")], P)
     return ca.Function(
         "ballbot_wheel_speeds", [x, p], [dphi], ["x", "p"], ["dphi"], _FUNC_OPTS
     )

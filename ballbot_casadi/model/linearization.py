@@ -39,6 +39,7 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares
 
+from ballbot_casadi.core.layout import STATE, STATE_DXY
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import Params
 from ballbot_casadi.core.validation import as_vector, check_state
@@ -77,7 +78,7 @@ class OperatingPoint:
 
     def rpy_deg(self) -> np.ndarray:
         """Roll, pitch, yaw of the operating-point attitude in degrees (ZYX)."""
-        return np.degrees(Q.to_rpy(self.x[2:6]))
+        return np.degrees(Q.to_rpy(self.x[STATE["q"]]))
 
 
 @dataclass(frozen=True)
@@ -191,9 +192,9 @@ def parse_state_spec(text: str, params: Params) -> np.ndarray:
          [vals.get("dx", 0.0), vals.get("dy", 0.0)], np.zeros(4)]
     )
     if "roll" in vals or "pitch" in vals:
-        x[2:6] = Q.from_rpy(vals.get("roll", 0.0), vals.get("pitch", 0.0), vals.get("yaw", 0.0))
+        x[STATE["q"]] = Q.from_rpy(vals.get("roll", 0.0), vals.get("pitch", 0.0), vals.get("yaw", 0.0))
         return x
-    x[2:6] = balance_point(params, vals.get("yaw", 0.0))[2:6]
+    x[STATE["q"]] = balance_point(params, vals.get("yaw", 0.0))[STATE["q"]]
     return balance_tilt(params, x)
 
 
@@ -212,7 +213,7 @@ def balance_tilt(params: Params, x0: Any, functions: dict[str, ca.Function] | No
 
     def state(w: np.ndarray) -> np.ndarray:
         x = x0.copy()
-        x[2:6] = Q.mul(Q.from_rotation_vector(np.array([w[0], w[1], 0.0])), x0[2:6])
+        x[STATE["q"]] = Q.mul(Q.from_rotation_vector(np.array([w[0], w[1], 0.0])), x0[STATE["q"]])
         return x
 
     def resid(u: np.ndarray) -> np.ndarray:
@@ -261,23 +262,23 @@ def trim(x0: Any, params: Params, functions: dict[str, ca.Function] | None = Non
         :data:`TRIM_TOL` (the state is not an equilibrium).
     """
     x0 = check_state(x0, "operating point")
-    if np.max(np.abs(x0[8:12])) > 1e-12:
+    if np.max(np.abs(x0[STATE["dq"]])) > 1e-12:
         raise StateError(
             "operating point: the attitude must be at rest (dq0..dq3 = 0) for a linear "
-            f"analysis, got dq = {x0[8:12].tolist()}"
+            f"analysis, got dq = {x0[STATE['dq']].tolist()}"
         )
     x0 = x0.copy()
-    x0[2:6] /= np.linalg.norm(x0[2:6])
+    x0[STATE["q"]] /= np.linalg.norm(x0[STATE["q"]])
     funcs = functions if functions is not None else make_model_functions()
     f, g = funcs["affine"](x0, params.to_vector())
     f, g = np.asarray(f).reshape(6), np.asarray(g)
     tau, *_ = np.linalg.lstsq(g, -f, rcond=None)
     res = float(np.max(np.abs(f + g @ tau)))
     if res > TRIM_TOL:
-        rpy = np.degrees(Q.to_rpy(x0[2:6]))
+        rpy = np.degrees(Q.to_rpy(x0[STATE["q"]]))
         raise StateError(
             f"operating point (roll, pitch, yaw = {rpy.round(4).tolist()} deg, "
-            f"dx, dy = {x0[6:8].tolist()} m/s) is not an equilibrium: the best trim torque "
+            f"dx, dy = {x0[STATE_DXY].tolist()} m/s) is not an equilibrium: the best trim torque "
             f"leaves an acceleration of {res:.3g}; omit roll/pitch to use the balanced tilt"
         )
     return OperatingPoint(x=x0, tau=tau, residual=res)
@@ -324,7 +325,7 @@ def linearize(
     op = trim(balance_point(params) if x0 is None else x0, params, funcs)
     A, B = funcs["jac"](op.x, op.tau, params.to_vector())
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
-    T = tangent_basis(op.x[2:6])
+    T = tangent_basis(op.x[STATE["q"]])
     Ar, Br = T.T @ A @ T, T.T @ B
     inv_err = float(np.linalg.norm(A @ T - T @ Ar) / max(np.linalg.norm(A), 1.0))
     return LinearModel(op, A, B, T, Ar, Br, inv_err, params.beta, params.tau_max)
@@ -340,7 +341,7 @@ def model_summary(params: Params) -> str:
     funcs = make_model_functions()
     A = np.asarray(funcs["jac"](op.x, op.tau, params.to_vector())[0])
     eig = sorted_eig(A)
-    rpy = np.degrees(Q.to_rpy(op.x[2:6]))
+    rpy = np.degrees(Q.to_rpy(op.x[STATE["q"]]))
     where = ("upright" if np.max(np.abs(rpy[:2])) < 1e-12
              else f"balanced tilt roll {rpy[0]:+.4f} deg, pitch {rpy[1]:+.4f} deg")
     lines = [
