@@ -6,7 +6,7 @@ Control law
 -----------
 With the error output ``y = vec(sigma q_ref* o q)`` (thesis 7.4, 8.7, shortest-path
 sign fix §7.4) the model gives ``ddy = D(x) + E(x) tau`` (thesis 8.12-8.25; see
-:mod:`~ballbot_casadi.controllers.decoupling`, which includes the reference
+:mod:`~ballbot_casadi.control.decoupling`, which includes the reference
 derivatives exactly, thesis 7.5).  The linearising feedback (thesis 8.26)::
     tau = E^-1 (v - D),        v = -K_p y - K_d dy                       (8.43, 8.44)
 
@@ -48,7 +48,7 @@ With the feedforward and exact decoupling, tracking errors only arise from the 5
 zero-order hold, so the sine test's lag is far below the 0.02 s requirement.
 
 Near-singular E(x) is handled by damped least squares and reported in ``diag``
-(see :func:`~ballbot_casadi.controllers.decoupling.damped_solve`).
+(see :func:`~ballbot_casadi.control.decoupling.damped_solve`).
 """
 
 from __future__ import annotations
@@ -140,7 +140,7 @@ def make_flc(
         called Function inside the controller.
     qe0_min, rcond_min, mu
         Singularity thresholds and relative damping of the regularised inverse
-        (:func:`~ballbot_casadi.controllers.decoupling.damped_solve`).
+        (:func:`~ballbot_casadi.control.decoupling.damped_solve`).
 
     Returns
     -------
@@ -151,7 +151,7 @@ def make_flc(
     Notes
     -----
     ``q_ref`` must be a unit quaternion and ``dq_ref``, ``ddq_ref`` its derivatives (e.g.
-    from :func:`ballbot_casadi.references.rpy_reference` or the velocity controller);
+    from :func:`ballbot_casadi.sim.references.rpy_reference` or the velocity controller);
     they are used as given, not re-normalised.  The reference may use either sign of
     the double cover: the shortest-path sign is applied inside.
     """

@@ -1,7 +1,7 @@
 """Sliding-mode balance controller, the predecessor's baseline (V2019, thesis §8.3).
 
 ``ballbot_smc(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)``, same interface as
-:func:`~ballbot_casadi.controllers.flc.make_flc`.
+:func:`~ballbot_casadi.control.flc.make_flc`.
 
 Control law
 -----------
@@ -10,7 +10,7 @@ Sliding surface in the body frame, on the shortest-path error quaternion (thesis
     S = vec(dq_e) + K vec(q_e)
 
 With ``ddy = D + E tau`` (the exact error-output dynamics of
-:mod:`~ballbot_casadi.controllers.decoupling`, thesis 8.12-8.25) the equivalent
+:mod:`~ballbot_casadi.control.decoupling`, thesis 8.12-8.25) the equivalent
 control makes ``dS = 0``; the continuous switching term (boundary layer of width
 ``epsilon`` instead of ``sign``, no chattering) drives ``S`` to zero::
     tau = E^-1 (v - D),   v = -K dy - eta sat(S / epsilon)
@@ -49,7 +49,7 @@ def make_smc(
         The model Function ``affine(x, p) -> (f, g)``; it stays a called Function.
     qe0_min, rcond_min, mu
         Singularity thresholds and relative damping of the regularised inverse
-        (:func:`~ballbot_casadi.controllers.decoupling.damped_solve`).
+        (:func:`~ballbot_casadi.control.decoupling.damped_solve`).
 
     Returns
     -------

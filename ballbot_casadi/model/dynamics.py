@@ -2,7 +2,7 @@
 
 Generalised coordinates ``chi = [x, y, q0, q1, q2, q3]`` (thesis 2.3), state
 ``x = [chi; dchi]`` (thesis 2.4), input ``tau`` = the three wheel torques in the thesis
-wheel order, parameter vector ``p`` in :data:`~ballbot_casadi.params.PARAM_NAMES` order.
+wheel order, parameter vector ``p`` in :data:`~ballbot_casadi.core.params.PARAM_NAMES` order.
 Parameters are inputs of every Function, never constants baked into the graph.
 
 Derivation

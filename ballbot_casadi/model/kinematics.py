@@ -1,6 +1,6 @@
 """Ballbot kinematics (thesis App. B): wheel geometry, inverse and forward kinematics.
 
-All functions take a :class:`~ballbot_casadi.params.ParamView` (or anything with the
+All functions take a :class:`~ballbot_casadi.core.params.ParamView` (or anything with the
 parameter names as attributes) and work on numpy arrays or CasADi expressions.
 """
 

@@ -252,7 +252,7 @@ def trim(x0: Any, params: Params, functions: dict[str, ca.Function] | None = Non
     params
         Parameter set.
     functions
-        Model Functions (default: :func:`~ballbot_casadi.model.make_model_functions`);
+        Model Functions (default: :func:`~ballbot_casadi.model.dynamics.make_model_functions`);
         only ``affine`` is used (control-affine split, thesis C.10).
 
     Raises

@@ -297,7 +297,7 @@ def rpy_reference(roll: Any, pitch: Any, yaw: Any) -> tuple[np.ndarray, np.ndarr
     """Quaternion reference from ZYX Euler angles with analytic derivatives.
 
     ``q = qz(yaw) o qy(pitch) o qx(roll)`` (the convention of
-    :func:`ballbot_casadi.quaternion.from_rpy`); the derivatives follow from the
+    :func:`ballbot_casadi.core.quaternion.from_rpy`); the derivatives follow from the
     product rule (thesis E.35).
 
     Parameters

@@ -134,7 +134,7 @@ class Scenario:
         ``{"type": "step", "amplitude_deg", "t_step", "rise_time"}`` or ``{"type":
         "chirp", "amplitude_deg", "f0_hz", "f1_hz", "duration"}``; missing axes are 0.
     velocity_keyframes
-        Rows ``(t_start, vx, vy, yaw_rate)`` of :func:`~ballbot_casadi.references.velocity_profile`
+        Rows ``(t_start, vx, vy, yaw_rate)`` of :func:`~ballbot_casadi.sim.references.velocity_profile`
         (cascade only; empty = stand still).
     pushes
         Rows ``(t, roll_deg, pitch_deg, yaw_deg)``: at the control instant nearest ``t``
@@ -151,7 +151,7 @@ class Scenario:
     Ts, n_sub
         Control period (s, 200 Hz) and RK4 sub-steps per period (plant step Ts/n_sub).
     study
-        Which metric set / spec applies (see :mod:`ballbot_casadi.metrics`).
+        Which metric set / spec applies (see :mod:`ballbot_casadi.analysis.metrics`).
     """
 
     name: str
@@ -270,7 +270,7 @@ class Scenario:
         return tuple(getattr(controllers, "BALANCE_DIAG_NAMES", ()))
 
     def inputs(self, base: Params | None = None) -> dict[str, Any]:
-        """Keyword arguments of :meth:`~ballbot_casadi.simulation.ClosedLoop.simulate`."""
+        """Keyword arguments of :meth:`~ballbot_casadi.sim.closed_loop.ClosedLoop.simulate`."""
 
         p_plant = self.plant_params(base).to_vector()
         p_ctrl = self.controller_params(base).to_vector()
