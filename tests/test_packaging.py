@@ -18,3 +18,23 @@ def test_every_subpackage_is_listed_in_pyproject():
     assert found <= listed, f"subpackages missing from pyproject packages: {found - listed}"
     for pkg, folder in cfg["package-dir"].items():
         assert pkg in listed and (ROOT / folder / "__init__.py").is_file()
+
+
+def test_every_data_file_is_package_data():
+    import fnmatch
+
+    cfg = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    data = cfg["package-data"]
+    for path in (ROOT / "ballbot_casadi").rglob("*"):
+        if path.is_dir() or path.suffix in (".py", ".pyc") or "__pycache__" in path.parts:
+            continue
+        rel = path.relative_to(ROOT)
+        # the innermost package that holds the file and the pattern relative to it
+        for depth in range(len(rel.parts) - 1, 0, -1):
+            pkg = ".".join(rel.parts[:depth])
+            if pkg in data:
+                inner = "/".join(rel.parts[depth:])
+                if any(fnmatch.fnmatch(inner, pat) for pat in data[pkg]):
+                    break
+        else:
+            raise AssertionError(f"{rel} is not package data in pyproject.toml")
