@@ -2,8 +2,8 @@
 
 Writes ``analysis.json``, ``analysis.md`` and PNG plots (pole-zero map, singular values of
 the wheel-torque channels and, once the controllers exist, the closed-loop magnitude) to
-``--out``.  The computation is :mod:`ballbot_casadi.analysis` (plant) and
-:mod:`ballbot_casadi.closed_loop_analysis` (cascade); the report text and plots
+``--out``.  The computation is :mod:`ballbot_casadi.analysis.linear` (plant) and
+:mod:`ballbot_casadi.analysis.closed_loop` (cascade); the report text and plots
 are :mod:`ballbot_casadi.studies.analysis_report`.
 
 Operating point (``--at``)
@@ -17,21 +17,26 @@ code 2.  Default: the balanced attitude at rest (upright for a centred COM).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from ballbot_casadi.studies.analysis_report import write_markdown, write_plots
 
 from ballbot_casadi.analysis import closed_loop as cla
 from ballbot_casadi.analysis import linear as an
 from ballbot_casadi.codegen.libraries import load_model_library
+from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.params import load_params
+from ballbot_casadi.errors import BallbotError, StateError
 from ballbot_casadi.model import linearization as lz
 
-__all__ = ["run_analysis", "summary_text", "demo_step"]
+__all__ = ["run_analysis", "summary_text", "demo_step", "OWNED_OUTPUTS"]
+
+#: Files an existing output folder may hold and still be replaced (earlier outputs).
+OWNED_OUTPUTS = ("analysis.json", "analysis.md", "*.png")
 
 
 def _jsonable(obj: Any) -> Any:
@@ -57,7 +62,10 @@ def run_analysis(
     Parameters
     ----------
     out
-        Output directory (created).
+        Output directory.  It is replaced as a whole when the analysis is complete
+        (:func:`~ballbot_casadi.core.files.staged_dir`), so it never holds a mix of old
+        and new files; it must be new, empty or hold only earlier outputs
+        (:data:`OWNED_OUTPUTS`).
     params_path
         Parameter TOML file; ``None`` = thesis App. A defaults.
     at
@@ -77,7 +85,7 @@ def run_analysis(
     """
 
     params = load_params(params_path)
-    x0 = lz.parse_state_spec(at, params) if at is not None else None
+    x0 = _operating_point(at, params) if at is not None else None
     funcs = None
     if compiled:
         funcs = load_model_library()
@@ -88,13 +96,26 @@ def run_analysis(
     result["parameters_source"] = str(params_path) if params_path else "thesis App. A defaults"
 
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    files = write_plots(lin, result, out) if plots else []
-    md = write_markdown(result, out, result["parameters_source"], files)
-    js = out / "analysis.json"
-    js.write_text(json.dumps(_jsonable(result), indent=2) + "\n", encoding="utf-8")
-    result["files"] = [str(js), str(md), *map(str, files)]
+    # all files appear together: written into a fresh folder that replaces `out` at the end
+    with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
+        files = write_plots(lin, result, tmp) if plots else []
+        md = write_markdown(result, tmp, result["parameters_source"], files)
+        js = tmp / "analysis.json"
+        js.write_text(json.dumps(_jsonable(result), indent=2) + "\n", encoding="utf-8")
+    result["files"] = [str(out / f.name) for f in (js, md, *files)]
     return result
+
+
+def _operating_point(at: str, params: Any) -> Any:
+    """Parse ``--at``; a state where the model overflows is a clear :class:`StateError`."""
+    try:
+        with np.errstate(all="ignore"):
+            return lz.parse_state_spec(at, params)
+    except BallbotError:
+        raise
+    except (ValueError, ArithmeticError) as exc:  # e.g. dx=1e300: the model is Inf there
+        raise StateError(f"operating point {at!r}: the model is not finite there ({exc}); "
+                         "give values it can represent (speeds of m/s, angles in deg)") from None
 
 
 def summary_text(result: dict[str, Any]) -> str:

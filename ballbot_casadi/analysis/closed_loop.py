@@ -4,8 +4,8 @@ The thesis runs the FLC balance controller (inner loop, ch. 8) inside the veloci
 controller (outer loop, §7.3) and requires the inner loop to be at least three times
 faster than the outer one (§7.1); it measures the attitude bandwidth with a chirp test
 (§9.1).  This module linearises the sampled cascade at an operating point of
-:func:`ballbot_casadi.linearization.linearize` by CasADi automatic differentiation through the
-controller Functions (:mod:`ballbot_casadi.controllers`) and computes both loops'
+:func:`ballbot_casadi.model.linearization.linearize` by CasADi automatic differentiation through the
+controller Functions (:mod:`ballbot_casadi.control`) and computes both loops'
 frequency responses and bandwidths.
 """
 
@@ -17,12 +17,13 @@ import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
+from ballbot_casadi import control as C
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import TS_CONTROL
-from ballbot_casadi.model.linearization import NR, LinearModel
-from ballbot_casadi.model.dynamics import NX, make_model_functions
 from ballbot_casadi.core.params import Params
-from ballbot_casadi import control as C
+from ballbot_casadi.errors import ParameterError
+from ballbot_casadi.model.dynamics import NX, make_model_functions
+from ballbot_casadi.model.linearization import NR, LinearModel
 
 __all__ = [
     "TS_CONTROL",
@@ -81,7 +82,7 @@ def analyze_closed_loop(
 ) -> dict[str, Any]:
     """Linearise the cascade (FLC inner loop, velocity outer loop) and find its bandwidths.
 
-    The loop is analysed as it runs (thesis Fig. 7.1 and ``ballbot_casadi.simulation``):
+    The loop is analysed as it runs (thesis Fig. 7.1 and ``ballbot_casadi.sim.period``):
     both controllers sample the state every ``Ts`` and the wheel torques are held
     (zero-order hold).  The plant linearisation ``(A, B)`` at the operating point is
     discretised exactly (:func:`zoh`); the controllers are linearised by CasADi automatic
@@ -106,6 +107,11 @@ def analyze_closed_loop(
       sensitivity bandwidth does not, and the 3x rule verdict ``cascade_rule_ok`` uses
       it (``cascade_rule_ok_3db`` gives the |T| version).
 
+    When no stabilising velocity gain exists for the parameters (e.g. ``g = 0``, where
+    nothing is unstable to balance and the tilt cannot accelerate the ball), or the
+    linearised loop cannot be evaluated numerically, the closed-loop part is skipped
+    and ``closed_loop`` says why (``status`` ``skipped`` or ``failed``, ``message``).
+
     Returns
     -------
     dict
@@ -120,11 +126,28 @@ def analyze_closed_loop(
             "bandwidth_sensitivity_outer_hz": None, "bandwidth_sensitivity_ratio": None,
             "cascade_rule_ok": None}
     funcs = functions if functions is not None else make_model_functions()
-    cf = {"flc": C.make_flc(funcs["affine"]), "vel": C.make_velocity_controller()}
     p = params.to_vector()
+    try:
+        kv = np.asarray(C.default_velocity_gains(funcs["jac"], p, Ts), dtype=float)
+    except ParameterError as exc:  # e.g. g = 0: reported as a result, not a crash
+        return {**none, "closed_loop": {"status": "skipped", "message": str(exc)}}
+    try:
+        with np.errstate(all="ignore"):
+            return _analyze(params, lin, funcs, p, kv, Ts, omega, none)
+    except (np.linalg.LinAlgError, ArithmeticError) as exc:
+        return {**none, "closed_loop": {
+            "status": "failed",
+            "message": f"the linearised cascade is numerically intractable for these "
+                       f"parameters ({type(exc).__name__}: {exc})"}}
+
+
+def _analyze(params: Params, lin: LinearModel, funcs: dict[str, ca.Function], p: np.ndarray,
+             kv: np.ndarray, Ts: float, omega: np.ndarray | None,
+             none: dict[str, Any]) -> dict[str, Any]:
+    """The body of :func:`analyze_closed_loop` once the velocity gain exists."""
+    cf = {"flc": C.make_flc(funcs["affine"]), "vel": C.make_velocity_controller()}
     x0 = lin.op.x
     kb = np.asarray(C.default_balance_gains("flc"), dtype=float)
-    kv = np.asarray(C.default_velocity_gains(funcs["jac"], p, Ts), dtype=float)
     z0 = np.asarray(C.velocity_initial_state(x0), dtype=float)
     v0 = np.array([x0[6] + _VREF_EPS, x0[7], 0.0])
     nz = int(C.VELOCITY_NZ)

@@ -6,9 +6,9 @@ module computes it.  Everything here is numpy/CasADi/python-control; plots and t
 live in :mod:`ballbot_casadi.studies.analyze`.
 
 Operating points and the exact full/reduced linearisation are in
-:mod:`ballbot_casadi.linearization`.
+:mod:`ballbot_casadi.model.linearization`.
 
-The closed loop (cascade bandwidths, 3x rule) is :mod:`ballbot_casadi.closed_loop_analysis`.
+The closed loop (cascade bandwidths, 3x rule) is :mod:`ballbot_casadi.analysis.closed_loop`.
 
 Scaling
 -------
@@ -28,8 +28,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from ballbot_casadi.core.params import Params
-from ballbot_casadi.errors import ShapeError
-from ballbot_casadi.model.dynamics import NU, NX
+from ballbot_casadi.errors import ParameterError, ShapeError
+from ballbot_casadi.model.dynamics import NU, NX, make_model_functions
 from ballbot_casadi.model.linearization import (
     NR,
     REDUCED_STATE_NAMES,
@@ -51,6 +51,9 @@ __all__ = [
     "planar_reduction",
     "analyze_plant",
 ]
+
+#: Largest ``max|Re lambda| T`` of the Gramian horizon ``T`` (``e^30 ~ 1e13``).
+_MAX_GRAMIAN_EXPONENT = 30.0
 
 #: Typical magnitude of each reduced state (thesis §7.1 envelope), used for scaling.
 STATE_SCALE = np.array(
@@ -146,6 +149,8 @@ def controllability(lin: LinearModel, rtol: float = 1e-9, horizon: float = 1.0) 
       subsystem ``z = U^T x``); ``1 / lambda_min(U^T W U)`` is the least input energy
       (in ``tau_max^2 s``) that moves the group by one scale unit in its weakest
       direction within ``T`` seconds.  Larger energy = more weakly controllable.
+      ``T`` is ``horizon``, shortened to ``30 / max|Re lambda|`` for very fast modes so
+      that ``e^{A T}`` stays finite; the returned ``horizon`` is the one used.
 
     Returns
     -------
@@ -174,7 +179,15 @@ def controllability(lin: LinearModel, rtol: float = 1e-9, horizon: float = 1.0) 
             s = np.linalg.svd(np.hstack([A - lam * np.eye(n), B]), compute_uv=False)[-1] / AB_norm
             pbh.append({"eigenvalue": complex(lam), "sigma_min": float(s), "controllable": bool(s > rtol)})
 
+    # e^{|A| T} must stay far from overflow: a very fast mode (e.g. a heavy body on a
+    # light frame) shortens the horizon, which the result reports.
+    lam_max = float(np.max(np.abs(np.linalg.eigvals(A).real)))
+    if lam_max * horizon > _MAX_GRAMIAN_EXPONENT:
+        horizon = _MAX_GRAMIAN_EXPONENT / lam_max
     W = finite_gramian(A, B, horizon)
+    if not np.all(np.isfinite(W)):
+        raise ParameterError("the controllability Gramian of the linearised model is not "
+                             "finite for these parameters")
     modes = []
     for g in groups:
         U = _left_invariant_subspace(A, g)
@@ -323,6 +336,40 @@ def planar_reduction(params: Params) -> dict[str, float]:
 # --------------------------------------------------------------------------- full plant report
 
 
+def _largest_parameters(params: Params, n: int = 3) -> str:
+    """The ``n`` parameters of largest magnitude, for messages about overflow."""
+    vals = params.as_dict()
+    top = sorted(vals, key=lambda k: -abs(float(vals[k])))[:n]
+    return "largest: " + ", ".join(f"{k} = {float(vals[k]):g}" for k in top)
+
+
+def _check_model_finite(params: Params, x0: Any | None,
+                        functions: dict[str, ca.Function] | None) -> None:
+    """Refuse parameters (or an operating point) where the model itself overflows.
+
+    Legal but extreme values (e.g. ``Mb = 1e308``) make products such as ``Mb g l``
+    exceed double precision; the ODE and its Jacobians are then Inf/NaN and no linear
+    analysis exists.  Checked at the operating point (or upright at rest) with zero torque.
+    """
+    funcs = functions if functions is not None else make_model_functions()
+    if x0 is None:
+        x = np.zeros(NX)
+        x[2] = 1.0
+    else:
+        x = np.asarray(x0, dtype=float).reshape(-1)
+    p = params.to_vector()
+    with np.errstate(all="ignore"):
+        f = np.asarray(funcs["ode"](x, np.zeros(NU), p), dtype=float)
+        A, B = (np.asarray(M, dtype=float) for M in funcs["jac"](x, np.zeros(NU), p))
+    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        where = "upright at rest" if x0 is None else "the operating point"
+        raise ParameterError(
+            f"the model evaluates to Inf/NaN {'' if x0 is None else 'at '}{where} with these "
+            f"parameters ({_largest_parameters(params)}): products of the parameters overflow "
+            "double precision, so no linear analysis exists; use physically meaningful values")
+
+
+
 def _cplx(v: Sequence[complex]) -> list[list[float]]:
     return [[float(np.real(z)), float(np.imag(z))] for z in v]
 
@@ -350,7 +397,16 @@ def analyze_plant(
         ``rhp_zeros_position`` (from the square ``pose`` channel, see :data:`CHANNELS`)
         and the planar hand derivation (:func:`planar_reduction`).
     """
-    lin = linearize(params, x0, functions)
+    _check_model_finite(params, x0, functions)
+    try:
+        with np.errstate(all="ignore"):
+            lin = linearize(params, x0, functions)
+    except (np.linalg.LinAlgError, ArithmeticError) as exc:
+        raise ParameterError(f"the model cannot be trimmed and linearised with these "
+                             f"parameters ({type(exc).__name__}: {exc})") from None
+    if not all(np.all(np.isfinite(M)) for M in (lin.A, lin.B, lin.Ar, lin.Br)):
+        raise ParameterError("the linearised model is not finite for these parameters "
+                             f"({_largest_parameters(params)})")
     ef, er = lin.eig_full(), lin.eig_reduced()
     # constraint eigenvalues: those of the full model left after matching the reduced ones
     rest = list(ef)

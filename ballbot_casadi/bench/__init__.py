@@ -7,6 +7,7 @@ per call, (A, B) <= 3 us per call.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import time
 from importlib import resources
@@ -19,12 +20,17 @@ import numpy as np
 from ballbot_casadi.bench.control import bench_control
 from ballbot_casadi.bench.fmu import bench_fmu
 from ballbot_casadi.codegen.libraries import model_library
+from ballbot_casadi.core.files import atomic_write_text
 from ballbot_casadi.core.params import load_params
-from ballbot_casadi.core.toolchain import CFLAGS, build_root
-from ballbot_casadi.errors import BuildError
+from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, run_tool
+from ballbot_casadi.errors import BallbotError
 from ballbot_casadi.model.dynamics import make_ode
 
-__all__ = ["bench_model", "run_benchmarks", "BENCHMARKS"]
+__all__ = ["bench_model", "run_benchmarks", "BENCHMARKS", "BenchmarkError"]
+
+
+class BenchmarkError(BallbotError, ValueError):
+    """An unknown benchmark group was requested."""
 
 
 def _python_call_ns(n: int = 20000) -> float:
@@ -53,11 +59,10 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
     out.mkdir(parents=True, exist_ok=True)
     src = Path(str(resources.files("ballbot_casadi.bench") / "csrc" / "bench_model.c"))
     exe = out / "bench_model"
-    cmd = ["gcc", *CFLAGS, "-I", str(lib.header.parent), "-o", str(exe), str(src),
-           str(lib.static), "-lm"]
-    res = subprocess.run(cmd, capture_output=True, text=True)
-    if res.returncode != 0:
-        raise BuildError(f"compiling the model benchmark failed:\n{res.stderr[-3000:]}")
+    tmp = out / f".bench_model.{os.getpid()}.tmp"
+    run_tool([*compiler_command(), *CFLAGS, "-I", str(lib.header.parent), "-o", str(tmp),
+              str(src), str(lib.static), "-lm"], "compiling the model benchmark")
+    os.replace(tmp, exe)  # a concurrent run keeps the executable it started
     p = [repr(float(v)) for v in load_params().to_vector()]
     run = subprocess.run([str(exe), str(n_calls), *p], capture_output=True, text=True, check=True)
     data = json.loads(run.stdout)
@@ -78,14 +83,27 @@ BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
 
 
 def run_benchmarks(path: Path, only: list[str] | None = None) -> dict[str, float]:
-    """Run the benchmark groups and merge their results into the JSON file ``path``."""
+    """Run the benchmark groups and merge their results into the JSON file ``path``.
+
+    Raises
+    ------
+    BenchmarkError
+        ``only`` names a group that does not exist (nothing is run).
+    """
+    unknown = [n for n in only or () if n not in BENCHMARKS]
+    if unknown:
+        raise BenchmarkError(f"unknown benchmark group(s) {', '.join(map(repr, unknown))}; "
+                             f"valid groups: {', '.join(BENCHMARKS)}")
     results: dict[str, float] = {}
     if path.is_file():
-        results.update(json.loads(path.read_text()))
+        try:
+            results.update(json.loads(path.read_text()))
+        except ValueError:
+            pass  # a damaged earlier file is replaced by this run's results
     for name, fn in BENCHMARKS.items():
         if only and name not in only:
             continue
         results.update(fn())
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(results, indent=2, sort_keys=True) + "\n")
+    atomic_write_text(path, json.dumps(results, indent=2, sort_keys=True) + "\n")
     return results

@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from ballbot_casadi.studies.analyze import run_analysis, summary_text
+from ballbot_casadi.core.files import check_input_file, check_output_dir
+from ballbot_casadi.studies.analyze import OWNED_OUTPUTS, run_analysis, summary_text
 
 __all__ = ["add_parser"]
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
+    if args.params is not None:
+        check_input_file(args.params, "--params")
+    check_output_dir(args.out, "--out", owned=OWNED_OUTPUTS)
     result = run_analysis(args.out, args.params, args.at, plots=not args.no_plots, compiled=args.compiled)
     print(summary_text(result))
     print(f"written: {', '.join(result['files'])}")

@@ -6,9 +6,14 @@ import argparse
 from pathlib import Path
 from typing import Callable
 
-from ballbot_casadi.bench import run_benchmarks
-from ballbot_casadi.core.params import load_params
+from ballbot_casadi.bench import BENCHMARKS, run_benchmarks
 from ballbot_casadi.codegen.libraries import run_codegen
+from ballbot_casadi.core.files import (
+    check_input_file,
+    check_output_dir,
+    check_output_file,
+)
+from ballbot_casadi.core.params import load_params
 from ballbot_casadi.model.linearization import model_summary
 from ballbot_casadi.studies import analyze, fmu_demo, report, study
 
@@ -16,17 +21,21 @@ __all__ = ["add_parser", "DEMO_STEPS"]
 
 
 def _cmd_codegen(args: argparse.Namespace) -> int:
+    # build_library verifies every cached file against its manifest and rebuilds it if needed
     for name, lib in run_codegen().items():
-        print(f"{name}: {lib.source}  ->  {lib.shared}, {lib.static}")
+        print(f"{name} ({lib.status}): {lib.source}  ->  {lib.shared}, {lib.static}")
     return 0
 
 
 def _cmd_summary(args: argparse.Namespace) -> int:
+    if args.params is not None:
+        check_input_file(args.params, "--params")
     print(model_summary(load_params(args.params)))
     return 0
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
+    check_output_file(args.out, "--out")
     results = run_benchmarks(Path(args.out), args.only)
     for key, value in sorted(results.items()):
         print(f"{key:28s} {value:.6g}" if isinstance(value, float) else f"{key:28s} {value}")
@@ -52,7 +61,7 @@ DEMO_STEPS: tuple[tuple[str, Callable[[Path], int]], ...] = (
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    out = Path(args.out)
+    out = check_output_dir(args.out, "--out")
     out.mkdir(parents=True, exist_ok=True)
     status = 0
     for title, step in DEMO_STEPS:
@@ -73,9 +82,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--params", help="parameter TOML file (default: thesis App. A)")
     p.set_defaults(func=_cmd_summary)
     p = sub.add_parser("bench", help="run benchmarks and write a JSON file")
-    p.add_argument("--out", default="build/bench.json")
-    p.add_argument("--only", nargs="*", help="benchmark groups to run (default: all)")
+    p.add_argument("--out", default="build/bench.json", help="JSON file (default build/bench.json)")
+    p.add_argument("--only", nargs="*", choices=list(BENCHMARKS), metavar="GROUP",
+                   help=f"benchmark groups to run: {', '.join(BENCHMARKS)} (default: all)")
     p.set_defaults(func=_cmd_bench)
     p = sub.add_parser("demo", help="the main job: build, analyse, simulate, report")
-    p.add_argument("--out", default="build/demo")
+    p.add_argument("--out", default="build/demo", help="output directory (default build/demo)")
     p.set_defaults(func=_cmd_demo)

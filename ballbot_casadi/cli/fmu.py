@@ -8,8 +8,9 @@ from pathlib import Path
 from fmpy import dump
 from fmpy.validation import validate_fmu
 
+from ballbot_casadi.core.files import PathError, check_input_file, check_output_dir
 from ballbot_casadi.core.toolchain import build_root
-from ballbot_casadi.fmi.build import build_fmu
+from ballbot_casadi.fmi.build import build_fmu, validate_fmu_archive
 
 __all__ = ["add_parser"]
 
@@ -19,25 +20,34 @@ def _default_fmu() -> Path:
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
+    if args.out is not None:
+        check_output_dir(args.out, "--out")
     b = build_fmu(args.out)
-    print(f"{b.fmu}  (GUID {b.guid}, cache {b.digest})")
+    print(f"{b.fmu}  (GUID {b.guid}, cache {b.digest}, {b.status})")
     return 0
 
 
-def _cmd_info(args: argparse.Namespace) -> int:
-    path = Path(args.fmu) if args.fmu else _default_fmu()
+def _fmu_arg(args: argparse.Namespace) -> Path:
+    """The FMU to inspect: the positional argument or the default build (checked)."""
+    if args.fmu:
+        return check_input_file(args.fmu, "FMU")
+    path = _default_fmu()
     if not path.is_file():
-        print(f"{path} does not exist; run 'ballbot fmu build' first")
-        return 1
+        raise PathError(f"{path} does not exist; run 'ballbot fmu build' first")
+    return path
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    path = _fmu_arg(args)
+    validate_fmu_archive(path, require_binary=False)
     dump(str(path))
     return 0
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    path = Path(args.fmu) if args.fmu else _default_fmu()
-    if not path.is_file():
-        print(f"{path} does not exist; run 'ballbot fmu build' first")
-        return 1
+    path = _fmu_arg(args)
+    # a broken zip is a clear error, not an fmpy traceback
+    validate_fmu_archive(path, require_binary=False)
     problems = validate_fmu(str(path))
     for p in problems:
         print(f"problem: {p}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ballbot_casadi.core.files import check_output_dir
 from ballbot_casadi.studies.registry import STUDY_NAMES
 from ballbot_casadi.studies.study import CONTROLLERS, format_summary, run_all, run_study
 
@@ -12,6 +13,8 @@ __all__ = ["add_parser"]
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
+    if args.out:
+        check_output_dir(args.out, "--out")
     if args.name == "all":
         table = run_all(Path(args.out) if args.out else None, plot=not args.no_plot)
         ok = True
@@ -32,7 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``ballbot study <name>``."""
     p = sub.add_parser(
         "study",
-        help="run a closed-loop acceptance study (exit 1 if its spec is not met)",
+        help="run a closed-loop acceptance study (exit 1 if its spec is not met, 2 on bad input)",
         description="Closed-loop acceptance studies (issue 4): " + ", ".join(STUDY_NAMES)
         + "; 'all' runs every study for flc and smc.",
     )

@@ -335,11 +335,14 @@ def check_output_dir(path: str | os.PathLike, what: str = "--out",
     if any(r == d or d in r.parents for d in _PSEUDO_FS for r in (absolute, real)):
         raise PathError(f"{what} {p}: /proc, /sys and /dev are system pseudo-file systems; "
                         "give a normal directory")
-    if p.exists() and not p.is_dir():
-        raise PathError(f"{what} {p} is an existing file; give a directory")
-    base = absolute
-    while not base.exists():
-        base = base.parent
+    try:
+        if p.exists() and not p.is_dir():
+            raise PathError(f"{what} {p} is an existing file; give a directory")
+        base = absolute
+        while not base.exists():
+            base = base.parent
+    except OSError as exc:  # e.g. an ancestor that may not be entered
+        raise PathError(f"{what} {p}: cannot access it ({exc.strerror or exc})") from None
     if not base.is_dir():
         raise PathError(f"{what} {p}: {base} is a file, so the directory cannot be created")
     try:

@@ -10,6 +10,7 @@ import numpy as np
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.core.validation import as_vector, check_state
+from ballbot_casadi.errors import BallbotTypeError, StateError
 from ballbot_casadi.model.dynamics import NU, NX, make_model_functions
 
 __all__ = ["BallbotModel", "Energy", "make_state"]
@@ -36,10 +37,28 @@ def make_state(
     """12-state from position, ZYX angles (rad), ball velocity and body-frame angular rate.
 
     ``dq = 1/2 q o ^omega_b`` (thesis E.32).
+
+    Raises
+    ------
+    StateError
+        A value is NaN or infinite (names the argument).
+    BallbotTypeError
+        A scalar argument is not a real number.
     """
-    q = Q.from_rpy(roll, pitch, yaw)
-    dq = 0.5 * Q.mul(q, Q.hat(as_vector(omega_body, 3, "omega_body")))
-    return np.concatenate([[x, y], q, [dx, dy], dq])
+    scalars = {"x": x, "y": y, "roll": roll, "pitch": pitch, "yaw": yaw, "dx": dx, "dy": dy}
+    for name, value in scalars.items():
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise BallbotTypeError(f"make_state: {name} must be a real number, got "
+                                   f"{value!r}") from None
+        if not np.isfinite(v):
+            raise StateError(f"make_state: {name} must be finite, got {v}")
+        scalars[name] = v
+    w = as_vector(omega_body, 3, "make_state: omega_body")
+    q = Q.from_rpy(scalars["roll"], scalars["pitch"], scalars["yaw"])
+    dq = 0.5 * Q.mul(q, Q.hat(w))
+    return np.concatenate([[scalars["x"], scalars["y"]], q, [scalars["dx"], scalars["dy"]], dq])
 
 
 class BallbotModel:
@@ -48,11 +67,11 @@ class BallbotModel:
     Parameters
     ----------
     params
-        A :class:`~ballbot_casadi.params.Params`; ``None`` loads the defaults.
+        A :class:`~ballbot_casadi.core.params.Params`; ``None`` loads the defaults.
     functions
         Optional dict of model Functions (e.g. compiled ones from
         :func:`ballbot_casadi.codegen.load_model_library`); default: the symbolic ones
-        of :func:`ballbot_casadi.model.make_model_functions`.
+        of :func:`ballbot_casadi.model.dynamics.make_model_functions`.
 
     Notes
     -----
