@@ -101,7 +101,7 @@ def make_closed_loop_step(
         (4 each, used when ``cascade = 0``), ``v_ref`` (3, used when ``cascade = 1``),
         ``w`` (6, :data:`~ballbot_casadi.core.layout.DISTURBANCE`: attitude jump rotation
         vector in {K}, wheel-torque disturbance), then the constants ``p_plant, p_ctrl,
-        k_bal, k_vel, Ts, cascade``.  Outputs ``xz_next``, ``x`` (state the controllers
+        k_bal, k_vel, Ts, cascade, feedforward``.  Outputs ``xz_next``, ``x`` (state the controllers
         saw, after the jump), ``tau_cmd`` (controller output), ``tau`` (torque acting on
         the plant: saturated, plus the disturbance), the references used and ``diag``.
     """
@@ -112,7 +112,8 @@ def make_closed_loop_step(
     seq = {"q_ref": MX("q_ref", 4), "dq_ref": MX("dq_ref", 4), "ddq_ref": MX("ddq_ref", 4),
            "v_ref": MX("v_ref", 3), "w": MX("w", DISTURBANCE.size)}
     const = {"p_plant": MX("p_plant", NP), "p_ctrl": MX("p_ctrl", NP), "k_bal": MX("k_bal", s["nk"]),
-             "k_vel": MX("k_vel", s["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade")}
+             "k_vel": MX("k_vel", s["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade"),
+             "feedforward": MX("feedforward")}
     plant = rk4_plant(ode, n_sub, const["p_plant"], const["Ts"])
     out = control_period(blocks, xz[:NX], xz[NX:], seq, const, plant)
     return ca.Function(
@@ -381,12 +382,15 @@ class ClosedLoop:
         w: np.ndarray,
         Ts: float = TS_CONTROL,
         cascade: bool = False,
+        feedforward: bool = True,
         n_sub: int | None = None,
     ) -> dict[str, np.ndarray]:
         """Run one mission in a single Function call.
 
         Sequences are ``(N, size)`` arrays (one row per control period).  ``n_sub``
-        (default: the instance's) sets the RK4 sub-steps per period.  Returns the
+        (default: the instance's) sets the RK4 sub-steps per period; ``feedforward =
+        False`` gives the balance controller a zero reference acceleration (thesis
+        mode, see :mod:`~ballbot_casadi.sim.period`).  Returns the
         named arrays of the log: ``time`` (N+1), ``state`` (N+1, 12; row k < N is the
         state the controllers saw at ``t_k``, the last row the final state),
         ``z`` (N+1, NZ), ``tau_cmd``, ``tau`` (N, 3; ``tau`` acts on the plant:
@@ -413,7 +417,8 @@ class ClosedLoop:
         xz0 = np.concatenate([np.asarray(x0, float).reshape(NX), np.asarray(z0, float).reshape(-1)])
         args = [xz0, *(seqs[k] for k in SEQUENCE_INPUTS),
                 np.asarray(p_plant, float), np.asarray(p_ctrl, float), np.asarray(k_bal, float),
-                np.asarray(k_vel, float), float(Ts), 1.0 if cascade else 0.0]
+                np.asarray(k_vel, float), float(Ts), 1.0 if cascade else 0.0,
+                1.0 if feedforward else 0.0]
         step = self.step(controller, n_sub)
         for i, a in enumerate(args[6:], start=6):
             if np.size(a) != step.size1_in(i):
@@ -454,6 +459,9 @@ def run_scenario(scenario: Any, sim: ClosedLoop | None = None) -> SimulationLog:
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"run_scenario needs a Scenario, got {type(scenario).__name__}")
+    if scenario.estimator != "true":
+        raise ScenarioError(f"scenario {scenario.name!r}: estimator {scenario.estimator!r} is not "
+                            "wired into the closed loop yet; use estimator = 'true'")
     sim = ClosedLoop() if sim is None else sim
     arrays = sim.simulate(scenario.controller, **scenario.inputs(), n_sub=scenario.n_sub)
     return SimulationLog(

@@ -9,7 +9,9 @@ The sequence of one period ``[t_k, t_k + Ts)`` is
    and its next state ``z``; with ``cascade = 0`` the references come from the input
    sequences instead (balance controller alone, thesis Fig. 8.1) and ``z`` is held;
 3. **balance controller** (FLC thesis 8.26/8.44, or SMC) computes ``tau_cmd`` on its own
-   internal-model parameters ``p_ctrl``;
+   internal-model parameters ``p_ctrl``; with ``feedforward = 0`` it gets the reference's
+   second derivative as zero, as the thesis's FLC (8.44) and the predecessor's sliding
+   mode controller did (``feedforward = 1``: the exact reference acceleration);
 4. **torque limits** - a direction-preserving limit at the controller's ``tau_max``
    (:func:`~ballbot_casadi.control.saturate_torques`), then the plant's physical
    per-wheel saturation at the plant's ``tau_max``;
@@ -55,7 +57,7 @@ __all__ = [
 #: Per-period input sequences of a period, in order (sizes: 4, 4, 4, 3, 6).
 SEQUENCE_INPUTS = ("q_ref", "dq_ref", "ddq_ref", "v_ref", "w")
 #: Inputs constant over a mission, in order.
-CONSTANT_INPUTS = ("p_plant", "p_ctrl", "k_bal", "k_vel", "Ts", "cascade")
+CONSTANT_INPUTS = ("p_plant", "p_ctrl", "k_bal", "k_vel", "Ts", "cascade", "feedforward")
 #: Per-period outputs of :func:`control_period` besides the next plant and controller states.
 PERIOD_OUTPUTS = ("x", "tau_cmd", "tau", "q_ref_used", "dq_ref_used", "ddq_ref_used", "diag")
 
@@ -166,7 +168,7 @@ def control_period(
         ``v_ref``, ``w``).
     const
         The :data:`CONSTANT_INPUTS` (``p_plant``, ``p_ctrl``, ``k_bal``, ``k_vel``,
-        ``Ts``, ``cascade``).
+        ``Ts``, ``cascade``, ``feedforward``).
     plant
         ``plant(xk, tau, tau_lim, tau_dist) -> x_next``: advance the plant over the
         period from the pushed state ``xk``; ``tau`` is the torque acting on the plant
@@ -190,6 +192,7 @@ def control_period(
     qr = _select(on, qv, seq["q_ref"])
     dqr = _select(on, dqv, seq["dq_ref"])
     ddqr = _select(on, ddqv, seq["ddq_ref"])
+    ddqr = ddqr * (const["feedforward"] if _symbolic(const["feedforward"]) else float(const["feedforward"]))
     z_next = _select(on, zv, z)
 
     tau_cmd, diag = (_value(v) for v in blocks.balance(xk, qr, dqr, ddqr, p_ctrl, const["k_bal"]))

@@ -41,11 +41,17 @@ from ballbot_casadi.sim import references as R
 
 __all__ = [
     "Scenario",
+    "FEEDFORWARD_MODES",
+    "ESTIMATOR_CHOICES",
     "initial_state",
     "apply_changes",
 ]
 
 _SIGNAL_TYPES = ("const", "sine", "step", "chirp")
+#: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
+FEEDFORWARD_MODES = ("exact", "none")
+#: What the controllers read: the true state, or estimates from noisy sensors.
+ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
 _CHANGE_OPS = ("set", "scale", "add")
 
 
@@ -150,8 +156,19 @@ class Scenario:
         Gain vectors; empty = the controller package's defaults.
     Ts, n_sub
         Control period (s, 200 Hz) and RK4 sub-steps per period (plant step Ts/n_sub).
+    feedforward
+        ``"exact"`` (default): the balance controller gets the reference's second
+        derivative; ``"none"``: it gets zero, as the thesis's FLC (8.44) and the
+        predecessor's sliding mode did.
+    estimator
+        What the controllers read: ``"true"`` (the true state, default), ``"ukf"``
+        (noisy sensors, QUKF + VUKF, thesis ch. 4-5) or ``"ekf"`` (noisy sensors, the
+        predecessor's EKFs).
+    seed
+        Seed of the sensor-noise generator (int >= 0; runs with the same seed are
+        identical bit for bit).
     study
-        Which metric set / spec applies (see :mod:`ballbot_casadi.analysis.metrics`).
+        Which study the scenario belongs to (:mod:`ballbot_casadi.studies.registry`).
     """
 
     name: str
@@ -169,6 +186,9 @@ class Scenario:
     k_vel: tuple = ()
     Ts: float = TS_CONTROL
     n_sub: int = N_SUB
+    feedforward: str = "exact"
+    estimator: str = "true"
+    seed: int = 0
     study: str = ""
     description: str = ""
 
@@ -192,6 +212,14 @@ class Scenario:
             raise ScenarioError(f"scenario {self.name!r}: duration shorter than one control period")
         if not isinstance(self.n_sub, int) or isinstance(self.n_sub, bool) or self.n_sub < 1:
             raise ScenarioError(f"scenario {self.name!r}: n_sub must be an int >= 1, got {self.n_sub!r}")
+        if self.feedforward not in FEEDFORWARD_MODES:
+            raise ScenarioError(f"scenario {self.name!r}: feedforward {self.feedforward!r} unknown; "
+                                f"allowed: {', '.join(FEEDFORWARD_MODES)}")
+        if self.estimator not in ESTIMATOR_CHOICES:
+            raise ScenarioError(f"scenario {self.name!r}: estimator {self.estimator!r} unknown; "
+                                f"allowed: {', '.join(ESTIMATOR_CHOICES)}")
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or not 0 <= self.seed < 2**32:
+            raise ScenarioError(f"scenario {self.name!r}: seed must be an int in [0, 2^32), got {self.seed!r}")
         object.__setattr__(self, "x0", tuple(float(v) for v in check_state(self.x0, "initial state x0")))
         unknown = sorted(set(self.attitude) - {"roll", "pitch", "yaw"})
         if unknown:
@@ -298,6 +326,7 @@ class Scenario:
             "w": self.disturbance(),
             "Ts": self.Ts,
             "cascade": self.cascade,
+            "feedforward": self.feedforward == "exact",
         }
 
     # -- serialisation -----------------------------------------------------------------

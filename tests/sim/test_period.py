@@ -180,3 +180,15 @@ def test_actuate_on_numbers_and_symbols_agree():
     f = ca.Function("a", [ts, ds], [actuate(ts, ds, 1.98)])
     np.testing.assert_array_equal(num, np.ravel(f(t, d)))
     np.testing.assert_array_equal(num, [2.08, -2.18, 0.3])
+
+
+def test_feedforward_none_gives_the_balance_controller_zero_reference_acceleration(sim):
+    sc = study_scenarios("sine", "flc")[0].replace(duration=2.0)
+    exact, none = run_scenario(sc, sim), run_scenario(sc.replace(feedforward="none"), sim)
+    assert np.max(np.abs(exact["ddq_ref"])) > 1e-3
+    np.testing.assert_array_equal(none["ddq_ref"], 0.0)
+    np.testing.assert_array_equal(exact["q_ref"], none["q_ref"])
+    # without the feed-forward the roll lags more (thesis FLC 8.44 tracks with a lag)
+    roll = lambda log: np.degrees(2 * np.arcsin(log["state"][:-1, 3]))  # noqa: E731
+    ref = np.degrees(2 * np.arcsin(exact["q_ref"][:, 1]))
+    assert np.max(np.abs(roll(none) - ref)) > 3 * np.max(np.abs(roll(exact) - ref))

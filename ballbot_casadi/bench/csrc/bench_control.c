@@ -108,6 +108,7 @@ int main(int argc, char **argv) {
   memcpy(xz + 12, z, sizeof(casadi_real) * (size_t)nz);
   ca_[0] = xz; ca_[1] = zero4; ca_[2] = zero4; ca_[3] = zero4; ca_[4] = vref; ca_[5] = w6;
   ca_[6] = p; ca_[7] = p; ca_[8] = kf; ca_[9] = kv; ca_[10] = &Ts; ca_[11] = &one;
+  ca_[12] = &one;
   cr[0] = xzn; cr[1] = xo; cr[2] = tc; cr[3] = ts_; cr[4] = q1; cr[5] = q2; cr[6] = q3; cr[7] = dg;
   wch = alloc_work(ballbot_cl_chunk_flc_work);
   for (i = 0; i < CHUNK; ++i) {
@@ -116,7 +117,7 @@ int main(int argc, char **argv) {
   }
   wch.arg[0] = xz; wch.arg[1] = sq; wch.arg[2] = sz4; wch.arg[3] = sz4; wch.arg[4] = sv;
   wch.arg[5] = sw; wch.arg[6] = p; wch.arg[7] = p; wch.arg[8] = kf; wch.arg[9] = kv;
-  wch.arg[10] = &Ts; wch.arg[11] = &one;
+  wch.arg[10] = &Ts; wch.arg[11] = &one; wch.arg[12] = &one;
   for (k = 0; k < 9; ++k) wch.res[k] = chunk_out[k];
   for (rep = 0; rep < 5; ++rep) {
     double t0 = now_ns(), t;
