@@ -336,6 +336,12 @@ def planar_reduction(params: Params) -> dict[str, float]:
 # --------------------------------------------------------------------------- full plant report
 
 
+def _quiet(fn: Any, *args: Any) -> Any:
+    """Call ``fn`` with floating-point warnings off (extreme parameters give NaN -> null)."""
+    with np.errstate(all="ignore"):
+        return fn(*args)
+
+
 def _largest_parameters(params: Params, n: int = 3) -> str:
     """The ``n`` parameters of largest magnitude, for messages about overflow."""
     vals = params.as_dict()
@@ -461,6 +467,6 @@ def analyze_plant(
         **{f"rhp_zeros_{n}": _real_list([complex(*z) for z in c["rhp_zeros"]]) for n, c in chans.items()},
         "rhp_zeros_position": _real_list([complex(*z) for z in chans["pose"]["rhp_zeros"]]),
         "rhp_zeros_position_2x3": _real_list([complex(*z) for z in chans["position"]["rhp_zeros"]]),
-        "planar_reduction": planar_reduction(params),
+        "planar_reduction": _quiet(planar_reduction, params),
     }
     return lin, result

@@ -154,4 +154,7 @@ def test_cli_build_info_validate(plant, capsys):
     assert "valid" in capsys.readouterr().out
     assert cli_main(["fmu", "info", str(plant.fmu)]) == 0
     assert "BallbotPlant" in capsys.readouterr().out
-    assert cli_main(["fmu", "validate", str(out / "missing.fmu")]) == 1
+    capsys.readouterr()
+    assert cli_main(["fmu", "validate", str(out / "missing.fmu")]) == 2  # a bad path: user error
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "missing.fmu does not exist" in err

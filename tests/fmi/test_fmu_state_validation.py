@@ -1,0 +1,147 @@
+"""FMU edges: crafted serialised states are refused, the error state is sticky until reset.
+
+The serialised layout (fmu/fmi2_common.c) is public, and so is its FNV-1a checksum, so
+a crafted state passes the checksum: the restore itself must validate the content.
+Layout: magic[8] | GUID hash u64 | n_reals u64 | type i32 | mode u32 | time f64 |
+t_start f64 | r[n_reals] f64 | FNV-1a-64 of everything before.
+"""
+
+from __future__ import annotations
+
+import struct
+from ctypes import c_double, c_uint
+
+import numpy as np
+import pytest
+from _fmu_support import STATES, Plant, vrs
+from fmpy.fmi1 import FMICallException
+
+from ballbot_casadi.model.numeric import make_state
+
+pytestmark = pytest.mark.needs_cc
+
+MODE_OFFSET, R_OFFSET = 28, 48
+ST_EVENT, ST_STEP_COMPLETE, ST_STEP_FAILED = 1 << 2, 1 << 4, 1 << 5
+
+
+def _fnv1a(data: bytes) -> int:
+    h = 1469598103934665603
+    for b in data:
+        h = ((h ^ b) * 1099511628211) & 0xFFFFFFFFFFFFFFFF
+    return h
+
+
+def _reseal(body: bytes) -> bytes:
+    """Append the checksum the FMU expects (anyone can compute it)."""
+    return body + struct.pack("<Q", _fnv1a(body))
+
+
+def _craft(blob: bytes, mode: int | None = None, **values: float) -> bytes:
+    body = bytearray(blob[:-8])
+    if mode is not None:
+        body[MODE_OFFSET:MODE_OFFSET + 4] = struct.pack("<I", mode)
+    for name, v in values.items():
+        off = R_OFFSET + 8 * vrs(name)[0]
+        body[off:off + 8] = struct.pack("<d", v)
+    return _reseal(bytes(body))
+
+
+@pytest.fixture()
+def cs_blob():
+    p = Plant("cs", name="source")
+    x0 = make_state(roll=0.02, dx=0.1)
+    p.init(**dict(zip(STATES, x0.tolist())))
+    p.step(0.005, 4)
+    s = p.fmu.getFMUstate()
+    blob = bytes(p.fmu.serializeFMUstate(s))
+    p.fmu.freeFMUstate(s)
+    p.free()
+    assert struct.unpack_from("<I", blob, MODE_OFFSET)[0] == ST_STEP_COMPLETE
+    return blob
+
+
+def _restore(blob: bytes) -> tuple[Plant, bool]:
+    q = Plant("cs", name="target")
+    try:
+        s = q.fmu.deSerializeFMUstate(blob)
+    except FMICallException:
+        return q, False
+    q.fmu.setFMUstate(s)
+    q.fmu.freeFMUstate(s)
+    return q, True
+
+
+def test_resealed_unmodified_state_is_accepted(cs_blob):
+    # the checksum computed here is the FMU's: a refusal below is about the content
+    assert _reseal(cs_blob[:-8]) == cs_blob
+    q, ok = _restore(_craft(cs_blob, q1=0.0, q2=0.0, q3=0.0, q0=1.0))
+    assert ok and q.errors() == []
+    assert q.get("q0")[0] == 1.0
+    q.free()
+
+
+@pytest.mark.parametrize("mode, message", [
+    (ST_STEP_COMPLETE | ST_STEP_FAILED, "exactly one mode bit"),
+    (ST_STEP_COMPLETE | 1, "exactly one mode bit"),
+    (0, "invalid mode"),
+    (1 << 8, "invalid mode"),  # fatal is never a state to restore
+    (ST_EVENT, "does not exist for a Co-Simulation instance"),
+])
+def test_crafted_mode_is_refused(cs_blob, mode, message):
+    q, ok = _restore(_craft(cs_blob, mode=mode))
+    assert not ok
+    assert any(message in m for m in q.errors()), q.errors()
+    q.free()
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"q0": 5.0}, "quaternion"),
+    ({"q0": 0.0, "q1": 0.0, "q2": 0.0, "q3": 0.0}, "quaternion"),
+    ({"Mb": -1.0}, "Mb"),
+    ({"dq1": float("nan")}, "dq1"),
+])
+def test_crafted_values_are_refused_by_the_start_value_checks(cs_blob, values, message):
+    q, ok = _restore(_craft(cs_blob, **values))
+    assert not ok
+    assert any(message in m for m in q.errors()), q.errors()
+    # the instance is unchanged and still usable
+    q.init()
+    q.step(0.005)
+    assert np.all(np.isfinite(q.state()))
+    q.free()
+
+
+def test_restored_state_may_carry_integration_drift(cs_blob):
+    # a state the FMU integrated is not exactly unit norm; a tiny drift must restore
+    q, ok = _restore(_craft(cs_blob, q0=1.0 + 1e-5, q1=0.0, q2=0.0, q3=0.0))
+    assert ok, q.errors()
+    q.free()
+
+
+def _raw_get(p: Plant, names: list[str]) -> tuple[int, list[float]]:
+    vr = vrs(*names)
+    out = (c_double * len(vr))()
+    st = p.raw("fmi2GetReal", (c_uint * len(vr))(*vr), len(vr), out)
+    return st, list(out)
+
+
+def test_get_real_keeps_failing_after_an_error_until_reset():
+    p = Plant("me")
+    p.init()
+    x = make_state().tolist()
+    x[STATES.index("dq1")] = 1e200  # the derivatives overflow
+    p.fmu.setContinuousStates((c_double * 12)(*x), 12)
+    st, _ = _raw_get(p, ["der(dq1)"])
+    assert st == 3  # fmi2Error: the model evaluated to Inf/NaN
+    assert "NaN or Inf" in p.errors()[-1]
+    n_logged = len(p.errors())
+    for names in (["der(dq1)"], ["x", "q0"], ["roll"]):
+        st, _ = _raw_get(p, names)
+        assert st == 3, names  # not fmi2OK with NaN values
+        assert "error state" in p.errors()[-1] and "fmi2Reset" in p.errors()[-1]
+    assert len(p.errors()) == n_logged + 3  # every refusal went through the FMI logger
+    p.fmu.reset()
+    p.init()
+    st, vals = _raw_get(p, ["der(dq1)", "q0"])
+    assert st == 0 and vals[1] == 1.0 and np.all(np.isfinite(vals))
+    p.free()
