@@ -42,7 +42,7 @@ import fmpy
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.files import check_manifest, sha256_file, write_manifest
-from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES, load_params
+from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES, PARAM_RULES, load_params
 from ballbot_casadi.core.toolchain import (
     MANIFEST,
     build_lock,
@@ -127,14 +127,17 @@ _OUTPUTS = (
     ("enc1", "1/s", "wheel 1 encoder rate in ticks per second"),
     ("enc2", "1/s", "wheel 2 encoder rate in ticks per second"),
 )
-# Parameter rules of PARAM_INFO -> (lo, hi, lo_open, hi_open, text)
-_RULES = {
-    "pos": (0.0, math.inf, True, False, "finite and > 0"),
-    "nonneg": (0.0, math.inf, False, False, "finite and >= 0"),
-    "any": (-math.inf, math.inf, False, False, "finite"),
-    "alpha": (0.0, math.pi / 2, True, True, "strictly between 0 and pi/2 rad"),
-    "gamma": (0.0, math.pi, True, True, "strictly between 0 and pi rad"),
-}
+
+
+def _rule(v: FmuVar) -> tuple[float, float, bool, bool, str]:
+    """Range rule of a parameter variable, from :data:`~ballbot_casadi.core.params.PARAM_RULES`
+    (the one definition): ``(lo, hi, lo_open, hi_open, text)``.  FMU values are SI and
+    radians, so an angle's text also gives the range in radians."""
+    lo, hi, lo_open, hi_open, text = PARAM_RULES[v.rule]
+    if v.unit == "rad":
+        text = (f"{text}; FMU values are radians: {lo:.6g} {'<' if lo_open else '<='} value "
+                f"{'<' if hi_open else '<='} {hi:.6g}")
+    return lo, hi, lo_open, hi_open, text
 
 
 @dataclass(frozen=True)
@@ -279,7 +282,7 @@ def model_description_xml(rows: Sequence[FmuVar], guid: str, sources: Sequence[s
             head = f'{attrs} causality="output" variability="continuous" initial="calculated"'
             real = f"<Real{unit}/>"
         else:
-            lo, hi, _, _, _ = _RULES[v.rule]
+            lo, hi, _, _, _ = _rule(v)
             mm = (f' min="{_fmt(lo)}"' if math.isfinite(lo) else "") + (
                 f' max="{_fmt(hi)}"' if math.isfinite(hi) else "")
             head = f'{attrs} causality="parameter" variability="fixed" initial="exact"'
@@ -376,15 +379,15 @@ def vars_header(rows: Sequence[FmuVar], guid: str,
         "};",
         "/* parameter ranges, indexed by vr - PLANT_VR_PARAM0 */",
         f"static const double plant_lo[{len(params)}] = {{"
-        + ", ".join(_c_double(_RULES[v.rule][0]) for v in params) + "};",
+        + ", ".join(_c_double(_rule(v)[0]) for v in params) + "};",
         f"static const double plant_hi[{len(params)}] = {{"
-        + ", ".join(_c_double(_RULES[v.rule][1]) for v in params) + "};",
+        + ", ".join(_c_double(_rule(v)[1]) for v in params) + "};",
         f"static const unsigned char plant_lo_open[{len(params)}] = {{"
-        + ", ".join(str(int(_RULES[v.rule][2])) for v in params) + "};",
+        + ", ".join(str(int(_rule(v)[2])) for v in params) + "};",
         f"static const unsigned char plant_hi_open[{len(params)}] = {{"
-        + ", ".join(str(int(_RULES[v.rule][3])) for v in params) + "};",
+        + ", ".join(str(int(_rule(v)[3])) for v in params) + "};",
         f"static const char *const plant_rule[{len(params)}] = {{"
-        + ", ".join(_c_str(_RULES[v.rule][4]) for v in params) + "};",
+        + ", ".join(_c_str(_rule(v)[4]) for v in params) + "};",
         "",
         "#endif /* PLANT_VARS_H */",
     ]
