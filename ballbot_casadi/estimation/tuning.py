@@ -1,0 +1,106 @@
+"""Default tuning of the estimators (thesis §3.1, §4.3, §5.3), defined once.
+
+Sensor covariances (MPU-9250, from the predecessor project, thesis ref. [6]):
+
+* :data:`SIGMA_ACC` - accelerometer, (m/s^2)^2, thesis (3.4);
+* :data:`SIGMA_GYRO` - gyroscope, (rad/s)^2, thesis (3.8);
+* :data:`SIGMA_ENC` - encoder tick increments, ticks^2: ``(1/3)^2 I3`` (thesis §3.1.3,
+  3 sigma = one tick).
+
+Attitude filters (QUKF, QEKF), on the tangent ``[rotation vector, omega]``:
+
+* :data:`QUKF_Q` = ``blkdiag(1e-20 I3, 1e-5 I3)`` (4.37-4.39);
+* :data:`QUKF_R` = ``blkdiag(ALPHA_TRUST Sigma_acc, Sigma_gyro)``, ``ALPHA_TRUST = 2``
+  (4.40), its accelerometer block applied to the accelerometer in units of g (see
+  :mod:`~ballbot_casadi.estimation.attitude`);
+* :data:`QUKF_P0` = ``diag(1e-7, 1e-7, 1e-9, 1e-7, 1e-7, 1e-9)`` (4.4);
+  :data:`QUKF_X0` = ``[1, 0, 0, 0, 0, 0, 0]`` (4.3).
+* The QEKF's 7 x 7 initial covariance is ``G P0 G^T`` plus :data:`QEKF_P0_RADIAL`
+  along ``q`` (the predecessor's initial ``q0`` variance), so its additive covariance
+  starts positive definite
+  (:func:`~ballbot_casadi.estimation.attitude.qekf_initial_covariance`).
+
+Velocity filters (VUKF, VEKF), state ``[dx, dy, ddx, ddy, b_acc]``:
+
+* :data:`VUKF_Q` = ``blkdiag(sigma_v I2, sigma_a I2, Sigma_bias)`` (5.26; the thesis
+  prints it as 6 x 6 but the state has 7 entries).  The thesis gives no numbers; they
+  are the predecessor's (thesis ref. [6]): ``sigma_v = 0`` (no velocity noise beyond the
+  integrated acceleration), ``sigma_a = 1e-5`` and ``Sigma_bias = 1e-9 I3``;
+* :data:`VUKF_R` = ``blkdiag(Sigma_enc, Sigma_acc)`` (5.28; the attitude term is added
+  inside the filter);
+* :data:`VUKF_P0` = ``diag(1e-1 I2, 1e-2 I2, 1e-9 I3)`` (5.4); :data:`VUKF_X0` = 0 (5.3).
+
+Every array is read-only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "SIGMA_ACC",
+    "SIGMA_GYRO",
+    "SIGMA_ENC",
+    "ALPHA_TRUST",
+    "QUKF_Q",
+    "QUKF_R",
+    "QUKF_P0",
+    "QUKF_X0",
+    "QEKF_P0_RADIAL",
+    "VUKF_Q",
+    "VUKF_R",
+    "VUKF_P0",
+    "VUKF_X0",
+]
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+def _blkdiag(*blocks: np.ndarray) -> np.ndarray:
+    n = sum(b.shape[0] for b in blocks)
+    out = np.zeros((n, n))
+    i = 0
+    for b in blocks:
+        k = b.shape[0]
+        out[i:i + k, i:i + k] = b
+        i += k
+    return out
+
+
+#: Accelerometer noise covariance, (m/s^2)^2, thesis (3.4).
+SIGMA_ACC = _frozen(np.array([[0.3945, 0.0006, -0.0234],
+                              [0.0006, 0.3922, -0.0036],
+                              [-0.0234, -0.0036, 0.9941]]) * 1e-3)
+#: Gyroscope noise covariance, (rad/s)^2, thesis (3.8).
+SIGMA_GYRO = _frozen(np.array([[0.4969, 0.0201, 0.0035],
+                               [0.0201, 0.1749, -0.0260],
+                               [0.0035, -0.0260, 1.3970]]) * 1e-3)
+#: Encoder tick-increment noise covariance, ticks^2, thesis §3.1.3.
+SIGMA_ENC = _frozen(np.eye(3) / 9.0)
+#: Accelerometer de-weighting factor of the QUKF, thesis (4.40).
+ALPHA_TRUST = 2.0
+
+#: QUKF process noise, tangent [rotation vector, omega], thesis (4.37)-(4.39).
+QUKF_Q = _frozen(np.diag([1e-20] * 3 + [1e-5] * 3))
+#: QUKF measurement noise [acc (g units), gyro], thesis (4.40).
+QUKF_R = _frozen(_blkdiag(ALPHA_TRUST * SIGMA_ACC, SIGMA_GYRO))
+#: QUKF initial covariance, thesis (4.4).
+QUKF_P0 = _frozen(np.diag([1e-7, 1e-7, 1e-9, 1e-7, 1e-7, 1e-9]))
+#: QUKF initial state [q, omega]: upright and at rest, thesis (4.3).
+QUKF_X0 = _frozen([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+#: Initial variance of the QEKF's additive chart along q (predecessor's q0 variance).
+QEKF_P0_RADIAL = 1e-7
+
+#: VUKF process noise [dx, dy, ddx, ddy, b_acc], thesis (5.26) with the predecessor's values.
+VUKF_Q = _frozen(np.diag([0.0, 0.0, 1e-5, 1e-5, 1e-9, 1e-9, 1e-9]))
+#: VUKF measurement noise [encoder ticks, acc m/s^2], thesis (5.28) without the attitude term.
+VUKF_R = _frozen(_blkdiag(SIGMA_ENC, SIGMA_ACC))
+#: VUKF initial covariance, thesis (5.4).
+VUKF_P0 = _frozen(np.diag([1e-1, 1e-1, 1e-2, 1e-2, 1e-9, 1e-9, 1e-9]))
+#: VUKF initial state: at rest, zero bias, thesis (5.3).
+VUKF_X0 = _frozen(np.zeros(7))
+

@@ -1,0 +1,162 @@
+"""Velocity filters: the VUKF of thesis ch. 5 and the predecessor's VEKF baseline.
+
+State ``x = [dx, dy, ddx, ddy, b_acc]`` (thesis 5.1; 7 entries): the ball velocity and
+acceleration in the inertial frame and the accelerometer bias in {B}.  Measurement
+``z = [enc, acc]`` (5.2): the encoder tick increments of the three wheels over the
+filter period ``dt`` (thesis 3.14-3.15: ``Delta i_ticks``, *not* a rate; multiply
+:mod:`ballbot_casadi.model.sensors`' ``enc`` (ticks/s) by ``dt``) and the accelerometer
+in m/s^2 (thesis 3.6).  The filter takes the attitude filter's estimate as an input:
+``att = [q, omega]`` (the QUKF state) and ``P_att`` (its 3 x 3 attitude covariance, body
+rotation vector).
+
+Models (shared by both filters)
+-------------------------------
+* Process (5.9-5.11): ``v_k = v_{k-1} + dt a_{k-1}``, ``a_k = a_{k-1}``, ``b_k = b_{k-1}``.
+* Encoders (3.17, 5.17): ``n_ticks / (2 pi) dt dphi`` with ``dphi`` the wheel speeds of
+  the inverse kinematics (B.47) at ``[q, dx, dy, dq]``, ``dq = 1/2 q o [0, omega]``.  The
+  kinematics is *received* as a CasADi Function ``wheel_speeds(x12, p) -> dphi`` (the
+  model's ``ballbot_wheel_speeds``, state ``[x, y, q, dx, dy, dq]``) and called.
+* Accelerometer (5.18): ``R(q)^T [ddx, ddy, g] + b_acc`` (IMU at the ball centre).
+* Measurement noise (5.27-5.28): ``R + blkdiag(0, J P_att J^T)`` where
+  ``J = d acc / d r`` is the sensitivity of the predicted accelerometer to a body
+  rotation vector ``r`` of the attitude (CasADi AD, at the predicted mean).  The thesis
+  adds the QUKF covariance block to ``Sigma_acc`` directly, which mixes rad^2 with
+  (m/s^2)^2; mapping it through ``J`` (as the predecessor's VEKF does with its
+  quaternion covariance) is the dimensionally consistent reading, and near upright it is
+  ``g^2`` times the tilt block.
+
+Reading of the printed equations: (5.1) labels the last three states a gyroscope bias,
+the text and (5.10), (5.18) an accelerometer bias - it is the accelerometer bias; (3.17)
+and (5.17) print ``- 2 q`` where the inverse kinematics (B.47) has ``- 2 dq``; (5.22)
+omits the weights of (5.13), which are used.
+
+VUKF (:func:`make_vukf`): additive process noise (5.14), 2N+1 sigma points with
+``kappa = 3 - N`` (5.6, 5.13), measurement sigma points redrawn after ``Q`` is added
+(see :func:`~ballbot_casadi.estimation.core.ukf_step`).  Every model is linear in the
+filter state (``q`` and ``omega`` are inputs), so the unscented transform is exact here
+and the VUKF equals the Kalman filter - and the VEKF - to rounding (tested).
+VEKF (:func:`make_vekf`): the same models in the EKF core (the predecessor's filter).
+"""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+
+from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.params import PARAM_NAMES, ParamView
+from ballbot_casadi.errors import BallbotTypeError
+from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, ukf_step
+from ballbot_casadi.estimation.manifold import euclidean
+
+__all__ = [
+    "NX",
+    "KAPPA",
+    "INPUT_NAMES",
+    "make_velocity_model",
+    "make_vukf",
+    "make_vekf",
+]
+
+#: Size of the velocity filter state (thesis 5.1).
+NX = 7
+#: Sigma-point parameter of the VUKF, ``kappa = 3 - N`` (thesis 5.6).
+KAPPA = 3.0 - NX
+#: Inputs of ``ballbot_vukf`` and ``ballbot_vekf``.
+INPUT_NAMES = ("xhat", "P", "z", "att", "P_att", "Q", "R", "dt", "p")
+
+_NP = len(PARAM_NAMES)
+_NU = 7 + 9  # att = [q, omega], then P_att column-major
+
+
+def _check_wheel_speeds(wheel_speeds: ca.Function) -> None:
+    ok = (isinstance(wheel_speeds, ca.Function) and wheel_speeds.n_in() == 2
+          and wheel_speeds.n_out() == 1 and wheel_speeds.size_in(0) == (12, 1)
+          and wheel_speeds.size_in(1) == (_NP, 1) and wheel_speeds.size_out(0) == (3, 1))
+    if not ok:
+        raise BallbotTypeError(
+            f"wheel_speeds must be a CasADi Function (x[12], p[{_NP}]) -> dphi[3], e.g. "
+            "make_model_functions()['wheel_speeds']"
+        )
+
+
+def _accelerometer(q, a_xy, b, g):
+    """Thesis (5.18): ``R(q)^T [ddx, ddy, g] + b``."""
+    return Q.rotate_inv(q, ca.vertcat(a_xy, g)) + b
+
+
+def make_velocity_model(wheel_speeds: ca.Function) -> FilterModel:
+    """The velocity filters' :class:`FilterModel` (thesis 5.9-5.11, 5.17, 5.18, 5.28).
+
+    ``u = [q(4), omega(3), vec(P_att)(9)]``; ``p`` the parameter vector (``g``,
+    ``n_ticks`` and the kinematic parameters of ``wheel_speeds``).
+    """
+    _check_wheel_speeds(wheel_speeds)
+    x, u, dt, p = ca.MX.sym("x", NX), ca.MX.sym("u", _NU), ca.MX.sym("dt"), ca.MX.sym("p", _NP)
+    names = ["x", "u", "dt", "p"]
+    P = ParamView(p)
+    x_next = ca.vertcat(x[:2] + dt * x[2:4], x[2:])
+    process = ca.Function("vel_process", [x, u, dt, p], [x_next], names, ["x_next"])
+
+    q, w = u[:4], u[4:7]
+    dq = 0.5 * Q.mul(q, Q.hat(w))
+    dphi = wheel_speeds(ca.vertcat(0, 0, q, x[0], x[1], dq), p)
+    enc = P.n_ticks / (2 * math.pi) * dt * dphi
+    z = ca.vertcat(enc, _accelerometer(q, x[2:4], x[4:7], P.g))
+    measurement = ca.Function("vel_measurement", [x, u, dt, p], [z], names, ["z"])
+
+    # Attitude uncertainty of the accelerometer prediction (5.27-5.28), mapped by J.
+    r = ca.SX.sym("r", 3)
+    xs, qs, gs = ca.SX.sym("x", NX), ca.SX.sym("q", 4), ca.SX.sym("g")
+    acc_r = _accelerometer(Q.mul(qs, Q.from_rotation_vector(r)), xs[2:4], xs[4:7], gs)
+    J = ca.substitute(ca.jacobian(acc_r, r), r, ca.DM.zeros(3))
+    jac = ca.Function("acc_attitude_jacobian", [xs, qs, gs], [J], ["x", "q", "g"], ["J"])
+    R = ca.MX.sym("R", 6, 6)
+    Ja = jac(x, q, P.g)
+    P_att = ca.reshape(u[7:], 3, 3)
+    R_eff = R + ca.diagcat(ca.DM.zeros(3, 3), ca.mtimes([Ja, P_att, Ja.T]))
+    noise = ca.Function("vel_measurement_noise", [x, u, p, R], [R_eff], ["x", "u", "p", "R"],
+                        ["R_eff"])
+    return FilterModel(euclidean(NX), process, measurement, "additive", noise)
+
+
+def _build(name: str, wheel_speeds: ca.Function, kind: str) -> ca.Function:
+    model = make_velocity_model(wheel_speeds)
+    args = (ca.MX.sym("xhat", NX), ca.MX.sym("P", NX, NX), ca.MX.sym("z", 6), ca.MX.sym("att", 7),
+            ca.MX.sym("P_att", 3, 3), ca.MX.sym("Q", NX, NX), ca.MX.sym("R", 6, 6),
+            ca.MX.sym("dt"), ca.MX.sym("p", _NP))
+    xhat, P, z, att, P_att, Qn, R, dt, p = args
+    u = ca.vertcat(att, ca.vec(0.5 * (P_att + P_att.T)))
+    if kind == "ukf":
+        out = ukf_step(model, xhat, P, z, u, Qn, R, dt, p, kappa=KAPPA)
+    else:
+        out = ekf_step(model, xhat, P, z, u, Qn, R, dt, p)
+    return ca.Function(name, list(args), [out[k] for k in OUTPUT_NAMES], list(INPUT_NAMES),
+                       list(OUTPUT_NAMES))
+
+
+def make_vukf(wheel_speeds: ca.Function) -> ca.Function:
+    """``ballbot_vukf``: one period of the velocity UKF (thesis 5.1-5.28).
+
+    Parameters
+    ----------
+    wheel_speeds
+        Inverse kinematics ``(x[12], p[NP]) -> dphi[3]`` (the model's
+        ``ballbot_wheel_speeds``); it is called, not inlined.
+
+    Returns
+    -------
+    casadi.Function
+        ``ballbot_vukf(xhat[7], P[7x7], z[6], att[7], P_att[3x3], Q[7x7], R[6x6], dt, p[NP])``
+        -> ``(xhat_next[7], P_next[7x7], nu[6], nis, n_valid, n_repair)``.
+        ``z = [encoder ticks over the period (3), accelerometer m/s^2 (3)]`` (a
+        non-finite component is not used); ``att = [q, omega]`` and ``P_att`` from the
+        attitude filter; ``R`` without the attitude term (added inside).
+    """
+    return _build("ballbot_vukf", wheel_speeds, "ukf")
+
+
+def make_vekf(wheel_speeds: ca.Function) -> ca.Function:
+    """``ballbot_vekf``: the predecessor's velocity EKF, same interface as :func:`make_vukf`."""
+    return _build("ballbot_vekf", wheel_speeds, "ekf")
