@@ -1,43 +1,54 @@
-"""The registry of studies: each study's scenarios, metrics and specs, defined in one place.
+"""The registry of studies: scenario files, metrics and specs of each study in one place.
 
-A :class:`Study` is what ``ballbot study <name>`` runs: the scenario(s) for a balance
-controller, the metrics computed from their logs (:mod:`ballbot_casadi.analysis.metrics`),
-and the pass/fail specs with their source.  :data:`STUDIES` holds the thesis experiments:
+A study's runs are scenario files (:mod:`ballbot_casadi.sim.scenario_file`) shipped in
+``studies/scenarios/`` (``ballbot study --list`` lists them; copy one, edit it and run it
+with ``ballbot simulate``).  A :class:`Study` names its files (the main run last), the
+metrics it computes across runs, and its specs: the ``[[spec]]`` rows of the main file
+plus the study's own cross-run specs.  Every study also *reports* the thesis §7.1
+limits its main run touches (peak tilt, tilt rate, torque; see
+:func:`~ballbot_casadi.analysis.metrics.limit_rows`); those rows never hide an excess and
+never decide pass/fail.
 
-============  ===========================================================================
-``zero``      zero reference from roll = pitch = 5 deg (thesis §8.2.3)
-``sine``      roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
-``robustness`` plant mass +10 %, inertias x3.2, controller nominal (thesis §8.4.1)
-``com``       COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2) and cascade (§9.2)
-``push``      4 deg roll jump of the plant attitude (thesis §8.4.3)
-``velocity``  velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
-============  ===========================================================================
+============== ==========================================================================
+``zero``       zero reference from roll = pitch = 5 deg (thesis §8.2.3)
+``sine``       roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
+``sine_asym``  the same on a robot whose COM is off-axis, unknown to the controller
+``robustness`` plant mass +10 %, inertias x3.2, against the nominal run (thesis §8.4.1)
+``com``        COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2) and cascade (§9.2)
+``push``       4 deg roll jump of the plant attitude (thesis §8.4.3)
+``velocity``   velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
+``chirp``      roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
+============== ==========================================================================
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
-import numpy as np
-
-from ballbot_casadi.analysis.metrics import (
-    base_metrics,
-    com_metrics,
-    push_metrics,
-    sine_metrics,
-    velocity_metrics,
-    zero_metrics,
-)
+from ballbot_casadi.analysis.bandwidth import chirp_metrics
+from ballbot_casadi.analysis.metrics import robustness_metrics, run_metrics
+from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.log import SimulationLog
-from ballbot_casadi.sim.scenarios import Scenario, initial_state
+from ballbot_casadi.sim.scenario_file import (
+    SPEC_OPS,
+    ScenarioFile,
+    ScenarioFileError,
+    load_scenario_file,
+    parse_scenario,
+    set_value,
+)
+from ballbot_casadi.sim.scenarios import Scenario
 
 __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenarios",
-           "evaluate_specs", "COM_CHANGES"]
+           "evaluate_specs", "spec_ok", "scenario_dir", "shipped_scenarios", "resolve_scenario",
+           "COM_CHANGES", "rebase_on_params", "parse_overrides"]
 
 #: COM offset of thesis §8.4.2 / §9.2: (-2, -3, +3) cm in the body frame.
 COM_CHANGES = MappingProxyType({"com_x": ("set", -0.02), "com_y": ("set", -0.03), "l": ("add", 0.03)})
@@ -50,24 +61,41 @@ _OPS: Mapping[str, Callable[[Any, Any], bool]] = MappingProxyType({
     "==": lambda a, b: a == b,
     "abs<=": lambda a, b: abs(a) <= b,
 })
+assert set(_OPS) == set(SPEC_OPS)
+
+
+def spec_ok(value: Any, op: str, threshold: Any) -> bool:
+    """``value op threshold``; ``None``, NaN or a non-comparable value fails."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return False
+    try:
+        return bool(_OPS[op](value, threshold))
+    except TypeError:
+        return False
 
 
 @dataclass(frozen=True)
 class Spec:
-    """One pass/fail criterion: ``metric op threshold``, with where the number comes from."""
+    """One pass/fail criterion ``metric op threshold``, where the number comes from, and
+    the thesis's own value (shown beside ours in reports)."""
 
     metric: str
     op: str
     threshold: Any
     source: str
+    thesis: str = ""
 
     def evaluate(self, metrics: Mapping[str, Any]) -> dict[str, Any]:
-        """The criterion's row: ``metric, value, op, threshold, ok, source``."""
+        """The criterion's row: ``metric, value, op, threshold, ok, source, thesis``."""
         val = metrics.get(self.metric)
-        ok = (val is not None and not (isinstance(val, float) and math.isnan(val))
-              and bool(_OPS[self.op](val, self.threshold)))
         return {"metric": self.metric, "value": val, "op": self.op, "threshold": self.threshold,
-                "ok": ok, "source": self.source}
+                "ok": spec_ok(val, self.op, self.threshold), "source": self.source,
+                "thesis": self.thesis}
+
+    @classmethod
+    def from_row(cls, row: Mapping[str, Any]) -> "Spec":
+        """From a scenario file's ``[[spec]]`` row."""
+        return cls(row["metric"], row["op"], row["threshold"], row.get("source", ""), row.get("thesis", ""))
 
 
 def evaluate_specs(specs: Sequence[Spec], metrics: Mapping[str, Any]) -> list[dict[str, Any]]:
@@ -75,133 +103,201 @@ def evaluate_specs(specs: Sequence[Spec], metrics: Mapping[str, Any]) -> list[di
     return [s.evaluate(metrics) for s in specs]
 
 
+# --------------------------------------------------------------------------- scenario files
+
+
+def scenario_dir() -> Path:
+    """Folder of the shipped scenario files (package data ``ballbot_casadi.studies/scenarios``)."""
+    return Path(str(resources.files("ballbot_casadi.studies") / "scenarios"))
+
+
+def shipped_scenarios() -> dict[str, Path]:
+    """``{name: path}`` of every shipped scenario file."""
+    return {p.stem: p for p in sorted(scenario_dir().glob("*.toml"))}
+
+
+def resolve_scenario(ref: str | Path) -> Path:
+    """A scenario file path, or the name of a shipped one (``com``, ``sine``, ...)."""
+    p = Path(ref)
+    if p.suffix == ".toml" or p.exists() or "/" in str(ref):
+        if not p.is_file():
+            raise ScenarioFileError(f"{p}: scenario file not found")
+        return p
+    shipped = shipped_scenarios()
+    if str(ref) not in shipped:
+        raise ScenarioFileError(f"{ref}: no such scenario file, nor a shipped scenario; shipped: "
+                                f"{', '.join(shipped)}")
+    return shipped[str(ref)]
+
+
+def _read_table(path: Path) -> dict[str, Any]:
+    load_scenario_file(path)  # validates with file and key in the message
+    return tomllib.loads(path.read_text(encoding="utf-8"))
+
+
+def parse_overrides(items: Sequence[str]) -> list[tuple[str, Any]]:
+    """``--set key=value`` items: dotted key, TOML value (a bare word is a string)."""
+    out = []
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key or any(not part.replace("_", "").isalnum() for part in key.split(".")):
+            raise ScenarioFileError(f"--set {item!r}: expected KEY=VALUE with a dotted key such as "
+                                    "duration_s=20 or attitude.roll.amplitude_deg=5")
+        try:
+            value = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()
+        out.append((key, value))
+    return out
+
+
+def rebase_on_params(scenario: Scenario, params: Params) -> Scenario:
+    """The scenario on another robot: every parameter of ``params`` that differs from the
+    thesis defaults becomes a ``set`` change for both the plant and the controller model;
+    the scenario's own ``scale``/``add`` changes apply on top of the new values."""
+    base = load_params().as_dict()
+    new = params.as_dict()
+    diff = {k: v for k, v in new.items() if v != base[k]}
+
+    def merge(changes: Mapping[str, Any]) -> dict[str, list]:
+        out = {k: ["set", v] for k, v in diff.items()}
+        for k, (op, v) in changes.items():
+            ref = new[k]
+            out[k] = ["set", v] if op == "set" else ["set", ref * v] if op == "scale" else ["set", ref + v]
+        return out
+
+    return scenario.replace(plant_changes=merge(scenario.plant_changes),
+                            ctrl_changes=merge(scenario.ctrl_changes))
+
+
+# --------------------------------------------------------------------------- studies
+
+
 @dataclass(frozen=True)
 class Study:
-    """A study: scenarios for a controller, metrics of their logs, specs.
+    """A study: scenario files, cross-run metrics, specs.
 
     Attributes
     ----------
     name, description
         Identifier (``ballbot study <name>``) and one line for ``--list`` and reports.
-    scenarios
-        ``controller -> (Scenario, ...)``; the *last* scenario is the study's main run.
+    files
+        Shipped scenario files (stems) in run order; the *last* is the main run.
     metrics
-        ``logs -> dict`` (logs in scenario order); merged over :func:`base_metrics` of the
-        main run.
+        ``logs -> dict``: the study's cross-run metrics (logs in run order), merged over
+        :func:`~ballbot_casadi.analysis.metrics.run_metrics` of the main run.
+    extra_specs
+        Specs on the cross-run metrics, after the main file's ``[[spec]]`` rows.
+    expand
+        Optional ``tables -> tables``: derive the runs from the files' tables (e.g. the
+        chirp study runs its file with both feed-forward modes).
     specs
-        The pass/fail criteria.
+        ``None``: the main file's specs plus :attr:`extra_specs`; a tuple replaces them.
     """
 
     name: str
     description: str
-    scenarios: Callable[[str], tuple[Scenario, ...]]
-    metrics: Callable[[Sequence[SimulationLog]], dict[str, Any]]
-    specs: tuple[Spec, ...]
+    files: tuple[str, ...]
+    metrics: Callable[[Sequence[SimulationLog]], dict[str, Any]] = lambda logs: {}
+    extra_specs: tuple[Spec, ...] = ()
+    expand: Callable[[list[dict[str, Any]]], list[dict[str, Any]]] | None = None
+    specs: tuple[Spec, ...] | None = field(default=None)
+
+    def tables(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> list[dict[str, Any]]:
+        """The runs' scenario tables (friendly units) for ``controller``, ``--set`` applied."""
+        shipped = shipped_scenarios()
+        tables = []
+        for f in self.files:
+            t = set_value(_read_table(shipped[f]), "controller", controller)
+            for key, value in overrides:
+                t = set_value(t, key, value)
+            tables.append(t)
+        return self.expand(tables) if self.expand else tables
+
+    def scenario_files(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> list[ScenarioFile]:
+        """The runs as validated :class:`~ballbot_casadi.sim.scenario_file.ScenarioFile`."""
+        where = {f: str(shipped_scenarios()[f]) for f in self.files}
+        out = []
+        for i, t in enumerate(self.tables(controller, overrides)):
+            src = where[self.files[min(i, len(self.files) - 1)]]
+            label = src + (" (with --set " + ", ".join(f"{k}={v!r}" for k, v in overrides) + ")"
+                           if overrides else "")
+            out.append(parse_scenario(t, label, t.get("name", self.name)))
+        return out
+
+    def scenarios(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> tuple[Scenario, ...]:
+        """The runs' scenarios (main run last)."""
+        return tuple(f.scenario for f in self.scenario_files(controller, overrides))
+
+    def spec_list(self) -> tuple[Spec, ...]:
+        """The study's specs: :attr:`specs` if set, else the main file's rows + extra specs."""
+        if self.specs is not None:
+            return self.specs
+        main = load_scenario_file(shipped_scenarios()[self.files[-1]])
+        return tuple(Spec.from_row(r) for r in main.specs) + self.extra_specs
 
     def compute_metrics(self, logs: Sequence[SimulationLog]) -> dict[str, Any]:
-        """:func:`base_metrics` of the main run plus the study's own metrics."""
-        return {**base_metrics(logs[-1]), **self.metrics(logs)}
+        """:func:`run_metrics` of the main run plus the study's own metrics."""
+        return {**run_metrics(logs[-1]), **self.metrics(logs)}
 
     def check(self, metrics: Mapping[str, Any]) -> list[dict[str, Any]]:
         """Evaluate the specs on ``metrics``."""
-        return evaluate_specs(self.specs, metrics)
+        return evaluate_specs(self.spec_list(), metrics)
 
 
-def _sine_initial_state(amplitude_deg: float, frequency_hz: float) -> tuple:
-    """Plant at rest on the ground, body on the sine reference at t = 0 (q, dq)."""
-    sig = R.sine(np.zeros(1), math.radians(amplitude_deg), frequency_hz)
-    q, dq, _ = R.rpy_reference(sig, 0.0, 0.0)
-    return tuple(float(v) for v in np.concatenate([[0.0, 0.0], q[0], [0.0, 0.0], dq[0]]))
+def _com_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
+    b = logs[0].arrays["state"]
+    return {"runaway_speed_mps": float(math.hypot(b[-1, 6], b[-1, 7])),
+            "runaway_distance_m": float(math.hypot(b[-1, 0], b[-1, 1]))}
 
 
-_FINITE = Spec("finite", "==", True, "run completed")
+def _chirp_expand(tables: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    main = tables[-1]
+    exact = set_value(set_value(main, "feedforward", "exact"), "name", f"{main.get('name', 'chirp')}_exact")
+    return [exact, main]
 
 
-def _zero(c: str) -> tuple[Scenario, ...]:
-    return (Scenario("zero", c, 5.0, initial_state(5, 5), study="zero",
-                     description="zero reference from roll = pitch = 5 deg (thesis §8.2.3)"),)
+def _chirp_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
+    by = {}
+    for log in logs:
+        m = chirp_metrics(log)
+        m.update({k: v for k, v in run_metrics(log).items()
+                  if k in ("peak_tilt_deg", "peak_tilt_rate_deg_s", "peak_torque_nm")})
+        by[log.scenario["feedforward"]] = m
+    main = by[logs[-1].scenario["feedforward"]]
+    out = {k: v for k, v in main.items() if k != "response"}
+    out["by_feedforward"] = by
+    return out
 
 
-def _sine(c: str) -> tuple[Scenario, ...]:
-    return (Scenario("sine", c, 10.0, _sine_initial_state(3.0, 0.5),
-                     attitude={"roll": {"type": "sine", "amplitude_deg": 3.0, "frequency_hz": 0.5}},
-                     study="sine",
-                     description="roll sine 3 deg at 0.5 Hz (thesis §8.2.5), plant starts on the reference"),)
-
-
-def _robustness(c: str) -> tuple[Scenario, ...]:
-    changes = {"Mb": ["scale", 1.1], "Jbx": ["scale", 3.2], "Jby": ["scale", 3.2], "Jbz": ["scale", 3.2]}
-    return (Scenario("robustness", c, 8.0, initial_state(5, -5), plant_changes=changes,
-                     study="robustness",
-                     description="plant mass +10 %, inertias x3.2, controller on the nominal model, "
-                                 "from roll 5, pitch -5 deg (thesis §8.4.1, Fig. 8.10)"),)
-
-
-def _com(c: str) -> tuple[Scenario, ...]:
-    changes = {k: list(v) for k, v in COM_CHANGES.items()}
-    return (
-        Scenario("com_balance_only", c, 5.0, initial_state(), plant_changes=changes, study="com",
-                 description="COM offset (-2, -3, +3) cm, balance controller alone: runaway (thesis §8.4.2)"),
-        Scenario("com", c, 30.0, initial_state(), cascade=True, plant_changes=changes, study="com",
-                 description="COM offset (-2, -3, +3) cm with the velocity loop (thesis §9.2)"),
-    )
-
-
-def _push(c: str) -> tuple[Scenario, ...]:
-    return (Scenario("push", c, 6.0, initial_state(), pushes=((1.0, 4.0, 0.0, 0.0),), study="push",
-                     description="4 deg roll jump of the plant attitude at t = 1 s (thesis §8.4.3)"),)
-
-
-def _velocity(c: str) -> tuple[Scenario, ...]:
-    return (Scenario("velocity", c, 22.0, initial_state(), cascade=True,
-                     velocity_keyframes=R.FIG93_KEYFRAMES, study="velocity",
-                     description="velocity profile in the spirit of thesis Fig. 9.3 (§9.2)"),)
-
-
-def _sine_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
-    main = logs[-1]
-    return sine_metrics(main, main.scenario["attitude"]["roll"]["frequency_hz"])
-
-
-def _push_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
-    main = logs[-1]
-    return {**push_metrics(main, main.scenario["pushes"][0][0]), **zero_metrics(main)}
+def _robustness_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
+    return robustness_metrics(logs[0], logs[-1])
 
 
 STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
-    Study("zero", "zero reference from roll = pitch = 5 deg (thesis §8.2.3)", _zero,
-          lambda logs: zero_metrics(logs[-1]),
-          (_FINITE, Spec("steady_state_error_deg", "<", 0.01,
-                         "converges, steady-state error < 0.01 deg"))),
-    Study("sine", "roll sine 3 deg at 0.5 Hz (thesis §8.2.5)", _sine, _sine_metrics,
-          (_FINITE,
-           Spec("roll_lag_s", "abs<=", 0.02, "thesis §8.2.5: < 0.1 s"),
-           Spec("pitch_error_max_deg", "<=", 0.01, "thesis: <= 0.25 deg"),
-           Spec("yaw_error_max_deg", "<=", 0.01, "thesis: < 0.1 deg"),
-           Spec("torque_tv_ratio", "<=", 1.5, "no chattering (thesis Fig. 8.7)"))),
-    Study("robustness", "plant mass +10 %, inertias x3.2, controller nominal (thesis §8.4.1)",
-          _robustness, lambda logs: zero_metrics(logs[-1]),
-          (_FINITE, Spec("steady_state_error_deg", "<", 0.01,
-                         "converges despite mass/inertia error (thesis §8.4.1)"))),
+    Study("zero", "zero reference from roll = pitch = 5 deg (thesis §8.2.3)", ("zero",)),
+    Study("sine", "roll sine 3 deg at 0.5 Hz (thesis §8.2.5)", ("sine",)),
+    Study("sine_asym", "roll sine 3 deg at 0.5 Hz, COM 5 mm off-axis unknown to the controller "
+          "(pitch/yaw coupling vs thesis §8.2.5)", ("sine_asym",)),
+    Study("robustness", "plant mass +10 %, inertias x3.2, controller nominal, against the nominal "
+          "run (thesis §8.4.1)", ("robustness_nominal", "robustness"), _robustness_metrics,
+          (Spec("settling_time_ratio", "<=", 2.0,
+                "settles at most 2x slower than the nominal run: a 3.2x inertia the FLC does not "
+                "know scales its stiffness by 1/3.2, its natural frequency by 1/sqrt(3.2) = "
+                "0.56, so a linear loop settles ~1.8x slower",
+                "tracks properly despite the change (Fig. 8.10)"),
+           Spec("peak_error_ratio", "<=", 1.05,
+                "no overshoot beyond the nominal run's peak error (+5 %)",
+                "reaches upright like the nominal model (Fig. 8.11)"))),
     Study("com", "COM offset (-2, -3, +3) cm: runaway alone, held by the velocity loop "
-          "(thesis §8.4.2, §9.2)", _com,
-          lambda logs: com_metrics(logs[0], logs[-1], logs[-1].params),
-          (_FINITE,
-           Spec("runaway_speed_mps", ">", 0.5, "balance controller alone runs away (thesis §8.4.2)"),
-           Spec("final_speed_mps", "<", 0.01, "velocity loop stops the runaway (thesis §9.2)"),
-           Spec("equilibrium_error_deg", "<", 0.1, "tilt settles with the COM over the ball centre"))),
-    Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", _push, _push_metrics,
-          (_FINITE,
-           Spec("push_max_tilt_deg", ">=", 3.9, "the push was applied"),
-           Spec("steady_state_error_deg", "<", 0.01, "recovers to upright (thesis §8.4.3)"))),
-    Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2)", _velocity,
-          lambda logs: velocity_metrics(logs[-1]),
-          (_FINITE,
-           Spec("max_abs_roll_pitch_deg", "<=", 5.0, "inclination limit +-5 deg (thesis §7.1)"),
-           Spec("velocity_error_rms_delayed_mps", "<=", 0.05,
-                "tracked with no significant error (thesis §9.2): rms <= 10 % of v_max after "
-                "the non-minimum-phase delay"),
-           Spec("final_velocity_error_mps", "<=", 0.01, "reaches the final reference"))),
+          "(thesis §8.4.2, §9.2)", ("com_balance_only", "com"), _com_metrics,
+          (Spec("runaway_speed_mps", ">", 0.5, "balance controller alone runs away (thesis §8.4.2)",
+                "run-away (Fig. 8.13)"),)),
+    Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", ("push",)),
+    Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2)", ("velocity",)),
+    Study("chirp", "roll chirp 3 deg, 0.05 -> 5 Hz over 100 s: bandwidth, saturation, fall "
+          "(thesis §9.1)", ("chirp",), _chirp_metrics, expand=_chirp_expand),
 )})
 
 #: Names of the registered studies (``ballbot study <name>``).

@@ -1,8 +1,12 @@
 """Metrics of closed-loop runs, computed from the log arrays only.
 
 Angles are ZYX roll/pitch/yaw of the attitude quaternion (the thesis reports errors in
-Euler angles, Fig. 8.6, 8.8); *errors* are ``angle - reference angle`` wrapped to
-(-180, 180] deg.  Logs are the arrays of
+Euler angles, Fig. 8.6, 8.8); *errors* are ``angle - reference angle``, wrapped to
+(-180, 180] deg only where they leave that range (so a tiny error keeps its digits
+instead of rounding through ``(e + 180) % 360 - 180``).  The tilt is
+``2 atan2(sqrt(q1^2 + q2^2), sqrt(q0^2 + q3^2))`` (the swing angle of the quaternion),
+exact near zero where ``arccos`` of the body-z component floors to 0 below ~1e-6 deg.
+Logs are the arrays of
 :class:`~ballbot_casadi.sim.log.SimulationLog`: ``time`` (N+1), ``state`` (N+1, 12),
 ``q_ref`` (N, 4), ``v_ref`` (N, 3), ``tau_cmd`` / ``tau`` (N, 3), ...  Which metrics a
 study reports and its specs are in :mod:`ballbot_casadi.studies.registry`.
@@ -31,6 +35,13 @@ __all__ = [
     "com_metrics",
     "velocity_metrics",
     "com_equilibrium_deg",
+    "tilt_rate_deg_s",
+    "limit_metrics",
+    "limit_rows",
+    "LIMIT_KEYS",
+    "robustness_metrics",
+    "standing_metrics",
+    "run_metrics",
 ]
 
 
@@ -44,14 +55,32 @@ def rpy_deg(q: np.ndarray) -> np.ndarray:
 
 
 def tilt_deg(q: np.ndarray) -> np.ndarray:
-    """Inclination (deg): angle between the body z axis and the vertical."""
-    q = np.asarray(q, float)
-    c = (q[:, 0] ** 2 - q[:, 1] ** 2 - q[:, 2] ** 2 + q[:, 3] ** 2) / np.sum(q**2, axis=1)
-    return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+    """Inclination (deg): angle between the body z axis and the vertical.
+
+    ``2 atan2(|(q1, q2)|, |(q0, q3)|)``: the angle of the swing part of the attitude
+    (``cos tilt = q0^2 - q1^2 - q2^2 + q3^2``), accurate to the last digit near zero.
+    """
+    q = np.asarray(q, float).reshape(-1, 4)
+    return np.degrees(2.0 * np.arctan2(np.hypot(q[:, 1], q[:, 2]), np.hypot(q[:, 0], q[:, 3])))
+
+
+def tilt_rate_deg_s(x: np.ndarray) -> np.ndarray:
+    """Inclination rate (deg/s): norm of the horizontal components of the body's angular
+    velocity in {K}, ``omega = 2 vec(dq o q*)`` (thesis E.35); it bounds ``|d tilt / dt|``
+    and is the quantity limited to 20 deg/s by thesis §7.1 (item 6)."""
+    x = np.asarray(x, float)
+    q, dq = x[:, STATE["q"]], x[:, STATE["dq"]]
+    w0, w1, w2, w3 = q.T
+    d0, d1, d2, d3 = dq.T
+    ox = -d0 * w1 + d1 * w0 - (d2 * w3 - d3 * w2)
+    oy = -d0 * w2 + d2 * w0 - (d3 * w1 - d1 * w3)
+    return np.degrees(2.0 * np.hypot(ox, oy))
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + 180.0) % 360.0 - 180.0
+    """Wrap to (-180, 180] deg, leaving values already inside untouched (no rounding)."""
+    a = np.asarray(a, float)
+    return np.where(np.abs(a) > 180.0, (a + 180.0) % 360.0 - 180.0, a)
 
 
 def attitude_error_deg(log: Any) -> np.ndarray:
@@ -253,3 +282,151 @@ def velocity_metrics(log: Any, max_delay_s: float = 1.0) -> dict[str, float]:
         "max_tilt_deg": float(np.max(tilt_deg(x[:, STATE["q"]]))),
         "max_abs_roll_pitch_deg": float(np.max(np.abs(rpy_deg(x[:, STATE["q"]])[:, :2]))),
     }
+
+
+#: Metric keys of :func:`limit_metrics`, with the thesis §7.1 limit each is compared with.
+LIMIT_KEYS: Mapping[str, tuple[str, str]] = {
+    "peak_tilt_deg": ("tilt_max", "inclination limit +-5 deg (thesis §7.1, item 5)"),
+    "peak_tilt_rate_deg_s": ("tilt_rate_max", "inclination rate < 20 deg/s (thesis §7.1, item 6)"),
+    "peak_torque_nm": ("tau_max", "motor torque limit tau_max (thesis App. A)"),
+}
+
+
+def limit_metrics(log: Any, tau_max: float) -> dict[str, Any]:
+    """Peaks of the quantities thesis §7.1 limits: tilt, tilt rate, commanded torque.
+
+    ``peak_torque_nm`` is the largest *commanded* wheel torque (before the limit), so a
+    controller asking for more than ``tau_max`` shows as exceeding it;
+    ``torque_saturated_fraction`` is the share of periods with a command at or beyond
+    ``tau_max``.  ``initial_tilt_deg``, ``initial_tilt_rate_deg_s`` and the reference's
+    own peaks (``reference_peak_tilt_deg``, ``reference_peak_tilt_rate_deg_s``) say whether
+    the scenario itself starts or asks to go beyond a limit.
+    """
+    a = _arrays(log)
+    x = a["state"]
+    tilt = tilt_deg(x[:, STATE["q"]])
+    rate = tilt_rate_deg_s(x)
+    cmd = np.abs(np.asarray(a["tau_cmd"], float))
+    ref = np.zeros((a["q_ref"].shape[0], STATE.size))
+    ref[:, STATE["q"]], ref[:, STATE["dq"]] = a["q_ref"], a["dq_ref"]
+    with np.errstate(invalid="ignore"):
+        return {
+            "reference_peak_tilt_deg": float(np.max(tilt_deg(a["q_ref"]))),
+            "reference_peak_tilt_rate_deg_s": float(np.max(tilt_rate_deg_s(ref))),
+            "peak_tilt_deg": float(np.nanmax(tilt)) if np.any(np.isfinite(tilt)) else math.nan,
+            "peak_tilt_rate_deg_s": float(np.nanmax(rate)) if np.any(np.isfinite(rate)) else math.nan,
+            "peak_torque_nm": float(np.nanmax(cmd)) if np.any(np.isfinite(cmd)) else math.nan,
+            "tau_max_nm": float(tau_max),
+            "torque_saturated_fraction": float(np.mean(np.any(cmd >= tau_max * (1 - 1e-12), axis=1))),
+            "initial_tilt_deg": float(tilt[0]),
+            "initial_tilt_rate_deg_s": float(rate[0]),
+        }
+
+
+def limit_rows(metrics: Mapping[str, Any], limits: Mapping[str, float]) -> list[dict[str, Any]]:
+    """The thesis §7.1 limit rows of a run: ``metric, value, limit, exceeded, by_scenario, source``.
+
+    ``limits`` holds ``tilt_max`` and ``tilt_rate_max`` in rad and rad/s (as
+    :data:`~ballbot_casadi.core.constants.THESIS_LIMITS`); the torque row uses the run's
+    ``tau_max_nm``.  ``by_scenario`` is true when the scenario already starts beyond the
+    limit (its initial state), i.e. the experiment as the thesis defines it exceeds it.
+    A row is *reported*, exceeded or not; it does not decide a study's pass/fail.
+    """
+    lim = {"peak_tilt_deg": math.degrees(limits["tilt_max"]),
+           "peak_tilt_rate_deg_s": math.degrees(limits["tilt_rate_max"]),
+           "peak_torque_nm": metrics.get("tau_max_nm", math.nan)}
+    start = {"peak_tilt_deg": max(metrics.get("initial_tilt_deg", 0.0),
+                                  metrics.get("reference_peak_tilt_deg", 0.0)),
+             "peak_tilt_rate_deg_s": max(metrics.get("initial_tilt_rate_deg_s", 0.0),
+                                         metrics.get("reference_peak_tilt_rate_deg_s", 0.0)),
+             "peak_torque_nm": 0.0}
+    rows = []
+    for key, (_, source) in LIMIT_KEYS.items():
+        v = metrics.get(key, math.nan)
+        exceeded = not (isinstance(v, (int, float)) and v <= lim[key] * (1 + 1e-9))
+        if key == "peak_torque_nm":
+            exceeded = not (isinstance(v, (int, float)) and v < lim[key] * (1 - 1e-12))
+        rows.append({"metric": key, "value": v, "limit": lim[key], "exceeded": bool(exceeded),
+                     "by_scenario": bool(start[key] > lim[key] * (1 + 1e-9)), "source": source})
+    return rows
+
+
+def robustness_metrics(nominal: Any, perturbed: Any, band_deg: float = 0.1) -> dict[str, Any]:
+    """A perturbed run against the nominal one (thesis §8.4.1, Fig. 8.10-8.11).
+
+    ``settling_time_ratio`` and ``peak_error_ratio`` compare the perturbed run's
+    :func:`zero_metrics` with the nominal run's; ``deviation_<axis>_deg`` is the largest
+    difference of that Euler angle between the two runs and ``relative_deviation_<axis>``
+    divides it by the nominal run's largest excursion of the same angle.  The thesis
+    observes that the inertia change affects yaw most; ``yaw_affected_most`` checks it in
+    degrees, ``yaw_affected_most_relative`` relative to each angle's own excursion.
+    """
+    zn, zp = zero_metrics(nominal, band_deg=band_deg), zero_metrics(perturbed, band_deg=band_deg)
+    an, ap = _arrays(nominal), _arrays(perturbed)
+    n = min(an["state"].shape[0], ap["state"].shape[0])
+    rn, rp = rpy_deg(an["state"][:n, STATE["q"]]), rpy_deg(ap["state"][:n, STATE["q"]])
+    dev = np.max(np.abs(_wrap(rp - rn)), axis=0)
+    exc = np.max(np.abs(rn), axis=0)
+    rel = dev / np.maximum(exc, 1e-300)
+    axes = ("roll", "pitch", "yaw")
+    out: dict[str, Any] = {
+        "nominal_settling_time_s": zn["settling_time_s"],
+        "settling_time_ratio": zp["settling_time_s"] / zn["settling_time_s"] if zn["settling_time_s"] > 0 else math.inf,
+        "nominal_max_error_deg": zn["max_error_deg"],
+        "peak_error_ratio": zp["max_error_deg"] / zn["max_error_deg"] if zn["max_error_deg"] > 0 else math.inf,
+    }
+    for i, ax in enumerate(axes):
+        out[f"deviation_{ax}_deg"] = float(dev[i])
+        out[f"relative_deviation_{ax}"] = float(rel[i])
+    out["most_affected_axis"] = axes[int(np.argmax(dev))]
+    out["most_affected_axis_relative"] = axes[int(np.argmax(rel))]
+    out["yaw_affected_most"] = out["most_affected_axis"] == "yaw"
+    out["yaw_affected_most_relative"] = out["most_affected_axis_relative"] == "yaw"
+    return out
+
+
+def standing_metrics(log: Any, params: Any, window_s: float = 2.0) -> dict[str, float]:
+    """A cascade run standing still: tilt equilibrium against the COM over the ball
+    (:func:`com_equilibrium_deg`), final speed and drift (thesis §9.2, Fig. 9.6-9.7)."""
+    a = _arrays(log)
+    x = a["state"]
+    win = _window(a["time"], a["time"][-1] - window_s)
+    ang = rpy_deg(x[:, STATE["q"]])
+    roll_a, pitch_a = com_equilibrium_deg(params.com_x, params.com_y, params.l)
+    eq_roll, eq_pitch = float(np.mean(ang[win, 0])), float(np.mean(ang[win, 1]))
+    return {
+        "equilibrium_roll_deg": eq_roll,
+        "equilibrium_pitch_deg": eq_pitch,
+        "equilibrium_roll_analytic_deg": roll_a,
+        "equilibrium_pitch_analytic_deg": pitch_a,
+        "equilibrium_error_deg": max(abs(eq_roll - roll_a), abs(eq_pitch - pitch_a)),
+        "final_position_drift_m": float(np.hypot(x[-1, 0], x[-1, 1])),
+    }
+
+
+def run_metrics(log: Any) -> dict[str, Any]:
+    """Every metric that applies to one run, chosen from what its scenario contains.
+
+    Always :func:`base_metrics`, :func:`limit_metrics` (thesis §7.1) and
+    :func:`zero_metrics` (tracking error, settling); a roll sine adds
+    :func:`sine_metrics`, a push :func:`push_metrics`, a velocity profile
+    :func:`velocity_metrics`, a cascade standing still :func:`standing_metrics`.
+    ``log`` is a :class:`~ballbot_casadi.sim.log.SimulationLog` (its scenario and plant
+    parameters are used).  Chirp runs get their bandwidth metrics from
+    :func:`ballbot_casadi.analysis.bandwidth.chirp_metrics`.
+    """
+    sc = log.scenario
+    out: dict[str, Any] = {**base_metrics(log), **limit_metrics(log, log.params.tau_max)}
+    finite = out["finite"]
+    with np.errstate(invalid="ignore", over="ignore"):
+        out.update(zero_metrics(log))
+        roll = (sc.get("attitude") or {}).get("roll", {})
+        if roll.get("type") == "sine" and finite:
+            out.update(sine_metrics(log, roll["frequency_hz"]))
+        if sc.get("pushes"):
+            out.update(push_metrics(log, sc["pushes"][0][0]))
+        if sc.get("cascade") and sc.get("velocity_keyframes"):
+            out.update(velocity_metrics(log))
+        elif sc.get("cascade"):
+            out.update(standing_metrics(log, log.params))
+    return out

@@ -1,21 +1,63 @@
-"""``ballbot study``: command-line front end of :mod:`ballbot_casadi.studies.study`."""
+"""``ballbot study`` and ``ballbot simulate``: front ends of :mod:`ballbot_casadi.studies.study`."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from ballbot_casadi.core.files import check_output_dir
-from ballbot_casadi.studies.registry import STUDY_NAMES
-from ballbot_casadi.studies.study import CONTROLLERS, format_summary, run_all, run_study
+from ballbot_casadi.core.files import check_input_file, check_output_dir
+from ballbot_casadi.core.params import load_params
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.studies import chirp as chirp_study
+from ballbot_casadi.studies.registry import (
+    STUDIES,
+    STUDY_NAMES,
+    parse_overrides,
+    shipped_scenarios,
+)
+from ballbot_casadi.studies.study import (
+    CONTROLLERS,
+    OWNED_OUTPUTS,
+    format_summary,
+    run_all,
+    run_study,
+)
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "list_text"]
+
+
+def list_text() -> str:
+    """``ballbot study --list``: the studies and the shipped scenario files."""
+    lines = ["studies (ballbot study NAME):"]
+    lines += [f"  {n:12s} {s.description}  [files: {', '.join(f + '.toml' for f in s.files)}]"
+              for n, s in STUDIES.items()]
+    lines.append("shipped scenario files (copy one, edit it, run it with `ballbot simulate FILE`):")
+    lines += [f"  {p}" for p in shipped_scenarios().values()]
+    return "\n".join(lines)
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
+    if args.list:
+        print(list_text())
+        return 0
+    if args.name is None:
+        raise ScenarioError("give a study name (or --list); studies: " + ", ".join(STUDY_NAMES))
+    if args.params is not None:
+        check_input_file(args.params, "--params")
     if args.out:
-        check_output_dir(args.out, "--out")
+        check_output_dir(args.out, "--out", owned=None if args.name == "all" else OWNED_OUTPUTS)
+    params = load_params(args.params) if args.params else None
+    overrides = parse_overrides(args.set or [])
+    if (args.axis or args.amplitude is not None) and args.name != "chirp":
+        raise ScenarioError("--axis and --amplitude apply to the chirp study only")
+    if args.amplitude is not None and not 0 < args.amplitude <= 45:
+        raise ScenarioError(f"--amplitude must be in (0, 45] deg, got {args.amplitude:g}")
+    if args.name == "chirp" and (args.axis or args.amplitude is not None):
+        table = STUDIES["chirp"].tables(args.controller, overrides)[-1]
+        overrides += chirp_study.axis_overrides(table, args.axis, args.amplitude)
     if args.name == "all":
+        if overrides or params is not None:
+            raise ScenarioError("--set and --params apply to one study, not to 'all'")
         table = run_all(Path(args.out) if args.out else None, plot=not args.no_plot)
         ok = True
         for res in table.values():
@@ -25,7 +67,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
                     print(format_summary(r))
         return 0 if ok else 1
     result = run_study(args.name, args.controller, Path(args.out) if args.out else None,
-                       plot=not args.no_plot)
+                       plot=not args.no_plot, overrides=overrides, params=params)
     if not args.quiet:
         print(format_summary(result))
     return 0 if result["passed"] else 1
@@ -35,13 +77,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``ballbot study <name>``."""
     p = sub.add_parser(
         "study",
-        help="run a closed-loop acceptance study (exit 1 if its spec is not met, 2 on bad input)",
-        description="Closed-loop acceptance studies (issue 4): " + ", ".join(STUDY_NAMES)
-        + "; 'all' runs every study for flc and smc.",
+        help="run a closed-loop study (exit 1 if its spec is not met, 2 on bad input)",
+        description="Closed-loop studies of the thesis: " + ", ".join(STUDY_NAMES)
+        + "; 'all' runs every study for flc and smc. Each writes metrics.json, run.npz, plots and "
+        "report.md (specs with the thesis's value beside ours; thesis §7.1 limits reported).",
     )
-    p.add_argument("name", choices=[*STUDY_NAMES, "all"])
+    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, "all"])
+    p.add_argument("--list", action="store_true", help="list the studies and shipped scenario files")
     p.add_argument("--controller", choices=CONTROLLERS, default="flc")
+    p.add_argument("--params", metavar="FILE", help="parameter TOML file: another robot, known to the controller")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="change a scenario-file key of every run, e.g. duration_s=20 or "
+                        "attitude.roll.amplitude_deg=5 (repeatable)")
+    p.add_argument("--axis", choices=("roll", "pitch"), help="chirp: the excited axis (default roll)")
+    p.add_argument("--amplitude", type=float, metavar="DEG", help="chirp: amplitude in deg (default 3)")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.add_argument("--out", help="output directory (default build/study/<name>/<controller>)")
-    p.add_argument("--no-plot", action="store_true", help="skip the PNG plot")
+    p.add_argument("--no-plot", action="store_true", help="skip the PNG plots")
     p.set_defaults(func=_cmd_study)

@@ -86,7 +86,19 @@ def apply_changes(base: Params, changes: Mapping[str, Any], what: str) -> Params
     return base.replace(**values)
 
 
-def _check_signal(axis: str, spec: Mapping[str, Any]) -> None:
+#: Keys of each attitude signal type: (required, optional).
+_SIGNAL_KEYS: Mapping[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "const": ((), ("value_deg",)),
+    "sine": (("amplitude_deg", "frequency_hz"), ("phase_rad", "offset_deg")),
+    "step": (("amplitude_deg",), ("t_step", "rise_time", "offset_deg")),
+    "chirp": (("amplitude_deg", "f0_hz", "f1_hz", "duration"), ("offset_deg",)),
+}
+
+
+def _check_signal(axis: str, spec: Mapping[str, Any], Ts: float = TS_CONTROL) -> None:
+    """Validate one attitude signal: type, required and known keys, finite numbers, and
+    frequencies below the Nyquist frequency ``1 / (2 Ts)`` of the control loop (a faster
+    reference is aliased by the 200 Hz sampling, thesis §7.1)."""
     if not isinstance(spec, Mapping) or spec.get("type") not in _SIGNAL_TYPES:
         raise ScenarioError(
             f"reference {axis!r}: must be a dict with 'type' in {_SIGNAL_TYPES}, got {spec!r}"
@@ -98,6 +110,24 @@ def _check_signal(axis: str, spec: Mapping[str, Any]) -> None:
             raise ScenarioError(
                 f"reference {axis!r}: {key} = {val!r} is not a finite number; references must be finite"
             )
+    required, optional = _SIGNAL_KEYS[spec["type"]]
+    missing = [k for k in required if k not in spec]
+    unknown = sorted(set(spec) - {"type", *required, *optional})
+    if missing or unknown:
+        raise ScenarioError(
+            f"reference {axis!r} ({spec['type']}): "
+            + (f"missing {', '.join(missing)}" if missing else f"unknown key(s) {', '.join(unknown)}")
+            + f"; needs {', '.join(required) or 'nothing'}, may have {', '.join(optional)}")
+    nyquist = 0.5 / Ts
+    for key in ("frequency_hz", "f0_hz", "f1_hz"):
+        if key in spec and not 0 <= spec[key] < nyquist:
+            raise ScenarioError(
+                f"reference {axis!r}: {key} = {spec[key]!r} must be >= 0 and below the Nyquist "
+                f"frequency {nyquist:g} Hz of the {1 / Ts:g} Hz control loop")
+    if spec["type"] == "chirp" and not spec["duration"] > 0:
+        raise ScenarioError(f"reference {axis!r}: chirp duration must be > 0, got {spec['duration']!r}")
+    if spec["type"] == "step" and spec.get("rise_time", 0.0) < 0:
+        raise ScenarioError(f"reference {axis!r}: step rise_time must be >= 0, got {spec['rise_time']!r}")
 
 
 def _signal(spec: Mapping[str, Any], t: np.ndarray) -> R.Signal:
@@ -225,7 +255,7 @@ class Scenario:
         if unknown:
             raise ScenarioError(f"scenario {self.name!r}: attitude axes {unknown} unknown; allowed roll, pitch, yaw")
         for axis, spec in self.attitude.items():
-            _check_signal(axis, spec)
+            _check_signal(axis, spec, self.Ts)
         for what in ("velocity_keyframes", "pushes", "torque_disturbances", "k_bal", "k_vel"):
             arr = np.asarray(getattr(self, what), dtype=float)
             if not np.all(np.isfinite(arr)):

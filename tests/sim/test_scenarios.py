@@ -79,15 +79,16 @@ def test_dict_round_trip_and_json():
 
 
 def test_study_scenarios_definitions():
-    assert STUDY_NAMES == ("zero", "sine", "robustness", "com", "push", "velocity")
+    assert STUDY_NAMES == ("zero", "sine", "sine_asym", "robustness", "com", "push", "velocity", "chirp")
     with pytest.raises(ScenarioError, match="allowed: zero"):
-        study_scenarios("chirp")
+        study_scenarios("nosuchstudy")
     with pytest.raises(ScenarioError, match="allowed"):
         study_scenarios("zero", "lqr")
     nominal = load_params()
     (zero,) = study_scenarios("zero")
     np.testing.assert_allclose(Q.to_rpy(np.array(zero.x0[2:6])), np.radians([5, 5, 0]), atol=1e-15)
-    (rob,) = study_scenarios("robustness")
+    nominal_run, rob = study_scenarios("robustness")
+    assert nominal_run.plant_params() == nominal
     pp, pc = rob.plant_params(), rob.controller_params()
     assert pp.Mb == pytest.approx(1.1 * nominal.Mb, rel=1e-15)
     for j in ("Jbx", "Jby", "Jbz"):

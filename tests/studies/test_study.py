@@ -87,6 +87,6 @@ def test_com_writes_both_runs(tmp_path):
 
 def test_cli_rejects_unknown_study(capsys):
     with pytest.raises(SystemExit) as exc:
-        main(["study", "chirp"])
+        main(["study", "nosuchstudy"])
     assert exc.value.code == 2
     assert "invalid choice" in capsys.readouterr().err
