@@ -59,19 +59,20 @@ from ballbot_casadi.estimation.tuning import (
     VUKF_Q,
     VUKF_R,
     VUKF_X0,
+    read_only,
 )
 from ballbot_casadi.estimation.velocity import make_vekf, make_vukf
 
 __all__ = [
-    "ESTIMATORS",
     "DEFAULT_TUNING",
+    "ESTIMATORS",
     "Tuning",
     "build_estimator",
     "initial_state",
-    "make_qukf",
     "make_qekf",
-    "make_vukf",
+    "make_qukf",
     "make_vekf",
+    "make_vukf",
 ]
 
 #: Estimator name -> builder.  The velocity builders take the wheel-speed Function.
@@ -95,16 +96,10 @@ class Tuning:
     x0: np.ndarray
 
 
-def _ro(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
-
-
 #: Thesis default tuning per estimator (see :mod:`~ballbot_casadi.estimation.tuning`).
 DEFAULT_TUNING: Mapping[str, Tuning] = MappingProxyType({
     "qukf": Tuning(QUKF_Q, QUKF_R, QUKF_P0, QUKF_X0),
-    "qekf": Tuning(QUKF_Q, QUKF_R, _ro(qekf_initial_covariance(QUKF_X0[:4])), QUKF_X0),
+    "qekf": Tuning(QUKF_Q, QUKF_R, read_only(qekf_initial_covariance(QUKF_X0[:4])), QUKF_X0),
     "vukf": Tuning(VUKF_Q, VUKF_R, VUKF_P0, VUKF_X0),
     "vekf": Tuning(VUKF_Q, VUKF_R, VUKF_P0, VUKF_X0),
 })

@@ -55,14 +55,14 @@ from ballbot_casadi.estimation.quaternion_mean import MEAN_ITERATIONS
 from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0, QUKF_X0
 
 __all__ = [
-    "INPUT_NAMES",
     "ATTITUDE_OUTPUT_NAMES",
-    "make_attitude_process",
+    "INPUT_NAMES",
     "make_attitude_measurement",
-    "make_qukf",
+    "make_attitude_process",
     "make_qekf",
-    "tangent_map",
+    "make_qukf",
     "qekf_initial_covariance",
+    "tangent_map",
 ]
 
 #: Inputs of ``ballbot_qukf`` and ``ballbot_qekf``.

@@ -60,12 +60,12 @@ from ballbot_casadi.estimation.linalg import (
 from ballbot_casadi.estimation.manifold import Manifold
 
 __all__ = [
-    "FilterModel",
     "OUTPUT_NAMES",
-    "sigma_weights",
-    "ukf_step",
+    "FilterModel",
     "ekf_step",
     "make_filter",
+    "sigma_weights",
+    "ukf_step",
 ]
 
 #: Outputs of every filter Function, in this order (the concrete filters may append more).

@@ -30,15 +30,17 @@ first that passes is selected with ``if_else`` (no branch leaks a NaN into the r
 
 from __future__ import annotations
 
+import sys
+
 import casadi as ca
 
 __all__ = [
-    "PIVOT_TOL",
-    "JITTER",
     "FINITE_MAX",
+    "JITTER",
+    "PIVOT_TOL",
     "make_cholesky",
-    "make_spd_repair",
     "make_masked_update",
+    "make_spd_repair",
 ]
 
 #: Relative pivot threshold of the positive-definiteness test (see module docstring).
@@ -46,7 +48,7 @@ PIVOT_TOL = 1e-13
 #: Relative diagonal jitter of a repair (times the mean diagonal entry).
 JITTER = 1e-9
 #: A measurement component counts as valid when ``|z_i| <= FINITE_MAX`` (false for NaN, inf).
-FINITE_MAX = 1.7976931348623157e308
+FINITE_MAX = sys.float_info.max
 #: Absolute floor of the jitter scale, so an all-zero covariance is still repaired.
 _JITTER_FLOOR = 1e-30
 

@@ -41,7 +41,7 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.errors import ShapeError
 from ballbot_casadi.estimation.quaternion_mean import MEAN_ITERATIONS, make_karcher_mean
 
-__all__ = ["Manifold", "euclidean", "attitude", "attitude_additive"]
+__all__ = ["Manifold", "attitude", "attitude_additive", "euclidean"]
 
 
 @dataclass(frozen=True)

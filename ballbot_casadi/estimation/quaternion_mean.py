@@ -35,9 +35,10 @@ from ballbot_casadi.errors import ShapeError
 
 __all__ = [
     "MEAN_ITERATIONS",
-    "make_karcher_mean",
-    "karcher_mean",
     "chordal_mean",
+    "karcher_mean",
+    "make_karcher_mean",
+    "mul_rows",
     "sweep_mean",
 ]
 
@@ -89,8 +90,12 @@ def _rows(quats: np.ndarray, weights: np.ndarray | None) -> tuple[np.ndarray, np
     return qs, w
 
 
-def _mul_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise Hamilton product (any float dtype, e.g. np.longdouble)."""
+def mul_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise Hamilton product ``a o b`` of quaternion rows (..., 4) in their own dtype.
+
+    Unlike :func:`ballbot_casadi.core.quaternion.mul` (one quaternion, float64) it keeps
+    ``np.longdouble`` and broadcasts over rows.
+    """
     a0, a1, a2, a3 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
     b0, b1, b2, b3 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
     return np.stack([a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
@@ -112,7 +117,7 @@ def karcher_mean(quats: np.ndarray, weights: np.ndarray | None = None,
     m = (w[:, None] * qs).sum(axis=0)
     m = m / np.sqrt((m * m).sum())
     for _ in range(iterations):
-        d = _mul_rows(np.broadcast_to(m * np.array([1, -1, -1, -1], dtype=m.dtype), qs.shape), qs)
+        d = mul_rows(np.broadcast_to(m * np.array([1, -1, -1, -1], dtype=m.dtype), qs.shape), qs)
         d = d * np.where(d[:, 0] < 0, -1, 1)[:, None]
         nv = np.sqrt((d[:, 1:] ** 2).sum(axis=1))
         ang = np.arctan2(nv, d[:, 0])
@@ -120,7 +125,7 @@ def karcher_mean(quats: np.ndarray, weights: np.ndarray | None = None,
         e = (w[:, None] * k[:, None] * d[:, 1:]).sum(axis=0)
         ne = np.sqrt((e * e).sum())
         s = np.sin(ne) / ne if ne > 0 else m.dtype.type(1)
-        m = _mul_rows(m, np.concatenate([[np.cos(ne)], s * e]))
+        m = mul_rows(m, np.concatenate([[np.cos(ne)], s * e]))
     return m
 
 

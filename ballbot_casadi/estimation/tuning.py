@@ -36,71 +36,63 @@ Every array is read-only.
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg import block_diag
 
 __all__ = [
-    "SIGMA_ACC",
-    "SIGMA_GYRO",
-    "SIGMA_ENC",
     "ALPHA_TRUST",
+    "QEKF_P0_RADIAL",
+    "QUKF_P0",
     "QUKF_Q",
     "QUKF_R",
-    "QUKF_P0",
     "QUKF_X0",
-    "QEKF_P0_RADIAL",
+    "SIGMA_ACC",
+    "SIGMA_ENC",
+    "SIGMA_GYRO",
+    "VUKF_P0",
     "VUKF_Q",
     "VUKF_R",
-    "VUKF_P0",
     "VUKF_X0",
+    "read_only",
 ]
 
 
-def _frozen(a: np.ndarray) -> np.ndarray:
+def read_only(a: np.ndarray) -> np.ndarray:
+    """A float copy of ``a`` that cannot be written to."""
     a = np.array(a, dtype=float)
     a.setflags(write=False)
     return a
 
 
-def _blkdiag(*blocks: np.ndarray) -> np.ndarray:
-    n = sum(b.shape[0] for b in blocks)
-    out = np.zeros((n, n))
-    i = 0
-    for b in blocks:
-        k = b.shape[0]
-        out[i:i + k, i:i + k] = b
-        i += k
-    return out
-
-
 #: Accelerometer noise covariance, (m/s^2)^2, thesis (3.4).
-SIGMA_ACC = _frozen(np.array([[0.3945, 0.0006, -0.0234],
-                              [0.0006, 0.3922, -0.0036],
-                              [-0.0234, -0.0036, 0.9941]]) * 1e-3)
+SIGMA_ACC = read_only(np.array([[0.3945, 0.0006, -0.0234],
+                                [0.0006, 0.3922, -0.0036],
+                                [-0.0234, -0.0036, 0.9941]]) * 1e-3)
 #: Gyroscope noise covariance, (rad/s)^2, thesis (3.8).
-SIGMA_GYRO = _frozen(np.array([[0.4969, 0.0201, 0.0035],
-                               [0.0201, 0.1749, -0.0260],
-                               [0.0035, -0.0260, 1.3970]]) * 1e-3)
+SIGMA_GYRO = read_only(np.array([[0.4969, 0.0201, 0.0035],
+                                 [0.0201, 0.1749, -0.0260],
+                                 [0.0035, -0.0260, 1.3970]]) * 1e-3)
 #: Encoder tick-increment noise covariance, ticks^2, thesis §3.1.3.
-SIGMA_ENC = _frozen(np.eye(3) / 9.0)
+SIGMA_ENC = read_only(np.eye(3) / 9.0)
 #: Accelerometer de-weighting factor of the QUKF, thesis (4.40).
 ALPHA_TRUST = 2.0
 
 #: QUKF process noise, tangent [rotation vector, omega], thesis (4.37)-(4.39).
-QUKF_Q = _frozen(np.diag([1e-20] * 3 + [1e-5] * 3))
+QUKF_Q = read_only(np.diag([1e-20] * 3 + [1e-5] * 3))
 #: QUKF measurement noise [acc (g units), gyro], thesis (4.40).
-QUKF_R = _frozen(_blkdiag(ALPHA_TRUST * SIGMA_ACC, SIGMA_GYRO))
+QUKF_R = read_only(block_diag(ALPHA_TRUST * SIGMA_ACC, SIGMA_GYRO))
 #: QUKF initial covariance, thesis (4.4).
-QUKF_P0 = _frozen(np.diag([1e-7, 1e-7, 1e-9, 1e-7, 1e-7, 1e-9]))
+QUKF_P0 = read_only(np.diag([1e-7, 1e-7, 1e-9, 1e-7, 1e-7, 1e-9]))
 #: QUKF initial state [q, omega]: upright and at rest, thesis (4.3).
-QUKF_X0 = _frozen([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+QUKF_X0 = read_only([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
 #: Initial variance of the QEKF's additive chart along q (predecessor's q0 variance).
 QEKF_P0_RADIAL = 1e-7
 
 #: VUKF process noise [dx, dy, ddx, ddy, b_acc], thesis (5.26) with the predecessor's values.
-VUKF_Q = _frozen(np.diag([0.0, 0.0, 1e-5, 1e-5, 1e-9, 1e-9, 1e-9]))
+VUKF_Q = read_only(np.diag([0.0, 0.0, 1e-5, 1e-5, 1e-9, 1e-9, 1e-9]))
 #: VUKF measurement noise [encoder ticks, acc m/s^2], thesis (5.28) without the attitude term.
-VUKF_R = _frozen(_blkdiag(SIGMA_ENC, SIGMA_ACC))
+VUKF_R = read_only(block_diag(SIGMA_ENC, SIGMA_ACC))
 #: VUKF initial covariance, thesis (5.4).
-VUKF_P0 = _frozen(np.diag([1e-1, 1e-1, 1e-2, 1e-2, 1e-9, 1e-9, 1e-9]))
+VUKF_P0 = read_only(np.diag([1e-1, 1e-1, 1e-2, 1e-2, 1e-9, 1e-9, 1e-9]))
 #: VUKF initial state: at rest, zero bias, thesis (5.3).
-VUKF_X0 = _frozen(np.zeros(7))
+VUKF_X0 = read_only(np.zeros(7))
 

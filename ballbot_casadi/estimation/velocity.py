@@ -51,12 +51,12 @@ from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, 
 from ballbot_casadi.estimation.manifold import euclidean
 
 __all__ = [
-    "NX",
-    "KAPPA",
     "INPUT_NAMES",
+    "KAPPA",
+    "NX",
+    "make_vekf",
     "make_velocity_model",
     "make_vukf",
-    "make_vekf",
 ]
 
 #: Size of the velocity filter state (thesis 5.1).

@@ -14,7 +14,7 @@ from ballbot_casadi.estimation.attitude import (
     make_attitude_measurement,
     make_attitude_process,
 )
-from ballbot_casadi.estimation.quaternion_mean import _mul_rows, karcher_mean
+from ballbot_casadi.estimation.quaternion_mean import karcher_mean, mul_rows
 from ballbot_casadi.model.dynamics import make_model_functions
 from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.model.sensors import make_sensors
@@ -116,12 +116,12 @@ def _numpy_predict(x, P, Qn, dt):
     d = 6
     L = np.linalg.cholesky(P + Qn)
     W = np.sqrt(d) * np.hstack([L, -L]).T  # (2d, 6)
-    q = _mul_rows(np.tile(x[:4], (2 * d, 1)), _exp_rows(W[:, :3] / 2))  # (4.8)-(4.12)
+    q = mul_rows(np.tile(x[:4], (2 * d, 1)), _exp_rows(W[:, :3] / 2))  # (4.8)-(4.12)
     w = x[4:] + W[:, 3:]
-    q = _mul_rows(q, _exp_rows(w * dt / 2))  # (4.15)-(4.18)
+    q = mul_rows(q, _exp_rows(w * dt / 2))  # (4.15)-(4.18)
     qm = np.asarray(karcher_mean(q, iterations=30), dtype=float)
     wm = w.mean(axis=0)  # (4.19)
-    dev = np.hstack([_rotvec_rows(_mul_rows(np.tile(qm * CONJ, (2 * d, 1)), q)), w - wm])
+    dev = np.hstack([_rotvec_rows(mul_rows(np.tile(qm * CONJ, (2 * d, 1)), q)), w - wm])
     return np.r_[qm, wm], dev.T @ dev / (2 * d)  # (4.21)-(4.26)
 
 
@@ -174,17 +174,17 @@ def _nees_run(qukf, Qf, seed, M=25, T=1000):
     x0, P0 = E.initial_state("qukf")
     Lq, LR, L0 = (np.linalg.cholesky(np.asarray(a)) for a in (TUN.Q, TUN.R, P0))
     d0 = (L0 @ rng.standard_normal((6, M))).T
-    q = _mul_rows(np.tile(x0[:4], (M, 1)), _exp_rows(d0[:, :3] / 2))
+    q = mul_rows(np.tile(x0[:4], (M, 1)), _exp_rows(d0[:, :3] / 2))
     w = d0[:, 3:].copy()
     qs, ws, zs = np.zeros((T, M, 4)), np.zeros((T, M, 3)), np.zeros((T, M, 6))
     ez = np.tile([0.0, 0.0, 0.0, 1.0], (M, 1))
     for k in range(T):
         n = (Lq @ rng.standard_normal((6, M))).T
-        q = _mul_rows(q, _exp_rows(n[:, :3] / 2))
+        q = mul_rows(q, _exp_rows(n[:, :3] / 2))
         w = w + n[:, 3:]
-        q = _mul_rows(q, _exp_rows(w * DT / 2))
+        q = mul_rows(q, _exp_rows(w * DT / 2))
         qs[k], ws[k] = q, w
-        g_b = _mul_rows(_mul_rows(q * CONJ, ez), q)[:, 1:]
+        g_b = mul_rows(mul_rows(q * CONJ, ez), q)[:, 1:]
         v = (LR @ rng.standard_normal((6, M))).T
         zs[k, :, :3] = PAR.g * (g_b + v[:, :3])  # the filter divides by g (4.29)
         zs[k, :, 3:] = w + v[:, 3:]
@@ -193,7 +193,7 @@ def _nees_run(qukf, Qf, seed, M=25, T=1000):
     for m in range(M):
         out = run(x0, P0, zs[:, m].T, Qf, TUN.R, DT, PV)
         X, Ps = np.asarray(out[0]).T, _stack(out[1], 6, T)
-        e = np.hstack([_rotvec_rows(_mul_rows(X[:, :4] * CONJ, qs[:, m])), ws[:, m] - X[:, 4:]])
+        e = np.hstack([_rotvec_rows(mul_rows(X[:, :4] * CONJ, qs[:, m])), ws[:, m] - X[:, 4:]])
         nees[:, m] = np.einsum("ki,ki->k", e, np.linalg.solve(Ps, e[:, :, None])[:, :, 0])
     return nees
 
