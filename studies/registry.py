@@ -37,12 +37,12 @@ from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.log import SimulationLog
 from ballbot_casadi.sim.scenario_file import (
-    SPEC_OPS,
     ScenarioFile,
     ScenarioFileError,
     load_scenario_file,
     parse_scenario,
     set_value,
+    spec_ok,
 )
 from ballbot_casadi.sim.scenarios import Scenario
 
@@ -52,27 +52,6 @@ __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenar
 
 #: COM offset of thesis §8.4.2 / §9.2: (-2, -3, +3) cm in the body frame.
 COM_CHANGES = MappingProxyType({"com_x": ("set", -0.02), "com_y": ("set", -0.03), "l": ("add", 0.03)})
-
-_OPS: Mapping[str, Callable[[Any, Any], bool]] = MappingProxyType({
-    "<": lambda a, b: a < b,
-    "<=": lambda a, b: a <= b,
-    ">": lambda a, b: a > b,
-    ">=": lambda a, b: a >= b,
-    "==": lambda a, b: a == b,
-    "abs<=": lambda a, b: abs(a) <= b,
-})
-assert set(_OPS) == set(SPEC_OPS)
-
-
-def spec_ok(value: Any, op: str, threshold: Any) -> bool:
-    """``value op threshold``; ``None``, NaN or a non-comparable value fails."""
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return False
-    try:
-        return bool(_OPS[op](value, threshold))
-    except TypeError:
-        return False
-
 
 @dataclass(frozen=True)
 class Spec:

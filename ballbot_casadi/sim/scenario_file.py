@@ -116,6 +116,7 @@ __all__ = [
     "parse_scenario",
     "dump_toml",
     "set_value",
+    "spec_ok",
 ]
 
 #: Comparison operators of ``[[spec]]`` rows.
@@ -539,3 +540,23 @@ def dump_toml(table: Mapping[str, Any], header: str = "") -> str:
     lines = [f"# {line}" if line else "#" for line in header.splitlines()]
     _emit(table, "", lines)
     return "\n".join(lines).lstrip("\n") + "\n"
+
+
+_SPEC_FUNCS = {
+    "<": lambda a, b: a < b,
+    "<=": lambda a, b: a <= b,
+    ">": lambda a, b: a > b,
+    ">=": lambda a, b: a >= b,
+    "==": lambda a, b: a == b,
+    "abs<=": lambda a, b: abs(a) <= b,
+}
+
+
+def spec_ok(value: Any, op: str, threshold: Any) -> bool:
+    """``value op threshold`` of a ``[[spec]]`` row; ``None``, NaN or an incomparable value fails."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return False
+    try:
+        return bool(_SPEC_FUNCS[op](value, threshold))
+    except TypeError:
+        return False

@@ -1,0 +1,204 @@
+"""``ballbot montecarlo``: a scenario file dispersed over many runs, on Dask, with a report.
+
+The runs and their evaluation are :mod:`ballbot_casadi.analysis.montecarlo`; this module
+runs them (a Dask ``LocalCluster`` by default, an existing cluster with ``scheduler``,
+or serially with ``workers = 0``) with a progress bar (tqdm) and writes, all together:
+
+* ``montecarlo.json``: success rate against the file's specs, per-spec pass rates,
+  metric statistics, the dispersions, and every run (index, noise seed, drawn values,
+  ok, metrics);
+* ``histograms.png`` (distributions of the spec metrics and the §7.1 peaks),
+  ``scatter.png`` (a metric against each dispersed parameter);
+* ``worst/`` the scenario files of the worst runs (failed specs first, then the largest
+  peak tilt), each rerunnable alone: ``ballbot simulate worst/<file>.toml``;
+* ``report.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless backend)
+import numpy as np
+from tqdm import tqdm
+
+from ballbot_casadi.analysis.montecarlo import (
+    draw_runs,
+    run_dask,
+    run_serial,
+    summarize,
+)
+from ballbot_casadi.core.files import staged_dir
+from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.scenario_file import (
+    ScenarioFile,
+    dump_toml,
+    load_scenario_file,
+    parse_scenario,
+    set_value,
+    spec_ok,
+)
+from ballbot_casadi.studies.registry import resolve_scenario
+from ballbot_casadi.studies.study import jsonable
+
+__all__ = ["run_montecarlo", "execute", "OWNED_OUTPUTS", "N_WORST"]
+
+#: Files an existing output folder may hold and still be replaced.
+OWNED_OUTPUTS = ("montecarlo.json", "*.png", "report.md", "worst")
+#: Number of worst runs written as scenario files.
+N_WORST = 5
+_RANK_METRIC = "peak_tilt_deg"
+
+
+def execute(source: ScenarioFile, runs: Sequence[dict[str, Any]], scheduler: str | None = None,
+            workers: int = 2, quiet: bool = False, sim: ClosedLoop | None = None) -> list[dict[str, Any]]:
+    """Evaluate the runs: serially (``workers == 0`` and no scheduler), on a new
+    ``LocalCluster`` of ``workers`` processes, or on the cluster at ``scheduler``."""
+    bar = tqdm(total=len(runs), desc=f"montecarlo {source.scenario.name}", unit="run", disable=quiet)
+    try:
+        if scheduler is None and workers == 0:
+            return run_serial(source, runs, sim, bar.update)
+        from distributed import Client, LocalCluster
+
+        if scheduler is not None:
+            with Client(scheduler, timeout="20s") as client:
+                return run_dask(source, runs, client, bar.update)
+        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                          dashboard_address=None) as cluster, Client(cluster) as client:
+            return run_dask(source, runs, client, bar.update)
+    finally:
+        bar.close()
+
+
+def _rank(results: Sequence[dict[str, Any]]) -> list[int]:
+    def key(i: int) -> tuple:
+        r = results[i]
+        v = r["metrics"].get(_RANK_METRIC, math.inf)
+        return (sum(not ok for ok in r["spec_ok"]) + (1 if r["error"] else 0),
+                v if isinstance(v, float) and math.isfinite(v) else math.inf)
+    return sorted(range(len(results)), key=key, reverse=True)
+
+
+def _plots(summary: dict[str, Any], runs: Sequence[dict[str, Any]], results: Sequence[dict[str, Any]],
+           out: Path) -> list[str]:
+    metrics = list(dict.fromkeys([s["metric"] for s in summary["specs"] if s["metric"] != "finite"]
+                                 + ["peak_tilt_deg", "peak_tilt_rate_deg_s", "peak_torque_nm"]))[:6]
+    fig, axes = plt.subplots(2, 3, figsize=(11, 6))
+    for ax, m in zip(axes.ravel(), metrics):
+        vals = np.array([r["metrics"].get(m, np.nan) for r in results], float)
+        vals = vals[np.isfinite(vals)]
+        ax.hist(vals, bins=max(5, min(30, len(vals) // 2 or 1)), color="C0")
+        for s in summary["specs"]:
+            if s["metric"] == m and isinstance(s["threshold"], (int, float)) and not isinstance(s["threshold"], bool):
+                ax.axvline(s["threshold"], color="r", lw=1, label=f"spec {s['op']} {s['threshold']}")
+                ax.legend(fontsize=6)
+        ax.set_title(m, fontsize=8)
+    for ax in axes.ravel()[len(metrics):]:
+        ax.axis("off")
+    fig.suptitle(f"Monte Carlo: {summary['n']} runs, success {100 * summary['success_rate']:.0f} %")
+    fig.tight_layout()
+    fig.savefig(out / "histograms.png", dpi=80)
+    plt.close(fig)
+    params = list(runs[0]["values"]) if runs else []
+    y_metric = metrics[0] if metrics else _RANK_METRIC
+    ncol = 3
+    nrow = max(1, math.ceil(len(params) / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 3 * nrow), squeeze=False)
+    y = np.array([r["metrics"].get(y_metric, np.nan) for r in results], float)
+    ok = np.array([r["ok"] for r in results])
+    for ax, p in zip(axes.ravel(), params):
+        x = np.array([r["values"][p] for r in runs], float)
+        ax.scatter(x[ok], y[ok], s=10, c="C2", label="pass")
+        ax.scatter(x[~ok], y[~ok], s=14, c="C3", marker="x", label="fail")
+        ax.set_xlabel(p, fontsize=8)
+        ax.set_ylabel(y_metric, fontsize=8)
+        ax.legend(fontsize=6)
+    for ax in axes.ravel()[len(params):]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(out / "scatter.png", dpi=80)
+    plt.close(fig)
+    return ["histograms.png", "scatter.png"]
+
+
+def _fmt(v: Any) -> str:
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
+def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str | None = None,
+                   workers: int = 2, quiet: bool = False, seed: int | None = None,
+                   overrides: Sequence[tuple[str, Any]] = (), sim: ClosedLoop | None = None) -> dict[str, Any]:
+    """Run ``n`` dispersed copies of a scenario file (or shipped name) and write the report.
+
+    ``overrides`` (``--set``) change the base table before the dispersions (e.g. a
+    shorter ``duration_s``).  Returns the content of ``montecarlo.json``.
+    """
+    path = resolve_scenario(scenario)
+    source = load_scenario_file(path)
+    if overrides:
+        table = dict(source.table)
+        for k, v in overrides:
+            table = set_value(table, k, v)
+        source = parse_scenario(table, f"{path} (with --set)", path.stem)
+    runs = draw_runs(source, n, seed)
+    results = execute(source, runs, scheduler, workers, quiet, sim)
+    summary = summarize(source, runs, results)
+    worst = _rank(results)[:min(N_WORST, len(results))]
+    doc = {"scenario": str(path), "name": source.scenario.name, **summary,
+           "worst": [{"index": i, "seed": runs[i]["seed"], "file": f"worst/{runs[i]['table']['name']}.toml"}
+                     for i in worst],
+           "runs": [{"index": r["index"], "seed": r["seed"], "values": r["values"], "ok": res["ok"],
+                     "error": res["error"], "metrics": res["metrics"]} for r, res in zip(runs, results)]}
+    doc = jsonable(doc)
+    out = Path(out)
+    with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
+        plots = _plots(summary, runs, results, tmp)
+        (tmp / "worst").mkdir()
+        for rank, i in enumerate(worst, 1):
+            r = runs[i]
+            (tmp / "worst" / f"{r['table']['name']}.toml").write_text(dump_toml(
+                r["table"], f"Monte Carlo run {i} of {path} (worst #{rank}); rerun alone with\n"
+                            f"ballbot simulate {r['table']['name']}.toml"))
+        (tmp / "montecarlo.json").write_text(json.dumps(doc, indent=1) + "\n")
+        _report(tmp, doc, plots)
+    return doc
+
+
+def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
+    lines = [f"# Monte Carlo: `{doc['name']}` ({doc['n']} runs)", "",
+             f"- scenario file: `{doc['scenario']}`; set seed {doc['seed']} (run i draws from "
+             "`numpy.random.default_rng([seed, i])`)",
+             f"- **success rate: {100 * doc['success_rate']:.1f} %** ({doc['n'] - doc['n_failed']}/{doc['n']} "
+             "runs meet every spec)", "",
+             "## Specs", "", "| metric | spec | pass rate | thesis | why |", "| --- | --- | --- | --- | --- |"]
+    for s in doc["specs"]:
+        lines.append(f"| `{s['metric']}` | {s['op']} {s['threshold']} | {100 * s['pass_rate']:.1f} % | "
+                     f"{s.get('thesis') or '—'} | {s.get('source', '')} |")
+    lines += ["", "## Dispersions", "", "| parameter | distribution |", "| --- | --- |"]
+    for d in doc["dispersions"]:
+        rel = " (relative)" if d.get("relative") else ""
+        dist = f"normal, sd {d['sd']:g}{rel}" if d["dist"] == "normal" else f"uniform [{d['low']:g}, {d['high']:g}]{rel}"
+        lines.append(f"| `{d['param']}` | {dist} |")
+    lines += ["", "## Worst runs (rerun one alone with `ballbot simulate FILE`)", "",
+              "| run | noise seed | failed specs | peak tilt (deg) | file |", "| --- | --- | --- | --- | --- |"]
+    for w in doc["worst"]:
+        r = doc["runs"][w["index"]]
+        failed = ", ".join(s["metric"] for s, ok in zip(doc["specs"], _spec_oks(doc, r)) if not ok) or "none"
+        lines.append(f"| {w['index']} | {w['seed']} | {failed} | {_fmt(r['metrics'].get('peak_tilt_deg'))} | "
+                     f"[{w['file']}]({w['file']}) |")
+    lines += ["", "## Metric statistics", "", "| metric | mean | std | min | max | p95 |",
+              "| --- | --- | --- | --- | --- | --- |"]
+    for k, st in doc["metric_stats"].items():
+        lines.append(f"| `{k}` | " + " | ".join(_fmt(st[c]) for c in ("mean", "std", "min", "max", "p95")) + " |")
+    lines += ["", "## Plots", ""] + [f"![{p}]({p})" for p in plots]
+    (out / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def _spec_oks(doc: dict[str, Any], run: dict[str, Any]) -> list[bool]:
+    return [spec_ok(run["metrics"].get(s["metric"]), s["op"], s["threshold"]) for s in doc["specs"]]
