@@ -16,9 +16,6 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import os
-import shutil
-import tempfile
 from importlib import resources
 from pathlib import Path
 from typing import Sequence
@@ -26,7 +23,7 @@ from typing import Sequence
 import casadi as ca
 import numpy as np
 
-from ballbot_casadi.core.toolchain import CFLAGS, Library, run_tool
+from ballbot_casadi.core.toolchain import CFLAGS, Library, cached_file, compiler_command, run_tool
 from ballbot_casadi.errors import BuildError, ShapeError
 
 __all__ = ["glue_source", "MissionDriver"]
@@ -92,10 +89,11 @@ class MissionDriver:
         self._steps = dict(steps)
         self._seq = tuple(seq_inputs)
         src = glue_source(lib.header.name, self._steps, chunk, self._seq)
-        digest = hashlib.sha256("\0".join([src, lib.digest, *CFLAGS]).encode()).hexdigest()[:16]
+        ccmd = compiler_command()
+        digest = hashlib.sha256("\0".join([src, lib.digest, *ccmd, *CFLAGS]).encode()).hexdigest()[:16]
         so = lib.shared.parent / f"lib{lib.name}_mission_{digest}.so"
-        if not so.is_file():
-            self._compile(src, lib, so)
+        # verified before use (size + SHA-256 manifest) and rebuilt when damaged
+        cached_file(so, lambda tmp: self._compile(src, lib, tmp, ccmd), key=digest)
         self._dll = ctypes.CDLL(str(so))
         self._entries = {}
         for name in self._steps:
@@ -105,18 +103,12 @@ class MissionDriver:
             self._entries[name] = fn
 
     @staticmethod
-    def _compile(src: str, lib: Library, so: Path) -> None:
-        cc = os.environ.get("CC", "gcc")
-        tmp = Path(tempfile.mkdtemp(prefix=".mission-", dir=so.parent))
-        try:
-            c = tmp / "mission.c"
-            c.write_text(src)
-            cmd = [cc, *CFLAGS, "-shared", "-I", str(lib.header.parent), "-o", str(tmp / so.name),
-                   str(c), str(lib.static), "-lm"]
-            run_tool(cmd, "compiling the mission driver")
-            os.replace(tmp / so.name, so)
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
+    def _compile(src: str, lib: Library, so: Path, ccmd: list[str]) -> None:
+        c = so.with_suffix(".c")
+        c.write_text(src)
+        cmd = [*ccmd, *CFLAGS, "-shared", "-I", str(lib.header.parent), "-o", str(so),
+               str(c), str(lib.static), "-lm"]
+        run_tool(cmd, "compiling the mission driver")
 
     def run(self, controller: str, n: int, args: Sequence[np.ndarray]) -> list[np.ndarray]:
         """Run ``n`` periods; ``args`` in step-input order, sequences as (n, rows) arrays.
