@@ -38,7 +38,7 @@ from ballbot_casadi.control import (
     make_balance_controller,
     make_velocity_controller,
 )
-from ballbot_casadi.core.toolchain import CFLAGS, build_root
+from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, run_tool
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.model.dynamics import make_affine, make_ode
 from ballbot_casadi.sim import references as R
@@ -68,10 +68,8 @@ def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
     out.mkdir(parents=True, exist_ok=True)
     src = Path(str(resources.files("ballbot_casadi.bench") / "csrc" / "bench_control.c"))
     exe = out / "bench_control"
-    cmd = ["gcc", *CFLAGS, "-I", str(lib.header.parent), "-o", str(exe), str(src), str(lib.static), "-lm"]
-    res = subprocess.run(cmd, capture_output=True, text=True)
-    if res.returncode != 0:
-        raise BuildError(f"compiling the control benchmark failed:\n{res.stderr[-3000:]}")
+    run_tool([*compiler_command(), *CFLAGS, "-I", str(lib.header.parent), "-o", str(exe), str(src),
+              str(lib.static), "-lm"], "compiling the control benchmark")
     x = inputs["x0"]
     kf, ks = default_balance_gains("flc"), default_balance_gains("smc")
     vals = [inputs["p_ctrl"], kf, ks, inputs["k_vel"], x, inputs["z0"], [inputs["Ts"]]]
