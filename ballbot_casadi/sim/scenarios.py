@@ -30,6 +30,7 @@ from ballbot_casadi.control import (
     default_velocity_gains,
     velocity_initial_state,
 )
+from ballbot_casadi.control.velocity import VELOCITY_DEFAULT_LIMITS
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import DISTURBANCE
@@ -335,8 +336,11 @@ class Scenario:
         k_bal = np.asarray(self.k_bal, float) if self.k_bal else default_balance_gains(self.controller)
         if self.k_vel:
             k_vel = np.asarray(self.k_vel, float)
-        else:
+        elif self.cascade:
             k_vel = default_velocity_gains(make_jacobians(), p_ctrl, Ts=self.Ts)
+        else:  # balance controller alone: the velocity loop is open, no LQR design needed
+            k_vel = np.concatenate([np.zeros(VELOCITY_NKV - VELOCITY_DEFAULT_LIMITS.size),
+                                    VELOCITY_DEFAULT_LIMITS])
         q, dq, ddq = self.attitude_reference()
         for key, arr in (("q_ref", q), ("dq_ref", dq), ("ddq_ref", ddq)):
             if not np.all(np.isfinite(arr)):

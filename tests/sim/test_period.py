@@ -192,3 +192,13 @@ def test_feedforward_none_gives_the_balance_controller_zero_reference_accelerati
     roll = lambda log: np.degrees(2 * np.arcsin(log["state"][:-1, 3]))  # noqa: E731
     ref = np.degrees(2 * np.arcsin(exact["q_ref"][:, 1]))
     assert np.max(np.abs(roll(none) - ref)) > 3 * np.max(np.abs(roll(exact) - ref))
+
+
+def test_balance_only_runs_need_no_velocity_design(sim):
+    # g = 0: no stabilising velocity gain exists, but the balance controller alone runs
+    sc = study_scenarios("zero", "flc")[0].replace(duration=0.5, plant_changes={"g": ["set", 0.0]},
+                                                   ctrl_changes={"g": ["set", 0.0]})
+    log = run_scenario(sc, sim)
+    assert np.all(np.isfinite(log["state"]))
+    with pytest.raises(ValueError, match="no stabilising velocity gain"):
+        sc.replace(cascade=True).inputs()
