@@ -28,7 +28,7 @@ from ballbot_casadi.errors import BallbotError, ScenarioError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario_file import ScenarioFile, parse_scenario, spec_ok
 
-__all__ = ["DEFAULT_DISPERSIONS", "draw_runs", "evaluate_run", "run_serial", "run_dask",
+__all__ = ["DEFAULT_DISPERSIONS", "draw_runs", "evaluate_run", "evaluate_batch", "run_serial", "run_dask",
            "summarize", "dispersions_of"]
 
 #: Dispersions of a scenario file without a ``[montecarlo]`` table (documented in
@@ -163,17 +163,31 @@ def run_serial(source: ScenarioFile, runs: Sequence[Mapping[str, Any]], sim: Clo
     return out
 
 
+def evaluate_batch(tables: Sequence[Mapping[str, Any]], specs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """:func:`evaluate_run` of several tables in one task (fewer, larger Dask tasks)."""
+    sim = _worker_sim()
+    return [evaluate_run(t, specs, sim) for t in tables]
+
+
 def run_dask(source: ScenarioFile, runs: Sequence[Mapping[str, Any]], client: Any,
-             progress: Callable[[int], None] | None = None) -> list[dict[str, Any]]:
-    """Evaluate the runs on a ``distributed.Client`` (results in run order)."""
+             progress: Callable[[int], None] | None = None, batch: int | None = None) -> list[dict[str, Any]]:
+    """Evaluate the runs on a ``distributed.Client`` (results in run order).
+
+    Runs go to the workers in batches of ``batch`` (default: about four batches per
+    worker, so that scheduling costs little and the load still balances).
+    """
     from distributed import as_completed
 
     specs = _specs_or_default(source)
-    futures = client.map(evaluate_run, [r["table"] for r in runs], specs=specs, pure=False)
-    for _ in as_completed(futures):
+    if batch is None:
+        n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+        batch = max(1, len(runs) // (4 * n_workers))
+    chunks = [[r["table"] for r in runs[i:i + batch]] for i in range(0, len(runs), batch)]
+    futures = client.map(evaluate_batch, chunks, specs=specs, pure=False)
+    for fut in as_completed(futures):
         if progress:
-            progress(1)
-    return client.gather(futures)
+            progress(len(chunks[futures.index(fut)]))
+    return [res for part in client.gather(futures) for res in part]
 
 
 def summarize(source: ScenarioFile, runs: Sequence[Mapping[str, Any]],

@@ -19,6 +19,7 @@ import numpy as np
 
 from ballbot_casadi.bench.control import bench_control
 from ballbot_casadi.bench.fmu import bench_fmu
+from ballbot_casadi.bench.montecarlo import bench_montecarlo
 from ballbot_casadi.codegen.libraries import model_library
 from ballbot_casadi.core.files import atomic_write_text
 from ballbot_casadi.core.params import load_params
@@ -79,6 +80,7 @@ BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
     "model": bench_model,
     "fmu": bench_fmu,
     "control": bench_control,
+    "montecarlo": bench_montecarlo,
 })
 
 
