@@ -47,7 +47,7 @@ from ballbot_casadi.sim.scenario_file import (
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.study import jsonable
 
-__all__ = ["run_montecarlo", "execute", "OWNED_OUTPUTS", "N_WORST"]
+__all__ = ["run_montecarlo", "execute", "demo_step", "OWNED_OUTPUTS", "N_WORST"]
 
 #: Files an existing output folder may hold and still be replaced.
 OWNED_OUTPUTS = ("montecarlo.json", "*.png", "report.md", "worst")
@@ -202,3 +202,13 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
 
 def _spec_oks(doc: dict[str, Any], run: dict[str, Any]) -> list[bool]:
     return [spec_ok(run["metrics"].get(s["metric"]), s["op"], s["threshold"]) for s in doc["specs"]]
+
+
+def demo_step(out: Path) -> int:
+    """``make demo`` step: 16 dispersed runs of the COM scenario (20 s) on 2 local workers
+    into ``out/montecarlo`` (the success rate is reported, not a failure of the demo)."""
+    doc = run_montecarlo("com", 16, Path(out) / "montecarlo", workers=2, quiet=True,
+                         overrides=[("duration_s", 20.0)])
+    print(f"montecarlo com: {doc['n']} runs, success rate {100 * doc['success_rate']:.1f} %; "
+          f"report: {Path(out) / 'montecarlo' / 'report.md'}")
+    return 0

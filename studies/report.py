@@ -11,9 +11,9 @@ import json
 from pathlib import Path
 from typing import Any
 
-from ballbot_casadi.model.linearization import model_summary
 from ballbot_casadi.core.params import PARAM_INFO, load_params
 from ballbot_casadi.core.toolchain import build_root
+from ballbot_casadi.model.linearization import model_summary
 
 __all__ = ["write_report", "demo_step"]
 
@@ -87,10 +87,29 @@ def _study_section(out: Path, name: str, title: str, keys: list[str]) -> list[st
     if m is None:
         return [f"## {title}", "", "not run", ""]
     flat = {**m, **m.get("metrics", {})} if isinstance(m.get("metrics"), dict) else m
-    lines = [f"## {title}", "", "| metric | value |", "| --- | --- |"]
+    verdict = "PASS" if m.get("passed") else "FAIL"
+    lines = [f"## {title} ([report](study_{name}/report.md)): {verdict}", "",
+             "| metric | value |", "| --- | --- |"]
     lines += [f"| `{k}` | {_num(flat.get(k))} |" for k in keys if k in flat]
-    lines += ["", f"![{name}](study_{name}/plot.png)", ""]
+    exceeded = m.get("limits_exceeded") or []
+    if exceeded:
+        lines += ["", "Thesis §7.1 limits exceeded (reported): " + ", ".join(f"`{k}`" for k in exceeded)]
+    plot = "chirp_bode.png" if name == "chirp" else "plot.png"
+    lines += ["", f"![{name}](study_{name}/{plot})", ""]
     return lines
+
+
+def _montecarlo_section(out: Path) -> list[str]:
+    m = _load(out / "montecarlo" / "montecarlo.json")
+    if m is None:
+        return ["## Monte Carlo", "", "not run", ""]
+    return [f"## Monte Carlo: `{m['name']}`, {m['n']} runs ([report](montecarlo/report.md))", "",
+            f"- success rate against the scenario's specs: {100 * m['success_rate']:.1f} %",
+            *[f"- `{s['metric']}` {s['op']} {s['threshold']}: {100 * s['pass_rate']:.1f} % pass"
+              for s in m["specs"]],
+            f"- worst runs (rerun with `ballbot simulate`): "
+            + ", ".join(f"[run {w['index']}](montecarlo/{w['file']})" for w in m["worst"]), "",
+            "![histograms](montecarlo/histograms.png)", ""]
 
 
 def _fmu_section(out: Path) -> list[str]:
@@ -106,7 +125,8 @@ def _bench_section(bench: Path) -> list[str]:
     if b is None:
         return ["## Benchmarks", "", "`make bench` not run yet (writes build/bench.json).", ""]
     keys = ["ode_ns", "jac_ns", "python_call_ns", "control_step_us", "mission_100s_s",
-            "python_loop_ratio", "fmu_plant_step_us", "fmu_vs_pythonfmu_ratio"]
+            "python_loop_ratio", "fmu_plant_step_us", "fmu_vs_pythonfmu_ratio",
+            "montecarlo_runs_per_s_1w", "montecarlo_runs_per_s_2w", "montecarlo_parallel_efficiency"]
     return ["## Benchmarks (`make bench`, build/bench.json)", "", "| key | value |",
             "| --- | --- |", *[f"| `{k}` | {_num(b.get(k))} |" for k in keys if k in b], ""]
 
@@ -127,6 +147,10 @@ def write_report(out: Path, bench: Path | None = None) -> Path:
                             ["runaway_speed_mps", "final_speed_mps", "equilibrium_roll_deg",
                              "equilibrium_pitch_deg", "equilibrium_roll_analytic_deg",
                              "equilibrium_pitch_analytic_deg", "max_tilt_deg"])
+    lines += _study_section(out, "chirp", "Chirp bandwidth test (thesis §9.1)",
+                            ["bandwidth_hz", "bandwidth_criterion", "first_saturation_hz",
+                             "first_saturation_s", "fell_at_s", "linear_bandwidth_hz"])
+    lines += _montecarlo_section(out)
     lines += _fmu_section(out)
     lines += _bench_section(bench)
     path = out / "report.md"

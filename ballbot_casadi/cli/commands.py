@@ -15,7 +15,7 @@ from ballbot_casadi.core.files import (
 )
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.model.linearization import model_summary
-from ballbot_casadi.studies import analyze, fmu_demo, report, study
+from ballbot_casadi.studies import analyze, fmu_demo, montecarlo, report, study
 
 __all__ = ["add_parser", "DEMO_STEPS"]
 
@@ -55,6 +55,8 @@ DEMO_STEPS: tuple[tuple[str, Callable[[Path], int]], ...] = (
     ("linear analysis: minimal model, controllability, RHP zeros, bandwidths", analyze.demo_step),
     ("closed loop: roll sine 3 deg 0.5 Hz (thesis 8.2.5)", study.demo_sine),
     ("closed loop: COM offset, runaway and velocity loop (thesis 8.4.2, 9.2)", study.demo_com),
+    ("closed loop: chirp bandwidth test (thesis 9.1)", study.demo_chirp),
+    ("Monte Carlo: 16 dispersed runs of the COM scenario on 2 Dask workers", montecarlo.demo_step),
     ("plant FMU: build BallbotPlant.fmu and co-simulate it in fmpy", fmu_demo.demo_step),
     ("report", report.demo_step),
 )

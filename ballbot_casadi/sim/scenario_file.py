@@ -97,7 +97,7 @@ import numpy as np
 
 from ballbot_casadi.control import BALANCE_CONTROLLERS
 from ballbot_casadi.core.params import PARAM_NAMES, load_params
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import BallbotError, ScenarioError
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.scenarios import (
     ESTIMATOR_CHOICES,
@@ -276,7 +276,7 @@ def _changes(c: _Checker, table: Any, key: str) -> dict[str, list]:
         out[name] = [op, val]
     try:
         apply_changes(load_params(), out, key)
-    except ScenarioError as exc:  # e.g. a negative mass after the change
+    except BallbotError as exc:  # e.g. a negative mass after the change
         msg = str(exc)
         name = next((n for n in out if f"{n!r}" in msg or n in msg), next(iter(out), key))
         raise c.fail(f"{key}.{name}", msg.split(": ", 1)[-1]) from None
@@ -439,7 +439,7 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         raise c.fail("rk4_substeps", f"at most 100, got {fields['n_sub']}")
     try:
         scenario = Scenario(**fields)
-    except ScenarioError as exc:  # a check only the whole scenario can make (e.g. gain count)
+    except BallbotError as exc:  # a check only the whole scenario can make (e.g. gain count)
         key = "gains" if "k_bal" in str(exc) or "k_vel" in str(exc) or "gain" in str(exc) else "scenario"
         raise c.fail(key, str(exc)) from None
     specs = _specs(c, c.rows(table, "spec"))

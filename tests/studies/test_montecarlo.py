@@ -1,0 +1,86 @@
+"""Monte Carlo: reproducible draws, a 2-worker Dask LocalCluster equals the serial run,
+outputs and rerunnable worst runs."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.analysis.montecarlo import DEFAULT_DISPERSIONS, draw_runs, run_serial
+from ballbot_casadi.cli import main
+from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.scenario_file import load_scenario_file, parse_scenario, set_value
+from ballbot_casadi.studies.montecarlo import run_montecarlo
+from ballbot_casadi.studies.registry import shipped_scenarios
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def sim() -> ClosedLoop:
+    return ClosedLoop()
+
+
+def _short(name: str, duration: float = 1.0):
+    sf = load_scenario_file(shipped_scenarios()[name])
+    return parse_scenario(set_value(dict(sf.table), "duration_s", duration), "short", name)
+
+
+def test_draws_are_reproducible_and_follow_the_declared_dispersions():
+    sf = _short("com")
+    a, b = draw_runs(sf, 200), draw_runs(sf, 200)
+    assert [r["values"] for r in a] == [r["values"] for r in b]
+    assert len({r["seed"] for r in a}) == 200
+    com_x = np.array([r["values"]["plant.com_x"] for r in a])
+    assert abs(com_x.mean() - (-0.02)) < 4 * 0.005 / np.sqrt(200)
+    assert com_x.std() == pytest.approx(0.005, rel=0.2)
+    roll = np.array([r["values"]["initial.roll_deg"] for r in a])
+    assert roll.min() >= -2.0 and roll.max() <= 2.0
+    # the run's table carries the drawn values and validates
+    run = parse_scenario(a[3]["table"])
+    assert run.scenario.plant_params().com_x == a[3]["values"]["plant.com_x"]
+    assert run.scenario.seed == a[3]["seed"] and run.montecarlo is None
+    # a file without [montecarlo] gets the documented default set
+    assert list(draw_runs(_short("zero"), 1)[0]["values"]) == [d["param"] for d in DEFAULT_DISPERSIONS]
+
+
+def test_local_cluster_equals_serial_and_writes_the_report(tmp_path, sim):
+    over = [("duration_s", 2.0)]
+    dask_doc = run_montecarlo("push", 4, tmp_path / "dask", workers=2, quiet=True, overrides=over)
+    serial_doc = run_montecarlo("push", 4, tmp_path / "serial", workers=0, quiet=True, overrides=over, sim=sim)
+    assert dask_doc["runs"] == serial_doc["runs"]   # bit for bit: same tables, same compiled code
+    for f in ("histograms.png", "scatter.png"):
+        data = (tmp_path / "dask" / f).read_bytes()
+        assert data[:8] == PNG and len(data) > 5000
+    doc = json.loads((tmp_path / "dask" / "montecarlo.json").read_text())
+    assert doc["n"] == 4 and 0.0 <= doc["success_rate"] <= 1.0
+    assert "![histograms.png](histograms.png)" in (tmp_path / "dask" / "report.md").read_text()
+    # the worst run reruns alone with `ballbot simulate` and gives the same metrics
+    worst = doc["worst"][0]
+    rc = main(["simulate", str(tmp_path / "dask" / worst["file"]), "--out", str(tmp_path / "rerun"),
+               "--no-plot", "--quiet"])
+    rerun = json.loads((tmp_path / "rerun" / "metrics.json").read_text())
+    assert rc in (0, 1)
+    run = doc["runs"][worst["index"]]
+    assert rerun["metrics"]["peak_tilt_deg"] == run["metrics"]["peak_tilt_deg"]
+    assert rerun["passed"] == run["ok"]
+
+
+def test_serial_results_match_the_scenario_run(sim):
+    sf = _short("zero", 0.5)
+    runs = draw_runs(sf, 2)
+    res = run_serial(sf, runs, sim)
+    assert all(r["error"] is None for r in res)
+    assert res[0]["metrics"]["peak_tilt_deg"] != res[1]["metrics"]["peak_tilt_deg"]   # dispersed
+
+
+def test_cli_montecarlo_quiet_and_errors(tmp_path, capsys):
+    rc = main(["montecarlo", "zero", "--n", "2", "--workers", "0", "--quiet", "--set", "duration_s=0.5",
+               "--out", str(tmp_path / "mc")])
+    assert rc == 0 and capsys.readouterr().out == ""
+    assert (tmp_path / "mc" / "report.md").is_file() and list((tmp_path / "mc" / "worst").glob("*.toml"))
+    assert main(["montecarlo", "nosuch", "--n", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "nosuch" in err and len(err.strip().splitlines()) == 1

@@ -1,0 +1,104 @@
+"""Scenario files: shipped files, round trips, and the documented errors for malformed files."""
+
+from __future__ import annotations
+
+import tomllib
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.sim.scenario_file import (
+    ScenarioFileError,
+    dump_toml,
+    load_scenario_file,
+    parse_scenario,
+)
+from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.studies.registry import STUDIES, get_study, shipped_scenarios
+
+
+def test_every_shipped_file_is_valid_and_used_by_a_study():
+    shipped = shipped_scenarios()
+    used = {f for s in STUDIES.values() for f in s.files}
+    assert used == set(shipped)
+    for name, path in shipped.items():
+        sf = load_scenario_file(path)
+        assert sf.scenario.name == name and sf.specs
+
+
+def test_files_reproduce_the_thesis_scenarios():
+    (zero,) = get_study("zero").scenarios()
+    np.testing.assert_allclose(Q.to_rpy(np.array(zero.x0[2:6])), np.radians([5, 5, 0]), rtol=0, atol=1e-15)
+    (sine,) = get_study("sine").scenarios("smc")
+    assert sine.controller == "smc" and sine.attitude["roll"]["frequency_hz"] == 0.5
+    q, dq, _ = sine.attitude_reference()
+    np.testing.assert_allclose(sine.x0[2:6], q[0], rtol=0, atol=1e-15)   # on_reference
+    np.testing.assert_allclose(sine.x0[8:12], dq[0], rtol=0, atol=1e-15)
+    exact, none = get_study("chirp").scenarios()
+    assert (exact.feedforward, none.feedforward) == ("exact", "none")
+    assert none.attitude["roll"] == {"type": "chirp", "amplitude_deg": 3.0, "f0_hz": 0.05, "f1_hz": 5.0,
+                                     "duration": 99.0}
+    _, com = get_study("com").scenarios()
+    p = com.plant_params()
+    assert (p.com_x, p.com_y) == (-0.02, -0.03) and com.controller_params().com_x == 0.0
+
+
+def test_dump_round_trips():
+    for path in shipped_scenarios().values():
+        sf = load_scenario_file(path)
+        again = parse_scenario(tomllib.loads(dump_toml(sf.table, "header")), "again", sf.scenario.name)
+        assert again.scenario == sf.scenario and again.specs == sf.specs and again.montecarlo == sf.montecarlo
+
+
+BASE = 'duration_s = 1.0\n'
+
+
+@pytest.mark.parametrize("text,key,reason", [
+    (BASE + "colour = 1\n", "colour", "unknown key"),
+    ("controller = 'flc'\n", "duration_s", "missing"),
+    (BASE.replace("1.0", "'long'"), "duration_s", "expected a number"),
+    (BASE.replace("1.0", "-2.0"), "duration_s", "must be >"),
+    (BASE + "controller = 'pid'\n", "controller", "allowed: flc, smc"),
+    (BASE + "[attitude.roll]\ntype = 'sine'\namplitude_deg = 3\n", "attitude.roll.frequency_hz", "missing"),
+    (BASE + "[attitude.roll]\ntype = 'sine'\namplitude_deg = 3\nfrequency_hz = 150\n",
+     "attitude.roll.frequency_hz", "Nyquist"),
+    (BASE + "[attitude.roll]\ntype = 'sine'\namplitude_deg = 3\nfrequency_hz = 1\nfreq = 2\n",
+     "attitude.roll.freq", "unknown key"),
+    (BASE + "[plant]\nMb = -3.0\n", "plant.Mb", "Mb"),
+    (BASE + "[plant]\nMbody = 3.0\n", "plant.Mbody", "unknown key"),
+    (BASE + "[plant]\nMb = { times = 2 }\n", "plant.Mb", "scale"),
+    (BASE + "[[push]]\nt_s = 5.0\nroll_deg = 4\n", "push[0].t_s", "before the end"),
+    (BASE + "[initial]\npitch_deg = 95\n", "initial.pitch_deg", "(-90, 90)"),
+    (BASE + "seed = -1\n", "seed", "integer >= 0"),
+    (BASE + "[[spec]]\nmetric = 'x'\nop = '~'\nthreshold = 1\n", "spec[0].op", "allowed"),
+    (BASE + "[montecarlo]\n[[montecarlo.dispersion]]\nparam = 'plant.nope'\ndist = 'normal'\nsd = 1\n",
+     "montecarlo.dispersion[0].param", "unknown target"),
+    (BASE + "[gains]\nk_bal = [1.0, 2.0]\n", "gains", "gain"),
+])
+def test_malformed_files_name_file_key_and_reason(tmp_path, text, key, reason):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ScenarioFileError) as exc:
+        load_scenario_file(path)
+    msg = str(exc.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"{path}: key '{key}'"), msg
+    assert reason in msg, msg
+    assert isinstance(exc.value, ScenarioError)
+
+
+def test_toml_syntax_error_names_the_file(tmp_path):
+    path = tmp_path / "broken.toml"
+    path.write_text("duration_s = = 1\n")
+    with pytest.raises(ScenarioFileError, match=f"{path}: not valid TOML"):
+        load_scenario_file(path)
+
+
+def test_scenario_rejects_sine_without_frequency_and_above_nyquist():
+    with pytest.raises(ScenarioError, match="missing frequency_hz"):
+        Scenario("s", attitude={"roll": {"type": "sine", "amplitude_deg": 1.0}})
+    with pytest.raises(ScenarioError, match="Nyquist"):
+        Scenario("s", attitude={"roll": {"type": "sine", "amplitude_deg": 1.0, "frequency_hz": 100.0}})
+    Scenario("s", attitude={"roll": {"type": "sine", "amplitude_deg": 1.0, "frequency_hz": 99.0}})
