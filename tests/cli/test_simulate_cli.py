@@ -58,9 +58,9 @@ def test_study_list_and_set(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "chirp" in text and "sine_asym.toml" in text
     out = tmp_path / "zero"
-    rc = main(["study", "zero", "--set", "duration_s=2", "--out", str(out), "--no-plot", "--quiet"])
+    rc = main(["study", "zero", "--set", "duration_s=3", "--out", str(out), "--no-plot", "--quiet"])
     data = json.loads((out / "metrics.json").read_text())
-    assert rc == 0 and data["metrics"]["duration_s"] == pytest.approx(2.0, abs=1e-12)
+    assert rc == 0 and data["metrics"]["duration_s"] == pytest.approx(3.0, abs=1e-12)
     tilt = next(r for r in data["limits"] if r["metric"] == "peak_tilt_deg")
     assert tilt["exceeded"] and tilt["by_scenario"]            # starts at 7.07 deg > 5 deg
     rate = next(r for r in data["limits"] if r["metric"] == "peak_tilt_rate_deg_s")
