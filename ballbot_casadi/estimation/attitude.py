@@ -71,13 +71,13 @@ INPUT_NAMES = ("xhat", "P", "z", "Q", "R", "dt", "p")
 ATTITUDE_OUTPUT_NAMES = (*OUTPUT_NAMES, "P_att")
 
 _NP = len(PARAM_NAMES)
-_NO_INPUT = ca.DM(0.0)
+_NO_INPUT = ca.DM.zeros(3)
 
 
 def _model_symbols() -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
-    # The attitude models have no input; u is a 1-entry placeholder (CasADi's code
-    # generation of mapped Functions mishandles 0-entry inputs).
-    return ca.SX.sym("x", 7), ca.SX.sym("u"), ca.SX.sym("dt"), ca.SX.sym("p", _NP)
+    # u is the linear acceleration of the IMU in {K} in units of g (zero in the thesis's
+    # model); the process model does not use it.
+    return ca.SX.sym("x", 7), ca.SX.sym("u", 3), ca.SX.sym("dt"), ca.SX.sym("p", _NP)
 
 
 def make_attitude_process() -> ca.Function:
@@ -90,9 +90,14 @@ def make_attitude_process() -> ca.Function:
 
 
 def make_attitude_measurement() -> ca.Function:
-    """``att_measurement(x, u, dt, p) -> [g_B, omega]``: thesis (4.29), (4.30)."""
+    """``att_measurement(x, u, dt, p) -> [f_B / g, omega]``: thesis (4.29), (4.30).
+
+    The accelerometer predicts the specific force in {B} in units of g, ``R(q)^T (u +
+    e_z)``; with ``u = 0`` (the thesis's model) the accelerometer measures gravity only,
+    with ``u`` the IMU's linear acceleration in {K} (units of g) it is compensated.
+    """
     x, u, dt, p = _model_symbols()
-    g_b = Q.rotate_inv(x[:4], ca.DM([0.0, 0.0, 1.0]))
+    g_b = Q.rotate_inv(x[:4], u + ca.DM([0.0, 0.0, 1.0]))
     return ca.Function("att_measurement", [x, u, dt, p], [ca.vertcat(g_b, x[4:])],
                        ["x", "u", "dt", "p"], ["z"], {"cse": True})
 
@@ -108,17 +113,32 @@ def _normalised_z(z: ca.MX, p: ca.MX) -> ca.MX:
 
 
 def _function(name: str, args: tuple, out: dict, P_att: ca.MX) -> ca.Function:
+    names = list(INPUT_NAMES) + ["a"] * (len(args) - len(INPUT_NAMES))
     return ca.Function(name, list(args), [*(out[k] for k in OUTPUT_NAMES), P_att],
-                       list(INPUT_NAMES), list(ATTITUDE_OUTPUT_NAMES))
+                       names, list(ATTITUDE_OUTPUT_NAMES))
 
 
-def make_qukf(mean_iterations: int = MEAN_ITERATIONS) -> ca.Function:
+def _acceleration(args: tuple, p: ca.MX, compensate: bool) -> tuple[tuple, ca.MX]:
+    """The filter's input ``a`` (IMU acceleration in {K}, m/s^2) in units of g, if any."""
+    if not compensate:
+        return args, _NO_INPUT
+    a = ca.MX.sym("a", 3)
+    return (*args, a), a / ParamView(p).g
+
+
+def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: bool = False
+              ) -> ca.Function:
     """``ballbot_qukf``: one period of the quaternion UKF (thesis 4.1-4.40).
 
     Parameters
     ----------
     mean_iterations
         Karcher steps of the quaternion mean (replaces the sweep of thesis 4.20).
+    compensate_acceleration
+        Add a last input ``a`` (3, m/s^2): the IMU's linear acceleration in {K}, removed
+        from the accelerometer's prediction (e.g. the velocity filter's estimate).  The
+        thesis's model (4.29) assumes the accelerometer measures gravity only, which
+        biases the tilt while the ball accelerates (1 m/s^2 reads as 5.8 deg of tilt).
 
     Returns
     -------
@@ -135,7 +155,8 @@ def make_qukf(mean_iterations: int = MEAN_ITERATIONS) -> ca.Function:
     model = FilterModel(attitude(mean_iterations), make_attitude_process(),
                         make_attitude_measurement(), noise="pre")
     args = xhat, P, z, Qn, R, dt, p = _inputs(6)
-    out = ukf_step(model, xhat, P, _normalised_z(z, p), _NO_INPUT, Qn, R, dt, p, kappa=0.0)
+    args, u = _acceleration(args, p, compensate_acceleration)
+    out = ukf_step(model, xhat, P, _normalised_z(z, p), u, Qn, R, dt, p, kappa=0.0)
     return _function("ballbot_qukf", args, out, out["P_next"][:3, :3])
 
 
@@ -166,10 +187,10 @@ def qekf_initial_covariance(q: Any = QUKF_X0[:4], P0: Any = QUKF_P0,
     return P
 
 
-def make_qekf() -> ca.Function:
+def make_qekf(compensate_acceleration: bool = False) -> ca.Function:
     """``ballbot_qekf``: the predecessor's additive quaternion EKF (baseline, thesis §6.3).
 
-    Same inputs and outputs as :func:`make_qukf` except that ``P`` and ``P_next`` are
+    Same inputs and outputs as :func:`make_qukf` (including ``compensate_acceleration``) except that ``P`` and ``P_next`` are
     7 x 7 covariances of ``[q0..q3, omega]`` (the additive chart).  ``Q`` is the QUKF's
     6 x 6 tangent matrix, added as ``G Q G^T`` (:func:`tangent_map` at ``xhat``) to the
     predicted covariance; the quaternion is renormalised after the correction.
@@ -179,8 +200,9 @@ def make_qekf() -> ca.Function:
     model = FilterModel(attitude_additive(), make_attitude_process(), make_attitude_measurement(),
                         noise="additive")
     args = xhat, P, z, Qn, R, dt, p = _inputs(7)
+    args, u = _acceleration(args, p, compensate_acceleration)
     G = tangent_map(xhat[:4])
-    out = ekf_step(model, xhat, P, _normalised_z(z, p), _NO_INPUT, ca.mtimes([G, Qn, G.T]),
+    out = ekf_step(model, xhat, P, _normalised_z(z, p), u, ca.mtimes([G, Qn, G.T]),
                    R, dt, p)
     q_next = out["xhat_next"][:4]
     T = 2 * Q.Phi(q_next).T[1:, :]

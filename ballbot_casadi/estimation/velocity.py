@@ -86,11 +86,14 @@ def _accelerometer(q, a_xy, b, g):
     return Q.rotate_inv(q, ca.vertcat(a_xy, g)) + b
 
 
-def make_velocity_model(wheel_speeds: ca.Function) -> FilterModel:
+def make_velocity_model(wheel_speeds: ca.Function, midpoint: bool = False) -> FilterModel:
     """The velocity filters' :class:`FilterModel` (thesis 5.9-5.11, 5.17, 5.18, 5.28).
 
     ``u = [q(4), omega(3), vec(P_att)(9)]``; ``p`` the parameter vector (``g``,
-    ``n_ticks`` and the kinematic parameters of ``wheel_speeds``).
+    ``n_ticks`` and the kinematic parameters of ``wheel_speeds``).  With ``midpoint``
+    the encoder prediction uses the ball velocity at the middle of the period,
+    ``v - dt/2 a`` (the tick increment is the integral of the wheel speed over the
+    period; the thesis's (5.17) evaluates it at the period's end, half a period late).
     """
     _check_wheel_speeds(wheel_speeds)
     x, u, dt, p = ca.MX.sym("x", NX), ca.MX.sym("u", _NU), ca.MX.sym("dt"), ca.MX.sym("p", _NP)
@@ -101,7 +104,8 @@ def make_velocity_model(wheel_speeds: ca.Function) -> FilterModel:
 
     q, w = u[:4], u[4:7]
     dq = 0.5 * Q.mul(q, Q.hat(w))
-    dphi = wheel_speeds(ca.vertcat(0, 0, q, x[0], x[1], dq), p)
+    v = x[:2] - 0.5 * dt * x[2:4] if midpoint else x[:2]
+    dphi = wheel_speeds(ca.vertcat(0, 0, q, v, dq), p)
     enc = P.n_ticks / (2 * math.pi) * dt * dphi
     z = ca.vertcat(enc, _accelerometer(q, x[2:4], x[4:7], P.g))
     measurement = ca.Function("vel_measurement", [x, u, dt, p], [z], names, ["z"])
@@ -121,8 +125,8 @@ def make_velocity_model(wheel_speeds: ca.Function) -> FilterModel:
     return FilterModel(euclidean(NX), process, measurement, "additive", noise)
 
 
-def _build(name: str, wheel_speeds: ca.Function, kind: str) -> ca.Function:
-    model = make_velocity_model(wheel_speeds)
+def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = False) -> ca.Function:
+    model = make_velocity_model(wheel_speeds, midpoint)
     args = (ca.MX.sym("xhat", NX), ca.MX.sym("P", NX, NX), ca.MX.sym("z", 6), ca.MX.sym("att", 7),
             ca.MX.sym("P_att", 3, 3), ca.MX.sym("Q", NX, NX), ca.MX.sym("R", 6, 6),
             ca.MX.sym("dt"), ca.MX.sym("p", _NP))
@@ -136,7 +140,7 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str) -> ca.Function:
                        list(OUTPUT_NAMES))
 
 
-def make_vukf(wheel_speeds: ca.Function) -> ca.Function:
+def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False) -> ca.Function:
     """``ballbot_vukf``: one period of the velocity UKF (thesis 5.1-5.28).
 
     Parameters
@@ -144,6 +148,9 @@ def make_vukf(wheel_speeds: ca.Function) -> ca.Function:
     wheel_speeds
         Inverse kinematics ``(x[12], p[NP]) -> dphi[3]`` (the model's
         ``ballbot_wheel_speeds``); it is called, not inlined.
+    midpoint
+        Predict the encoder increments at the period's middle (see
+        :func:`make_velocity_model`) instead of the thesis's end of period.
 
     Returns
     -------
@@ -154,9 +161,9 @@ def make_vukf(wheel_speeds: ca.Function) -> ca.Function:
         non-finite component is not used); ``att = [q, omega]`` and ``P_att`` from the
         attitude filter; ``R`` without the attitude term (added inside).
     """
-    return _build("ballbot_vukf", wheel_speeds, "ukf")
+    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint)
 
 
-def make_vekf(wheel_speeds: ca.Function) -> ca.Function:
+def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False) -> ca.Function:
     """``ballbot_vekf``: the predecessor's velocity EKF, same interface as :func:`make_vukf`."""
-    return _build("ballbot_vekf", wheel_speeds, "ekf")
+    return _build("ballbot_vekf", wheel_speeds, "ekf", midpoint)

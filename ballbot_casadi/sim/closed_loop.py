@@ -38,8 +38,31 @@ from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.core.toolchain import Library, build_library, load_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
-from ballbot_casadi.model.dynamics import NP, NX, make_affine, make_ode
+from ballbot_casadi.estimation import make_qekf, make_qukf, make_vekf, make_vukf
+from ballbot_casadi.model.dynamics import (
+    NP,
+    NX,
+    make_affine,
+    make_ode,
+    make_wheel_speeds,
+)
+from ballbot_casadi.model.sensors import (
+    make_encoders,
+    make_gyro_bias_step,
+    make_imu,
+    make_wheel_angle_ode,
+)
 from ballbot_casadi.sim.driver import MissionDriver
+from ballbot_casadi.sim.feedback import (
+    ESTIMATOR_FILTERS,
+    FEEDBACK_OUTPUTS,
+    N_WHEEL,
+    NOISE,
+    VALID,
+    EstimatorBlocks,
+    feedback_layout,
+    sense_and_estimate,
+)
 from ballbot_casadi.sim.log import SimulationLog, load_log, save_log
 from ballbot_casadi.sim.period import (
     CONSTANT_INPUTS,
@@ -68,8 +91,18 @@ __all__ = [
 
 #: Control periods per compiled chunk (1 s at 200 Hz).
 CHUNK = 200
-#: Positions of the step inputs that are per-period sequences (the others are constants).
-_SEQ_INPUTS = tuple(range(1, 1 + len(SEQUENCE_INPUTS)))
+#: Per-period inputs of the steps with sensors and estimators (besides SEQUENCE_INPUTS).
+ESTIMATION_SEQUENCES = ("noise", "valid")
+#: Constant inputs of the steps with sensors and estimators (besides CONSTANT_INPUTS).
+ESTIMATION_CONSTANTS = ("s", "p_est", "Qa", "Ra", "Qv", "Rv")
+#: Outputs of the steps with sensors and estimators (besides the PERIOD_OUTPUTS).
+ESTIMATION_OUTPUTS = FEEDBACK_OUTPUTS
+
+
+def seq_inputs(step: ca.Function) -> tuple[int, ...]:
+    """Positions of the step inputs that are per-period sequences (the others are constants)."""
+    names = set(SEQUENCE_INPUTS) | set(ESTIMATION_SEQUENCES)
+    return tuple(i for i in range(step.n_in()) if step.name_in(i) in names)
 
 
 def make_closed_loop_step(
@@ -125,6 +158,84 @@ def make_closed_loop_step(
     )
 
 
+def make_estimating_step(
+    balance: ca.Function,
+    velocity: ca.Function,
+    ode: ca.Function,
+    wheel_speeds: ca.Function,
+    estimator: EstimatorBlocks,
+    n_sub: int = N_SUB,
+) -> ca.Function:
+    """One control period with noisy sensors and estimators, ``ballbot_cl_step_<ctrl>_<est>``.
+
+    :func:`ballbot_casadi.sim.period.control_period` on CasADi symbols whose controllers
+    read the estimate of :func:`ballbot_casadi.sim.feedback.sense_and_estimate`; the plant
+    carries the wheel angles (``ballbot_ode_wheel_angles`` in RK4).
+
+    Returns
+    -------
+    casadi.Function
+        Inputs ``xz = [x (15, with the wheel angles); z; e]`` (accumulated; ``e`` the
+        feedback state of :func:`~ballbot_casadi.sim.feedback.feedback_layout`), the
+        sequences of :func:`make_closed_loop_step` plus ``noise`` (9, standard normal)
+        and ``valid`` (3), the constants of :func:`make_closed_loop_step` plus ``s``
+        (sensor parameters), ``p_est`` (the filters' model parameters) and the filter
+        covariances ``Qa, Ra, Qv, Rv`` (column-major).  Outputs those of
+        :func:`make_closed_loop_step` (``x`` the true 12-state) plus ``x_hat`` (what the
+        controllers read), ``meas`` (acc, gyro, encoder rates as read), ``nis`` and
+        ``repairs``.
+    """
+    blocks = PeriodBlocks(balance, velocity)
+    sz = check_blocks(blocks, NP)
+    L = feedback_layout(estimator.name)
+    nxw = NX + N_WHEEL
+    ode_w = make_wheel_angle_ode(ode, wheel_speeds)
+    MX = ca.MX.sym
+    xz = MX("xz", nxw + sz["nz"] + L.size)
+    seq = {"q_ref": MX("q_ref", 4), "dq_ref": MX("dq_ref", 4), "ddq_ref": MX("ddq_ref", 4),
+           "v_ref": MX("v_ref", 3), "w": MX("w", DISTURBANCE.size),
+           "noise": MX("noise", NOISE.size), "valid": MX("valid", VALID.size)}
+    nv = estimator.velocity.size1_in(1)
+    const = {"p_plant": MX("p_plant", NP), "p_ctrl": MX("p_ctrl", NP), "k_bal": MX("k_bal", sz["nk"]),
+             "k_vel": MX("k_vel", sz["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade"),
+             "feedforward": MX("feedforward"), "s": MX("s", estimator.imu.size1_in(3)),
+             "p_est": MX("p_est", NP), "Qa": MX("Qa", 36), "Ra": MX("Ra", 36),
+             "Qv": MX("Qv", nv * nv), "Rv": MX("Rv", 36)}
+    cov = {"Qa": ca.reshape(const["Qa"], 6, 6), "Ra": ca.reshape(const["Ra"], 6, 6),
+           "Qv": ca.reshape(const["Qv"], nv, nv), "Rv": ca.reshape(const["Rv"], 6, 6)}
+    x, z, e = xz[:nxw], xz[nxw:nxw + sz["nz"]], xz[nxw + sz["nz"]:]
+    fb: dict[str, Any] = {}
+
+    def observe(xk: ca.MX) -> ca.MX:
+        fb.update(sense_and_estimate(estimator, xk, e, seq, {**const, **cov}))
+        return fb["x_hat"]
+
+    plant = rk4_plant(ode_w, n_sub, const["p_plant"], const["Ts"])
+    out = control_period(blocks, x, z, seq, const, plant, observe=observe)
+    e_next = ca.vertcat(out["tau"], fb["e_next"][L["tau_prev"].stop:])
+    out["x"] = out["x"][:NX]
+    return ca.Function(
+        f"ballbot_cl_step_{blocks.name}_{estimator.name}",
+        [xz, *seq.values(), *const.values()],
+        [ca.vertcat(out["x_next"], out["z_next"], e_next), *(out[k] for k in PERIOD_OUTPUTS),
+         *(fb[k] for k in FEEDBACK_OUTPUTS)],
+        ["xz", *seq, *const],
+        ["xz_next", *PERIOD_OUTPUTS, *FEEDBACK_OUTPUTS],
+    )
+
+
+def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function) -> EstimatorBlocks:
+    """The sensing and estimation Functions of estimator choice ``"ukf"`` or ``"ekf"``."""
+    if estimator not in ESTIMATOR_FILTERS:
+        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, {', '.join(ESTIMATOR_FILTERS)}")
+    att, vel = ESTIMATOR_FILTERS[estimator]
+    attitude = make_qukf if att == "qukf" else make_qekf
+    return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(),
+                           attitude(compensate_acceleration=True),
+                           (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True),
+                           estimator)
+
+
 def make_mission(step: ca.Function, n_periods: int) -> ca.Function:
     """The closed loop over ``n_periods`` control periods as one Function (``mapaccum``).
 
@@ -146,11 +257,12 @@ def make_chunk(step: ca.Function, n_periods: int = CHUNK) -> ca.Function:
     ``mapaccum`` themselves (see :meth:`ClosedLoop.mission`).
     """
     inner = make_mission(step, n_periods)
+    seq = seq_inputs(step)
     # constants (parameters, gains, Ts, cascade) are single columns, broadcast inside
-    args = [ca.MX.sym(inner.name_in(i), inner.size1_in(i), n_periods if i in _SEQ_INPUTS else 1)
+    args = [ca.MX.sym(inner.name_in(i), inner.size1_in(i), n_periods if i in seq else 1)
             for i in range(inner.n_in())]
     args[0] = ca.MX.sym(inner.name_in(0), inner.sparsity_in(0))
-    outs = inner(*[a if i == 0 or i in _SEQ_INPUTS else ca.repmat(a, 1, n_periods)
+    outs = inner(*[a if i == 0 or i in seq else ca.repmat(a, 1, n_periods)
                    for i, a in enumerate(args)])
     return ca.Function(
         step.name().replace("ballbot_cl_step_", "ballbot_cl_chunk_"),
@@ -172,54 +284,73 @@ def _compose_mission(step: ca.Function, chunk: ca.Function, n_chunk: int, n_peri
     if not isinstance(n_periods, (int, np.integer)) or n_periods < 1:
         raise ScenarioError(f"number of control periods must be an int >= 1, got {n_periods!r}")
     n_c, rem = divmod(int(n_periods), n_chunk)
-    args = [ca.MX.sym(step.name_in(i), step.size1_in(i), n_periods if i in _SEQ_INPUTS else 1)
+    seq = seq_inputs(step)
+    args = [ca.MX.sym(step.name_in(i), step.size1_in(i), n_periods if i in seq else 1)
             for i in range(step.n_in())]
     parts: list[list[ca.MX]] = []
     xz = args[0]
     for c in range(n_c):
         cols = slice(c * n_chunk, (c + 1) * n_chunk)
-        a = [xz] + [args[i][:, cols] if i in _SEQ_INPUTS else args[i] for i in range(1, len(args))]
+        a = [xz] + [args[i][:, cols] if i in seq else args[i] for i in range(1, len(args))]
         outs = chunk(*a)
         xz = outs[0]
         parts.append(list(outs[1:]))
     if rem:
         start = n_c * n_chunk
-        a = [xz] + [args[i][:, start:] if i in _SEQ_INPUTS else args[i] for i in range(1, len(args))]
+        a = [xz] + [args[i][:, start:] if i in seq else args[i] for i in range(1, len(args))]
         parts.append(list(step.mapaccum(f"{step.name()}_x{rem}", rem)(*a)))
     outs = [ca.horzcat(*[p[j] for p in parts]) for j in range(step.n_out())]
     name = step.name().replace("ballbot_cl_step_", "ballbot_mission_")
     return ca.Function(name, args, outs, step.name_in(), step.name_out())
 
 
-def closed_loop_functions(n_sub: int = N_SUB) -> tuple[dict[str, ca.Function], list[ca.Function]]:
+def closed_loop_functions(n_sub: int = N_SUB, estimator: str = "true",
+                          ) -> tuple[dict[str, ca.Function], list[ca.Function]]:
     """Symbolic step Functions of every balance controller, and everything to export in C.
+
+    Parameters
+    ----------
+    n_sub
+        RK4 sub-steps per period.
+    estimator
+        ``"true"`` (controllers read the true state), ``"ukf"`` or ``"ekf"`` (noisy
+        sensors and estimators, :func:`make_estimating_step`).
 
     Returns
     -------
     steps
-        ``{"flc": ballbot_cl_step_flc, "smc": ballbot_cl_step_smc}``.
+        ``{"flc": ballbot_cl_step_flc..., "smc": ballbot_cl_step_smc...}``.
     exported
-        The step and chunk (:func:`make_chunk`) Functions plus the controllers
-        ``ballbot_flc``, ``ballbot_smc``, ``ballbot_velocity`` (for the C benchmark).
+        The step and chunk (:func:`make_chunk`) Functions plus, for ``"true"``, the
+        controllers ``ballbot_flc``, ``ballbot_smc``, ``ballbot_velocity`` (for the C
+        benchmark), otherwise the filters (for the estimator benchmark).
     """
     ode, affine = make_ode(), make_affine()
     velocity = make_velocity_controller()
+    est = None if estimator == "true" else estimator_blocks(estimator, ode, make_wheel_speeds())
     steps: dict[str, ca.Function] = {}
     exported: list[ca.Function] = []
     for name, builder in BALANCE_CONTROLLERS.items():
         bal = builder(affine)
-        steps[name] = make_closed_loop_step(bal, velocity, ode, n_sub)
-        exported += [steps[name], make_chunk(steps[name]), bal]
-    exported.append(velocity)
+        if est is None:
+            steps[name] = make_closed_loop_step(bal, velocity, ode, n_sub)
+        else:
+            steps[name] = make_estimating_step(bal, velocity, ode, make_wheel_speeds(), est, n_sub)
+        exported += [steps[name], make_chunk(steps[name])]
+        if est is None:
+            exported.append(bal)
+    exported += [velocity] if est is None else [est.attitude, est.velocity]
     return steps, exported
 
 
-def library_name(n_sub: int) -> str:
-    """Name of the compiled closed-loop library for ``n_sub`` RK4 sub-steps per period."""
-    return "ballbot_closed_loop" if n_sub == N_SUB else f"ballbot_closed_loop_sub{n_sub}"
+def library_name(n_sub: int, estimator: str = "true") -> str:
+    """Name of the compiled closed-loop library for ``n_sub`` RK4 sub-steps and an estimator."""
+    name = "ballbot_closed_loop" if estimator == "true" else f"ballbot_closed_loop_{estimator}"
+    return name if n_sub == N_SUB else f"{name}_sub{n_sub}"
 
 
-def closed_loop_library(n_sub: int = N_SUB, root: Path | None = None) -> tuple[Library, dict[str, ca.Function]]:
+def closed_loop_library(n_sub: int = N_SUB, root: Path | None = None, estimator: str = "true",
+                        ) -> tuple[Library, dict[str, ca.Function]]:
     """Generate and compile the closed-loop library (steps, chunks and controllers).
 
     Cached by the hash of the generated C (see :func:`~ballbot_casadi.core.toolchain.build_library`).
@@ -229,8 +360,8 @@ def closed_loop_library(n_sub: int = N_SUB, root: Path | None = None) -> tuple[L
     library, steps
         The :class:`~ballbot_casadi.core.toolchain.Library` and the symbolic step Functions.
     """
-    steps, exported = closed_loop_functions(n_sub)
-    return build_library(library_name(n_sub), exported, root), steps
+    steps, exported = closed_loop_functions(n_sub, estimator)
+    return build_library(library_name(n_sub, estimator), exported, root), steps
 
 
 class _Variant:
@@ -242,6 +373,7 @@ class _Variant:
         self.chunks: dict[str, ca.Function] = {}
         self.driver: MissionDriver | None = None
         self.missions: dict[tuple[str, int], ca.Function] = {}
+        self.tags: dict[str, str] = {}
         if lib is None:
             self.steps = dict(symbolic)
             return
@@ -251,7 +383,15 @@ class _Variant:
         self.steps = {k: ext[f.name()] for k, f in symbolic.items()}
         self.chunks = {k: ext[c] for k, c in zip(symbolic, chunk_names)}
         if use_driver:
-            self.driver = MissionDriver(lib, symbolic, CHUNK, _SEQ_INPUTS)
+            # the driver's entry points are named after the steps: ballbot_mission_<tag>
+            self.tags = {k: f.name().removeprefix("ballbot_cl_step_") for k, f in symbolic.items()}
+            first = next(iter(symbolic.values()))
+            self.driver = MissionDriver(lib, {self.tags[k]: f for k, f in symbolic.items()}, CHUNK,
+                                        seq_inputs(first))
+
+    def run_driver(self, controller: str, n: int, args: list) -> list[np.ndarray]:
+        """Run a mission through the C entry point."""
+        return self.driver.run(self.tags[controller], n, args)
 
     def mission(self, controller: str, n_periods: int) -> ca.Function:
         key = (controller, int(n_periods))
@@ -306,29 +446,33 @@ class ClosedLoop:
         self.root = root
         self.use_driver = bool(use_driver)
         self._custom = steps is not None
-        self._variants: dict[int, _Variant] = {}
+        self._variants: dict[tuple[int, str], _Variant] = {}
         if steps is not None:
             lib = None
             if compiled:
                 funcs = [g for f in steps.values() for g in (f, make_chunk(f))]
                 lib = build_library("ballbot_closed_loop_custom", funcs, root)
-            self._variants[self.n_sub] = _Variant(steps, lib, self.use_driver)
+            self._variants[(self.n_sub, "true")] = _Variant(steps, lib, self.use_driver)
         else:
             self._variant(self.n_sub)
 
-    def _variant(self, n_sub: int) -> _Variant:
-        if n_sub not in self._variants:
+    def _variant(self, n_sub: int, estimator: str = "true") -> _Variant:
+        key = (int(n_sub), estimator)
+        if key not in self._variants:
             if self._custom:
                 raise ScenarioError(
-                    f"these custom steps integrate with n_sub = {self.n_sub}; n_sub = {n_sub} "
-                    "needs steps built for it"
+                    f"these custom steps integrate with n_sub = {self.n_sub} and the true state; "
+                    f"n_sub = {n_sub}, estimator = {estimator!r} needs steps built for it"
                 )
+            if estimator not in ("true", *ESTIMATOR_FILTERS):
+                raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, "
+                                    f"{', '.join(ESTIMATOR_FILTERS)}")
             if self.compiled:
-                lib, symbolic = closed_loop_library(n_sub, self.root)
+                lib, symbolic = closed_loop_library(key[0], self.root, estimator)
             else:
-                lib, (symbolic, _) = None, closed_loop_functions(n_sub)
-            self._variants[n_sub] = _Variant(symbolic, lib, self.use_driver)
-        return self._variants[n_sub]
+                lib, (symbolic, _) = None, closed_loop_functions(key[0], estimator)
+            self._variants[key] = _Variant(symbolic, lib, self.use_driver)
+        return self._variants[key]
 
     @property
     def library(self) -> Library | None:
@@ -350,9 +494,9 @@ class ClosedLoop:
         """Names of the available balance controllers."""
         return tuple(self._variant(self.n_sub).steps)
 
-    def step(self, controller: str, n_sub: int | None = None) -> ca.Function:
+    def step(self, controller: str, n_sub: int | None = None, estimator: str = "true") -> ca.Function:
         """The step Function of ``controller`` (compiled or symbolic)."""
-        steps = self._variant(self.n_sub if n_sub is None else int(n_sub)).steps
+        steps = self._variant(self.n_sub if n_sub is None else int(n_sub), estimator).steps
         try:
             return steps[controller]
         except KeyError:
@@ -360,10 +504,12 @@ class ClosedLoop:
                 f"unknown controller {controller!r}; allowed: {', '.join(steps)}"
             ) from None
 
-    def mission(self, controller: str, n_periods: int, n_sub: int | None = None) -> ca.Function:
+    def mission(self, controller: str, n_periods: int, n_sub: int | None = None,
+                estimator: str = "true") -> ca.Function:
         """The ``n_periods`` mission Function of ``controller`` (cached)."""
-        self.step(controller, n_sub)  # validates the name
-        return self._variant(self.n_sub if n_sub is None else int(n_sub)).mission(controller, n_periods)
+        self.step(controller, n_sub, estimator)  # validates the name
+        n_sub = self.n_sub if n_sub is None else int(n_sub)
+        return self._variant(n_sub, estimator).mission(controller, n_periods)
 
     def simulate(
         self,
@@ -384,58 +530,86 @@ class ClosedLoop:
         cascade: bool = False,
         feedforward: bool = True,
         n_sub: int | None = None,
+        estimator: str = "true",
+        estimation: Mapping[str, Any] | None = None,
     ) -> dict[str, np.ndarray]:
         """Run one mission in a single Function call.
 
         Sequences are ``(N, size)`` arrays (one row per control period).  ``n_sub``
         (default: the instance's) sets the RK4 sub-steps per period; ``feedforward =
         False`` gives the balance controller a zero reference acceleration (thesis
-        mode, see :mod:`~ballbot_casadi.sim.period`).  Returns the
-        named arrays of the log: ``time`` (N+1), ``state`` (N+1, 12; row k < N is the
-        state the controllers saw at ``t_k``, the last row the final state),
-        ``z`` (N+1, NZ), ``tau_cmd``, ``tau`` (N, 3; ``tau`` acts on the plant:
+        mode, see :mod:`~ballbot_casadi.sim.period`).  With ``estimator`` ``"ukf"`` or
+        ``"ekf"`` the controllers read estimates from noisy sensors
+        (:func:`make_estimating_step`); ``estimation`` then holds ``noise`` (N, 9),
+        ``valid`` (N, 3), ``s``, ``p_est``, ``Qa``, ``Ra``, ``Qv``, ``Rv`` and ``e0`` (the
+        initial feedback state).
+
+        Returns the named arrays of the log: ``time`` (N+1), ``state`` (N+1, 12; row
+        k < N is the plant state at ``t_k`` after a push, the last row the final
+        state), ``z`` (N+1, NZ), ``tau_cmd``, ``tau`` (N, 3; ``tau`` acts on the plant:
         saturated plus the disturbance), ``q_ref``, ``dq_ref``, ``ddq_ref`` (N, 4, the
-        references used), ``v_ref`` (N, 3), ``w`` (N, 6), ``diag`` (N, ND).
+        references used), ``v_ref`` (N, 3), ``w`` (N, 6), ``diag`` (N, ND); with an
+        estimator also ``x_hat`` (N, 12, what the controllers read), ``meas`` (N, 9),
+        ``nis`` (N, 2), ``repairs`` (N, 1), ``noise``, ``valid``, ``phi`` (N+1, 3, wheel
+        angles) and ``e_final`` (the final feedback state).
         """
         n_sub = self.n_sub if n_sub is None else n_sub
         if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
             raise ScenarioError(f"n_sub must be an int >= 1, got {n_sub!r}")
-        seqs = {"q_ref": q_ref, "dq_ref": dq_ref, "ddq_ref": ddq_ref, "v_ref": v_ref, "w": w}
-        widths = {"q_ref": 4, "dq_ref": 4, "ddq_ref": 4, "v_ref": 3, "w": DISTURBANCE.size}
+        step = self.step(controller, n_sub, estimator)
+        est = estimator != "true"
+        if est and estimation is None:
+            raise ScenarioError(f"estimator {estimator!r} needs the estimation inputs (noise, ...)")
+        extra = dict(estimation or {}) if est else {}
+        seqs = {"q_ref": q_ref, "dq_ref": dq_ref, "ddq_ref": ddq_ref, "v_ref": v_ref, "w": w,
+                **{k: extra.get(k) for k in (ESTIMATION_SEQUENCES if est else ())}}
         n = None
         for key, val in seqs.items():
+            width = step.size1_in(step.name_in().index(key))
             arr = np.asarray(val, dtype=float)
-            width = widths[key]
             if arr.ndim != 2 or arr.shape[1] != width:
                 raise ShapeError(f"{key} must have shape (N, {width}), got {arr.shape}")
             if not np.all(np.isfinite(arr)):
-                raise ScenarioError(f"{key} contains NaN or Inf; references must be finite")
+                raise ScenarioError(f"{key} contains NaN or Inf; inputs must be finite")
             n = arr.shape[0] if n is None else n
             if arr.shape[0] != n:
                 raise ShapeError(f"{key} has {arr.shape[0]} rows, the other sequences {n}")
             seqs[key] = arr
-        xz0 = np.concatenate([np.asarray(x0, float).reshape(NX), np.asarray(z0, float).reshape(-1)])
-        args = [xz0, *(seqs[k] for k in SEQUENCE_INPUTS),
-                np.asarray(p_plant, float), np.asarray(p_ctrl, float), np.asarray(k_bal, float),
-                np.asarray(k_vel, float), float(Ts), 1.0 if cascade else 0.0,
-                1.0 if feedforward else 0.0]
-        step = self.step(controller, n_sub)
-        for i, a in enumerate(args[6:], start=6):
-            if np.size(a) != step.size1_in(i):
-                raise ShapeError(f"{step.name_in(i)} has {np.size(a)} entries, expected {step.size1_in(i)}")
-        variant = self._variant(int(n_sub))
+        x0 = np.asarray(x0, float).reshape(NX)
+        parts = [x0, np.zeros(N_WHEEL)] if est else [x0]
+        parts += [np.asarray(z0, float).reshape(-1)]
+        if est:
+            parts.append(np.asarray(extra["e0"], float).reshape(-1))
+        xz0 = np.concatenate(parts)
+        const = {"p_plant": p_plant, "p_ctrl": p_ctrl, "k_bal": k_bal, "k_vel": k_vel, "Ts": Ts,
+                 "cascade": 1.0 if cascade else 0.0, "feedforward": 1.0 if feedforward else 0.0,
+                 **{k: np.asarray(extra[k], float).ravel(order="F")
+                    for k in (ESTIMATION_CONSTANTS if est else ())}}
+        args = [xz0]
+        for i in range(1, step.n_in()):
+            name = step.name_in(i)
+            a = seqs[name] if name in seqs else np.asarray(const[name], float).reshape(-1)
+            if name not in seqs and a.size != step.size1_in(i):
+                raise ShapeError(f"{name} has {a.size} entries, expected {step.size1_in(i)}")
+            args.append(a)
+        if xz0.size != step.size1_in(0):
+            raise ShapeError(f"initial state has {xz0.size} entries, expected {step.size1_in(0)}")
+        variant = self._variant(int(n_sub), estimator)
+        seq_idx = seq_inputs(step)
         if variant.driver is not None and controller in variant.chunks:
-            res = variant.driver.run(controller, n, args)
+            res = variant.run_driver(controller, n, args)
         else:
             mission = variant.mission(controller, n)
-            res = [np.asarray(r).T for r in mission(*[a.T if i in _SEQ_INPUTS else a
+            res = [np.asarray(r).T for r in mission(*[a.T if i in seq_idx else a
                                                        for i, a in enumerate(args)])]
-        out = dict(zip(["xz_next", *PERIOD_OUTPUTS], res))
+        out = dict(zip(step.name_out(), res))
         xz_next = out["xz_next"]
-        return {
+        nxw = NX + (N_WHEEL if est else 0)
+        nz = np.size(z0)
+        log = {
             "time": np.arange(n + 1) * float(Ts),
             "state": np.vstack([out["x"], xz_next[-1:, :NX]]),
-            "z": np.vstack([xz0[None, NX:], xz_next[:, NX:]]),
+            "z": np.vstack([xz0[None, nxw:nxw + nz], xz_next[:, nxw:nxw + nz]]),
             "tau_cmd": out["tau_cmd"],
             "tau": out["tau"],
             "q_ref": out["q_ref_used"],
@@ -445,6 +619,12 @@ class ClosedLoop:
             "w": seqs["w"],
             "diag": out["diag"],
         }
+        if est:
+            log.update({k: out[k] for k in FEEDBACK_OUTPUTS})
+            log.update({k: seqs[k] for k in ESTIMATION_SEQUENCES})
+            log["phi"] = np.vstack([xz0[None, NX:nxw], xz_next[:, NX:nxw]])
+            log["e_final"] = xz_next[-1, nxw + nz:]
+        return log
 
 
 def run_scenario(scenario: Any, sim: ClosedLoop | None = None) -> SimulationLog:
@@ -459,9 +639,6 @@ def run_scenario(scenario: Any, sim: ClosedLoop | None = None) -> SimulationLog:
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"run_scenario needs a Scenario, got {type(scenario).__name__}")
-    if scenario.estimator != "true":
-        raise ScenarioError(f"scenario {scenario.name!r}: estimator {scenario.estimator!r} is not "
-                            "wired into the closed loop yet; use estimator = 'true'")
     sim = ClosedLoop() if sim is None else sim
     arrays = sim.simulate(scenario.controller, **scenario.inputs(), n_sub=scenario.n_sub)
     return SimulationLog(

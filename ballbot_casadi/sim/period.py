@@ -131,11 +131,15 @@ def _select(on: Any, a: Any, b: Any) -> Any:
 def apply_push(x: Any, push: Any) -> Any:
     """Rotate the plant attitude ``q`` and its rate ``dq`` in {K} by the rotation vector ``push``.
 
-    An exact identity for ``push = 0`` (thesis §8.4.3 attitude disturbance).
+    An exact identity for ``push = 0`` (thesis §8.4.3 attitude disturbance).  Entries of
+    ``x`` beyond the 12-state (the wheel angles of a plant with sensors) are kept.
     """
     r = Q.from_rotation_vector(push)
     q, dq = x[STATE["q"]], x[STATE["dq"]]
     parts = [x[0:STATE["q"].start], Q.mul(r, q), x[STATE["q"].stop:STATE["dq"].start], Q.mul(r, dq)]
+    n = x.numel() if _symbolic(x) else np.size(x)
+    if n > STATE.size:  # further plant states (wheel angles) are not rotated
+        parts.append(x[STATE.size:])
     return ca.vertcat(*parts) if _symbolic(x, push) else np.concatenate([np.ravel(p) for p in parts])
 
 
@@ -154,6 +158,7 @@ def control_period(
     seq: Mapping[str, Any],
     const: Mapping[str, Any],
     plant: Callable[[Any, Any, Any, Any], Any],
+    observe: Callable[[Any], Any] | None = None,
 ) -> dict[str, Any]:
     """One control period (see the module docstring): symbolic or numeric.
 
@@ -174,19 +179,24 @@ def control_period(
         period from the pushed state ``xk``; ``tau`` is the torque acting on the plant
         (:func:`actuate`), ``tau_lim`` and ``tau_dist`` its two parts for a plant that
         saturates its motor torque itself (an FMU).
+    observe
+        ``observe(xk) -> x_hat``: what the controllers read of the pushed plant state
+        (the sensors and estimators of :mod:`ballbot_casadi.sim.feedback`); default: the
+        true state.
 
     Returns
     -------
     dict
-        ``x_next``, ``z_next`` and the :data:`PERIOD_OUTPUTS`: ``x`` (the state the
-        controllers saw), ``tau_cmd`` (controller output), ``tau`` (torque acting on the
+        ``x_next``, ``z_next`` and the :data:`PERIOD_OUTPUTS`: ``x`` (the pushed plant
+        state at ``t_k``), ``tau_cmd`` (controller output), ``tau`` (torque acting on the
         plant), the references used and ``diag``.
     """
     w = seq["w"]
     p_plant, p_ctrl = const["p_plant"], const["p_ctrl"]
     xk = apply_push(x, w[DISTURBANCE["push"]])
+    x_seen = xk if observe is None else observe(xk)
 
-    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(xk, seq["v_ref"], z, p_ctrl,
+    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(x_seen, seq["v_ref"], z, p_ctrl,
                                                             const["k_vel"], const["Ts"]))
     on = const["cascade"] > 0.5 if _symbolic(const["cascade"]) else bool(const["cascade"])
     qr = _select(on, qv, seq["q_ref"])
@@ -195,7 +205,7 @@ def control_period(
     ddqr = ddqr * (const["feedforward"] if _symbolic(const["feedforward"]) else float(const["feedforward"]))
     z_next = _select(on, zv, z)
 
-    tau_cmd, diag = (_value(v) for v in blocks.balance(xk, qr, dqr, ddqr, p_ctrl, const["k_bal"]))
+    tau_cmd, diag = (_value(v) for v in blocks.balance(x_seen, qr, dqr, ddqr, p_ctrl, const["k_bal"]))
     tau_lim = saturate_torques(tau_cmd, p_ctrl[_TAU_MAX])
     tau_dist = w[DISTURBANCE["tau_dist"]]
     tau = actuate(tau_lim, tau_dist, p_plant[_TAU_MAX])

@@ -35,10 +35,24 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
+from ballbot_casadi.core.rng import NoiseStream
+from ballbot_casadi.core.sensor_params import (
+    SENSOR_PARAM_NAMES,
+    SensorParams,
+    load_sensor_params,
+)
 from ballbot_casadi.core.validation import check_state
 from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.model.dynamics import make_jacobians
+from ballbot_casadi.model.sensors import NOISE_STREAMS
 from ballbot_casadi.sim import references as R
+from ballbot_casadi.sim.feedback import (
+    ESTIMATOR_FILTERS,
+    NOISE,
+    VALID,
+    initial_feedback_state,
+)
 
 __all__ = [
     "Scenario",
@@ -94,6 +108,29 @@ _SIGNAL_KEYS: Mapping[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "step": (("amplitude_deg",), ("t_step", "rise_time", "offset_deg")),
     "chirp": (("amplitude_deg", "f0_hz", "f1_hz", "duration"), ("offset_deg",)),
 }
+
+
+def _sensor_params(changes: Mapping[str, Any], what: str) -> SensorParams:
+    """Sensor parameters with ``{name: [op, value]}`` changes (vector values for ``set``)."""
+    base = load_sensor_params()
+    values: dict[str, Any] = {}
+    for name, change in changes.items():
+        if name not in SENSOR_PARAM_NAMES:
+            raise ScenarioError(f"{what}: unknown sensor parameter {name!r}; allowed: "
+                                f"{', '.join(SENSOR_PARAM_NAMES)}")
+        try:
+            op, value = change
+            current = np.asarray(getattr(base, name), float)
+            value = np.broadcast_to(np.asarray(value, float), current.shape)
+        except (TypeError, ValueError):
+            raise ScenarioError(f"{what}: change of {name!r} must be [op, number or list of "
+                                f"{np.size(getattr(base, name))}], got {change!r}") from None
+        if op not in _CHANGE_OPS or not np.all(np.isfinite(value)):
+            raise ScenarioError(f"{what}: change of {name!r} must be [op, finite value] with op in "
+                                f"{_CHANGE_OPS}, got {change!r}")
+        new = value if op == "set" else current * value if op == "scale" else current + value
+        values[name] = [float(v) for v in np.ravel(new)]
+    return base.replace(**values) if values else base
 
 
 def _check_signal(axis: str, spec: Mapping[str, Any], Ts: float = TS_CONTROL) -> None:
@@ -198,6 +235,20 @@ class Scenario:
     seed
         Seed of the sensor-noise generator (int >= 0; runs with the same seed are
         identical bit for bit).
+    noise
+        With an estimator: draw sensor noise (default) or run the sensors noise-free
+        (biases, scale factors and encoder quantisation stay).
+    sensor_changes
+        ``{sensor parameter: [op, value]}`` applied to the sensor parameters
+        (:mod:`ballbot_casadi.core.sensor_params`; vector parameters take a list value
+        with ``set``).
+    est_changes
+        ``{param: [op, value]}`` applied to the nominal parameters for the estimators'
+        internal model.
+    sensor_dropouts
+        Rows ``(t_start, t_end, sensor)`` with sensor ``"acc"``, ``"gyro"`` or ``"enc"``:
+        that sensor's readings are missing (NaN) in the periods starting in
+        ``[t_start, t_end)``; the filters predict only for it.
     study
         Which study the scenario belongs to (:mod:`ballbot_casadi.studies.registry`).
     """
@@ -220,6 +271,10 @@ class Scenario:
     feedforward: str = "exact"
     estimator: str = "true"
     seed: int = 0
+    noise: bool = True
+    sensor_changes: Mapping[str, Any] = field(default_factory=dict)
+    est_changes: Mapping[str, Any] = field(default_factory=dict)
+    sensor_dropouts: tuple = ()
     study: str = ""
     description: str = ""
 
@@ -251,6 +306,20 @@ class Scenario:
                                 f"allowed: {', '.join(ESTIMATOR_CHOICES)}")
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or not 0 <= self.seed < 2**32:
             raise ScenarioError(f"scenario {self.name!r}: seed must be an int in [0, 2^32), got {self.seed!r}")
+        if not isinstance(self.noise, bool):
+            raise ScenarioError(f"scenario {self.name!r}: noise must be true or false, got {self.noise!r}")
+        drops = []
+        for row in self.sensor_dropouts:
+            ok = (isinstance(row, (list, tuple)) and len(row) == 3 and row[2] in VALID.fields
+                  and all(isinstance(v, (int, float)) and math.isfinite(v) for v in row[:2])
+                  and 0 <= row[0] < row[1])
+            if not ok:
+                raise ScenarioError(
+                    f"scenario {self.name!r}: sensor dropout {row!r} must be (t_start, t_end, sensor) "
+                    f"with 0 <= t_start < t_end and sensor in {VALID.fields}")
+            drops.append((float(row[0]), float(row[1]), str(row[2])))
+        object.__setattr__(self, "sensor_dropouts", tuple(drops))
+        _sensor_params(self.sensor_changes, f"scenario {self.name!r} sensor_changes")
         object.__setattr__(self, "x0", tuple(float(v) for v in check_state(self.x0, "initial state x0")))
         unknown = sorted(set(self.attitude) - {"roll", "pitch", "yaw"})
         if unknown:
@@ -278,6 +347,7 @@ class Scenario:
             R.velocity_profile(np.zeros(1), self.velocity_keyframes)  # validates
         apply_changes(load_params(), self.plant_changes, f"scenario {self.name!r} plant_changes")
         apply_changes(load_params(), self.ctrl_changes, f"scenario {self.name!r} ctrl_changes")
+        apply_changes(load_params(), self.est_changes, f"scenario {self.name!r} est_changes")
 
     # -- derived quantities ------------------------------------------------------------
     @property
@@ -361,6 +431,49 @@ class Scenario:
             "Ts": self.Ts,
             "cascade": self.cascade,
             "feedforward": self.feedforward == "exact",
+            "estimator": self.estimator,
+            **({"estimation": self.estimation_inputs(base)} if self.estimator != "true" else {}),
+        }
+
+    def estimator_params(self, base: Params | None = None) -> Params:
+        """The estimators' internal-model parameters (``base`` with :attr:`est_changes`)."""
+        return apply_changes(base or load_params(), self.est_changes, "est_changes")
+
+    def sensor_params(self) -> SensorParams:
+        """The plant's sensor parameters (defaults with :attr:`sensor_changes`)."""
+        return _sensor_params(self.sensor_changes, "sensor_changes")
+
+    def estimation_inputs(self, base: Params | None = None) -> dict[str, Any]:
+        """The ``estimation`` inputs of :meth:`~ballbot_casadi.sim.closed_loop.ClosedLoop.simulate`.
+
+        Noise rows ``k`` are ``[n_acc, n_gyro, n_rw]`` drawn from the counter-based
+        generator of :mod:`ballbot_casadi.core.rng` with this scenario's seed (streams
+        :data:`~ballbot_casadi.model.sensors.NOISE_STREAMS`, row = period index), so a
+        chunked or restarted run draws the same numbers.
+        """
+        if self.estimator == "true":
+            raise ScenarioError(f"scenario {self.name!r} has no estimator in the loop")
+        n = self.n_periods
+        if self.noise:
+            rng = NoiseStream(self.seed)
+            noise = np.hstack([rng.normal(NOISE_STREAMS[k], n, 3) for k in ("acc", "gyro", "gyro_bias_rw")])
+        else:
+            noise = np.zeros((n, NOISE.size))
+        valid = np.ones((n, VALID.size))
+        valid[0, VALID.index("enc")] = 0.0  # no previous count to difference at the first sample
+        t = self.time()
+        for t0, t1, sensor in self.sensor_dropouts:
+            valid[(t >= t0 - 1e-12) & (t < t1 - 1e-12), VALID.index(sensor)] = 0.0
+        sp = self.sensor_params()
+        att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[self.estimator])
+        return {
+            "noise": noise,
+            "valid": valid,
+            "s": sp.to_vector(),
+            "p_est": self.estimator_params(base).to_vector(),
+            "Qa": att.Q, "Ra": att.R, "Qv": vel.Q, "Rv": vel.R,
+            "e0": initial_feedback_state(self.estimator, np.asarray(self.x0, float),
+                                         np.asarray(sp.gyro_bias0, float)),
         }
 
     # -- serialisation -----------------------------------------------------------------
