@@ -18,6 +18,8 @@ never decide pass/fail.
 ``push``       4 deg roll jump of the plant attitude (thesis §8.4.3)
 ``velocity``   velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
 ``chirp``      roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
+``estimators`` noisy sine and velocity profile, QUKF + VUKF against QEKF + VEKF (ch. 6)
+``full``       the complete system with noise and estimators, beside SMC + EKF (§9.3, §9.4)
 ============== ==========================================================================
 """
 
@@ -45,6 +47,7 @@ from ballbot_casadi.sim.scenario_file import (
     spec_ok,
 )
 from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.studies import estimators as E
 
 __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenarios",
            "evaluate_specs", "spec_ok", "scenario_dir", "shipped_scenarios", "resolve_scenario",
@@ -173,6 +176,10 @@ class Study:
         chirp study runs its file with both feed-forward modes).
     specs
         ``None``: the main file's specs plus :attr:`extra_specs`; a tuple replaces them.
+    plot
+        Optional ``(logs, out_dir) -> [paths]``: the study's own plots (beside the main run's).
+    report
+        Optional ``metrics -> lines``: the study's own section of ``report.md``.
     """
 
     name: str
@@ -182,6 +189,8 @@ class Study:
     extra_specs: tuple[Spec, ...] = ()
     expand: Callable[[list[dict[str, Any]]], list[dict[str, Any]]] | None = None
     specs: tuple[Spec, ...] | None = field(default=None)
+    plot: Callable[[Sequence[SimulationLog], Path], list[Path]] | None = None
+    report: Callable[[dict[str, Any]], list[str]] | None = None
 
     def tables(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> list[dict[str, Any]]:
         """The runs' scenario tables (friendly units) for ``controller``, ``--set`` applied."""
@@ -250,6 +259,30 @@ def _chirp_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     return out
 
 
+_NORM = Spec("quat_norm_max_dev", "<=", 1e-12,
+             "the QUKF keeps the quaternion unit by construction: no renormalisation anywhere",
+             "renormalising failed for the UKF (ch. 4)")
+_ESTIMATOR_SPECS = (
+    Spec("ukf_roll_rms_deg", "<=", 0.1, "QUKF roll estimation error RMS on the noisy sine"),
+    Spec("ukf_pitch_rms_deg", "<=", 0.1, "QUKF pitch estimation error RMS on the noisy sine"),
+    Spec("ukf_velocity_rms_mps", "<=", 0.01, "VUKF velocity error RMS on the velocity profile"),
+    Spec("ukf_quat_norm_max_dev", "<=", 1e-12, _NORM.source, _NORM.thesis),
+)
+_FULL_SPECS = (
+    Spec("tilt_error_max_deg", "<=", 1.0, "thesis §7.2: attitude within +-1 deg, both scenarios",
+         "within +-1 deg (Fig. 9.10, 9.13)"),
+    Spec("heading_error_max_deg", "<=", 5.0, "thesis §7.2: heading within +-5 deg, both scenarios"),
+    Spec("peak_tilt_deg_all", "<=", 5.0, "thesis §7.1 inclination limit, both scenarios"),
+    Spec("peak_tilt_rate_deg_s_all", "<=", 20.0, "thesis §7.1 inclination-rate limit, both scenarios"),
+    Spec("estimator_roll_rms_deg", "<=", 0.1, "QUKF roll estimation error RMS, noisy sine"),
+    Spec("estimator_pitch_rms_deg", "<=", 0.1, "QUKF pitch estimation error RMS, noisy sine"),
+    Spec("estimator_velocity_rms_mps", "<=", 0.01, "VUKF velocity error RMS, velocity profile"),
+    Spec("velocity_error_rms_delayed_mps", "<=", 0.05,
+         "velocity tracked with no significant error after the non-minimum-phase delay (§9.2)"),
+    _NORM,
+)
+
+
 def _robustness_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     return robustness_metrics(logs[0], logs[-1])
 
@@ -277,6 +310,14 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
     Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2)", ("velocity",)),
     Study("chirp", "roll chirp 3 deg, 0.05 -> 5 Hz over 100 s: bandwidth, saturation, fall "
           "(thesis §9.1)", ("chirp",), _chirp_metrics, expand=_chirp_expand),
+    Study("estimators", "noisy sine and velocity profile: QUKF + VUKF against the predecessor's "
+          "QEKF + VEKF, estimates against the truth (thesis ch. 6)", ("full_sine", "full_velocity"),
+          E.estimators_metrics, expand=E.comparison_expand({"estimator": "ekf"}),
+          specs=_ESTIMATOR_SPECS, plot=E.plot_estimates, report=E.report_lines),
+    Study("full", "complete system with noise and estimators (QUKF + VUKF, FLC in the thesis mode) "
+          "on the sine and the velocity profile, beside SMC + EKF (thesis §9.3, §9.4)",
+          ("full_sine", "full_velocity"), E.full_metrics, expand=E.comparison_expand(E.BASELINE),
+          specs=_FULL_SPECS, plot=E.plot_estimates, report=E.report_lines),
 )})
 
 #: Names of the registered studies (``ballbot study <name>``).

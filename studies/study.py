@@ -228,11 +228,15 @@ def run_study(
         if plot:
             if name == "chirp":
                 plots += [p.name for p in chirp_study.plot_chirp(logs, metrics, linear, tmp)]
+            if study.plot is not None:
+                plots += [p.name for p in study.plot(logs, tmp)]
             plots.append(plot_run(f"study {name}", logs, tmp / "plot.png").name)
         if name == "chirp":
             extra = chirp_study.chirp_report_lines(metrics)
         if name == "robustness":
             extra = _robustness_lines(result["metrics"])
+        if study.report is not None:
+            extra = study.report(metrics)
         _report(tmp, f"Study `{name}`: {study.description}", result, plots,
                 [f"- run: {d}" for d in result["scenarios"]]
                 + [f"- scenario files: {', '.join(f'`{f}.toml`' for f in study.files)} "

@@ -20,6 +20,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ballbot_casadi.core.layout import STATE
+from ballbot_casadi.analysis.estimates import estimation_metrics, tracking_metrics
 from ballbot_casadi.core import quaternion as Q
 
 __all__ = [
@@ -410,7 +411,9 @@ def run_metrics(log: Any) -> dict[str, Any]:
     Always :func:`base_metrics`, :func:`limit_metrics` (thesis §7.1) and
     :func:`zero_metrics` (tracking error, settling); a roll sine adds
     :func:`sine_metrics`, a push :func:`push_metrics`, a velocity profile
-    :func:`velocity_metrics`, a cascade standing still :func:`standing_metrics`.
+    :func:`velocity_metrics`, a cascade standing still :func:`standing_metrics`; every
+    run gets the tilt/heading tracking errors and, with estimators in the loop, the
+    estimation errors (:mod:`ballbot_casadi.analysis.estimates`).
     ``log`` is a :class:`~ballbot_casadi.sim.log.SimulationLog` (its scenario and plant
     parameters are used).  Chirp runs get their bandwidth metrics from
     :func:`ballbot_casadi.analysis.bandwidth.chirp_metrics`.
@@ -429,4 +432,7 @@ def run_metrics(log: Any) -> dict[str, Any]:
             out.update(velocity_metrics(log))
         elif sc.get("cascade"):
             out.update(standing_metrics(log, log.params))
+        out.update(tracking_metrics(log))
+        if "x_hat" in log.arrays and finite:
+            out.update(estimation_metrics(log))
     return out

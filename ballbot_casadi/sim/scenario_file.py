@@ -14,8 +14,9 @@ Format (every key optional unless marked; units in the names)::
     duration_s = 10.0               # required, > 0
     cascade = false                 # close the velocity loop (thesis Fig. 7.1)
     feedforward = "exact"           # exact | none (thesis mode: zero reference acceleration)
-    estimator = "true"              # true | ukf | ekf
+    estimator = "true"              # true | ukf | ekf (noisy sensors + QUKF/VUKF or QEKF/VEKF)
     seed = 0                        # sensor-noise seed, int >= 0
+    noise = true                    # with an estimator: draw sensor noise (false: noise-free sensors)
     control_period_s = 0.005        # 200 Hz (thesis §7.1)
     rk4_substeps = 5                # plant RK4 steps per control period
 
@@ -58,6 +59,21 @@ Format (every key optional unless marked; units in the names)::
 
     [controller_model]              # the controller's internal model (mismatch), same form
 
+    [estimator_model]               # the estimators' internal model, same form
+
+    [sensors]                       # sensor parameter overrides (names of the [sensors] table
+    acc_bias = [0.05, 0.0, 0.0]     # of default_params.toml): a list or a number (= set), or
+    gyro_noise_var = { scale = 2 }  # { set = v } | { scale = f } | { add = d }
+
+    [estimator_tuning]              # changes to the filters' thesis tuning
+    rate_process_var = 3e-5         # QUKF body-rate process noise per period, (rad/s)^2 (thesis 1e-5)
+    encoder_var = 0.1111            # VUKF encoder noise, ticks^2 (thesis 1/9)
+
+    [[sensor_dropout]]              # readings missing (NaN) in [t_start_s, t_end_s)
+    t_start_s = 2.0
+    t_end_s = 2.5
+    sensor = "enc"                  # acc | gyro | enc
+
     [gains]
     k_bal = [...]                   # balance gains (default: the controller's)
     k_vel = [...]                   # velocity gains (default: LQR of thesis §7.3)
@@ -97,10 +113,12 @@ import numpy as np
 
 from ballbot_casadi.control import BALANCE_CONTROLLERS
 from ballbot_casadi.core.params import PARAM_NAMES, load_params
+from ballbot_casadi.core.sensor_params import SENSOR_PARAM_NAMES
 from ballbot_casadi.errors import BallbotError, ScenarioError
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.scenarios import (
     ESTIMATOR_CHOICES,
+    ESTIMATOR_TUNING_KEYS,
     FEEDFORWARD_MODES,
     Scenario,
     apply_changes,
@@ -244,7 +262,8 @@ class _Checker:
 
 _TOP = ("name", "description", "study", "controller", "duration_s", "cascade", "feedforward",
         "estimator", "seed", "control_period_s", "rk4_substeps", "initial", "attitude", "velocity",
-        "push", "torque_disturbance", "plant", "controller_model", "gains", "spec", "montecarlo")
+        "push", "torque_disturbance", "plant", "controller_model", "gains", "spec", "montecarlo",
+        "noise", "estimator_model", "sensors", "sensor_dropout", "estimator_tuning")
 _INITIAL = ("roll_deg", "pitch_deg", "yaw_deg", "x_m", "y_m", "vx_mps", "vy_mps", "on_reference")
 #: friendly signal key -> Scenario signal key, per type
 _SIGNAL = {
@@ -281,6 +300,44 @@ def _changes(c: _Checker, table: Any, key: str) -> dict[str, list]:
         name = next((n for n in out if f"{n!r}" in msg or n in msg), next(iter(out), key))
         raise c.fail(f"{key}.{name}", msg.split(": ", 1)[-1]) from None
     return out
+
+
+def _sensor_changes(c: _Checker, table: Any) -> dict[str, list]:
+    table = c.keys(table, "sensors", SENSOR_PARAM_NAMES)
+    out: dict[str, list] = {}
+    for name, v in table.items():
+        full = f"sensors.{name}"
+        if isinstance(v, (list, tuple)) or (isinstance(v, _NUM) and not isinstance(v, bool)):
+            op, val = "set", v
+        elif isinstance(v, Mapping) and len(v) == 1 and next(iter(v)) in ("set", "scale", "add"):
+            op, val = next(iter(v.items()))
+        else:
+            raise c.fail(full, f"expected a list, a number or one of {{ set = v }}, {{ scale = f }}, "
+                               f"{{ add = d }}, got {v!r}")
+        if isinstance(val, (list, tuple)):
+            val = list(c.vector({op: val}, op, f"{full}.{op}", 3))
+        else:
+            val = c.num({op: val}, op, f"{full}.{op}")
+        out[name] = [op, val]
+    try:
+        Scenario("check", sensor_changes=out)
+    except BallbotError as exc:
+        name = next((n for n in out if n in str(exc)), next(iter(out), "sensors"))
+        raise c.fail(f"sensors.{name}", str(exc).split(": ", 1)[-1]) from None
+    return out
+
+
+def _dropouts(c: _Checker, table: Mapping[str, Any]) -> list[tuple]:
+    rows = []
+    for i, row in enumerate(c.rows(table, "sensor_dropout")):
+        key = f"sensor_dropout[{i}]"
+        c.keys(row, key, ("t_start_s", "t_end_s", "sensor"), ("t_start_s", "t_end_s", "sensor"))
+        t0 = c.num(row, "t_start_s", f"{key}.t_start_s", lo=0.0)
+        t1 = c.num(row, "t_end_s", f"{key}.t_end_s")
+        if t1 <= t0:
+            raise c.fail(f"{key}.t_end_s", f"must be after t_start_s ({t0:g}), got {t1:g}")
+        rows.append((t0, t1, c.choice(row, "sensor", f"{key}.sensor", "", ("acc", "gyro", "enc"))))
+    return rows
 
 
 def _signal(c: _Checker, table: Any, key: str, Ts: float) -> dict[str, Any]:
@@ -431,6 +488,13 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         feedforward=c.choice(table, "feedforward", "feedforward", "exact", FEEDFORWARD_MODES),
         estimator=c.choice(table, "estimator", "estimator", "true", ESTIMATOR_CHOICES),
         seed=c.integer(table, "seed", "seed", 0, 0),
+        noise=c.boolean(table, "noise", "noise", True),
+        est_changes=_changes(c, table.get("estimator_model", {}), "estimator_model"),
+        sensor_changes=_sensor_changes(c, table.get("sensors", {})),
+        sensor_dropouts=tuple(_dropouts(c, table)),
+        estimator_tuning={k: c.num(table["estimator_tuning"], k, f"estimator_tuning.{k}", lo=0.0, lo_open=True)
+                          for k in c.keys(table.get("estimator_tuning", {}), "estimator_tuning",
+                                          ESTIMATOR_TUNING_KEYS)},
         study=c.text(table, "study", "study"), description=c.text(table, "description", "description"),
     )
     if fields["seed"] >= 2**32:
@@ -520,11 +584,11 @@ def _emit(table: Mapping[str, Any], prefix: str, lines: list[str], inline_depth:
         if isinstance(v, Mapping):
             name = f"{prefix}{_key(k)}"
             # a parameter change ({ scale = f }) is written inline
-            if prefix.rstrip(".") in ("plant", "controller_model"):
+            if prefix.rstrip(".") in ("plant", "controller_model", "estimator_model", "sensors"):
                 continue
             lines += ["", f"[{name}]"]
             inner = {kk: vv for kk, vv in v.items()}
-            if k in ("plant", "controller_model"):
+            if k in ("plant", "controller_model", "estimator_model", "sensors"):
                 for kk, vv in inner.items():
                     lines.append(f"{_key(kk)} = {_toml_value(vv)}")
             else:

@@ -58,6 +58,7 @@ __all__ = [
     "Scenario",
     "FEEDFORWARD_MODES",
     "ESTIMATOR_CHOICES",
+    "ESTIMATOR_TUNING_KEYS",
     "initial_state",
     "apply_changes",
 ]
@@ -67,6 +68,8 @@ _SIGNAL_TYPES = ("const", "sine", "step", "chirp")
 FEEDFORWARD_MODES = ("exact", "none")
 #: What the controllers read: the true state, or estimates from noisy sensors.
 ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
+#: Keys of Scenario.estimator_tuning (changes to the thesis tuning of the filters).
+ESTIMATOR_TUNING_KEYS = ("rate_process_var", "encoder_var")
 _CHANGE_OPS = ("set", "scale", "add")
 
 
@@ -245,6 +248,11 @@ class Scenario:
     est_changes
         ``{param: [op, value]}`` applied to the nominal parameters for the estimators'
         internal model.
+    estimator_tuning
+        Changes to the filters' default (thesis) tuning: ``rate_process_var`` (the
+        attitude filter's body-rate process noise per period, (rad/s)^2, thesis 4.39:
+        1e-5) and ``encoder_var`` (the velocity filter's encoder noise, ticks^2, thesis
+        5.27: 1/9).
     sensor_dropouts
         Rows ``(t_start, t_end, sensor)`` with sensor ``"acc"``, ``"gyro"`` or ``"enc"``:
         that sensor's readings are missing (NaN) in the periods starting in
@@ -274,6 +282,7 @@ class Scenario:
     noise: bool = True
     sensor_changes: Mapping[str, Any] = field(default_factory=dict)
     est_changes: Mapping[str, Any] = field(default_factory=dict)
+    estimator_tuning: Mapping[str, Any] = field(default_factory=dict)
     sensor_dropouts: tuple = ()
     study: str = ""
     description: str = ""
@@ -319,6 +328,14 @@ class Scenario:
                     f"with 0 <= t_start < t_end and sensor in {VALID.fields}")
             drops.append((float(row[0]), float(row[1]), str(row[2])))
         object.__setattr__(self, "sensor_dropouts", tuple(drops))
+        for key, val in self.estimator_tuning.items():
+            if key not in ESTIMATOR_TUNING_KEYS:
+                raise ScenarioError(f"scenario {self.name!r}: estimator_tuning key {key!r} unknown; "
+                                    f"allowed: {', '.join(ESTIMATOR_TUNING_KEYS)}")
+            if (not isinstance(val, (int, float)) or isinstance(val, bool) or not math.isfinite(val)
+                    or val <= 0):
+                raise ScenarioError(f"scenario {self.name!r}: estimator_tuning {key} must be a "
+                                    f"finite number > 0, got {val!r}")
         _sensor_params(self.sensor_changes, f"scenario {self.name!r} sensor_changes")
         object.__setattr__(self, "x0", tuple(float(v) for v in check_state(self.x0, "initial state x0")))
         unknown = sorted(set(self.attitude) - {"roll", "pitch", "yaw"})
@@ -466,12 +483,17 @@ class Scenario:
             valid[(t >= t0 - 1e-12) & (t < t1 - 1e-12), VALID.index(sensor)] = 0.0
         sp = self.sensor_params()
         att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[self.estimator])
+        Qa, Rv = np.array(att.Q, float), np.array(vel.R, float)
+        if "rate_process_var" in self.estimator_tuning:
+            Qa[3:6, 3:6] = np.eye(3) * float(self.estimator_tuning["rate_process_var"])
+        if "encoder_var" in self.estimator_tuning:
+            Rv[0:3, 0:3] = np.eye(3) * float(self.estimator_tuning["encoder_var"])
         return {
             "noise": noise,
             "valid": valid,
             "s": sp.to_vector(),
             "p_est": self.estimator_params(base).to_vector(),
-            "Qa": att.Q, "Ra": att.R, "Qv": vel.Q, "Rv": vel.R,
+            "Qa": Qa, "Ra": att.R, "Qv": vel.Q, "Rv": Rv,
             "e0": initial_feedback_state(self.estimator, np.asarray(self.x0, float),
                                          np.asarray(sp.gyro_bias0, float)),
         }

@@ -79,7 +79,8 @@ def test_dict_round_trip_and_json():
 
 
 def test_study_scenarios_definitions():
-    assert STUDY_NAMES == ("zero", "sine", "sine_asym", "robustness", "com", "push", "velocity", "chirp")
+    assert STUDY_NAMES == ("zero", "sine", "sine_asym", "robustness", "com", "push", "velocity", "chirp",
+                           "estimators", "full")
     with pytest.raises(ScenarioError, match="allowed: zero"):
         study_scenarios("nosuchstudy")
     with pytest.raises(ScenarioError, match="allowed"):
