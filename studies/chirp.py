@@ -25,7 +25,7 @@ import numpy as np
 
 from ballbot_casadi.analysis import closed_loop as cla
 from ballbot_casadi.analysis import linear as an
-from ballbot_casadi.analysis.bandwidth import FALL_TILT_DEG, chirp_phase
+from ballbot_casadi.analysis.bandwidth import FALL_TILT_DEG
 from ballbot_casadi.analysis.metrics import rpy_deg
 from ballbot_casadi.control import default_balance_gains
 from ballbot_casadi.core.layout import STATE

@@ -107,7 +107,7 @@ def _montecarlo_section(out: Path) -> list[str]:
             f"- success rate against the scenario's specs: {100 * m['success_rate']:.1f} %",
             *[f"- `{s['metric']}` {s['op']} {s['threshold']}: {100 * s['pass_rate']:.1f} % pass"
               for s in m["specs"]],
-            f"- worst runs (rerun with `ballbot simulate`): "
+            "- worst runs (rerun with `ballbot simulate`): "
             + ", ".join(f"[run {w['index']}](montecarlo/{w['file']})" for w in m["worst"]), "",
             "![histograms](montecarlo/histograms.png)", ""]
 

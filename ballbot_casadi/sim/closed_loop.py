@@ -38,7 +38,6 @@ from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.core.toolchain import Library, build_library, load_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
-from ballbot_casadi.estimation import make_qekf, make_qukf, make_vekf, make_vukf
 from ballbot_casadi.model.dynamics import (
     NP,
     NX,
@@ -47,21 +46,20 @@ from ballbot_casadi.model.dynamics import (
     make_wheel_speeds,
 )
 from ballbot_casadi.model.sensors import (
-    make_encoders,
-    make_gyro_bias_step,
-    make_imu,
     make_wheel_angle_ode,
 )
 from ballbot_casadi.sim.driver import MissionDriver
-from ballbot_casadi.sim.feedback import (
+from ballbot_casadi.sim.embedded import (
+    EMBEDDED_INPUTS,
     ESTIMATOR_FILTERS,
-    FEEDBACK_OUTPUTS,
     N_WHEEL,
     NOISE,
+    SENSOR_STATE,
     VALID,
     EstimatorBlocks,
-    feedback_layout,
-    sense_and_estimate,
+    estimator_blocks,
+    make_embedded_step,
+    sense,
 )
 from ballbot_casadi.sim.log import SimulationLog, load_log, save_log
 from ballbot_casadi.sim.period import (
@@ -96,7 +94,7 @@ ESTIMATION_SEQUENCES = ("noise", "valid")
 #: Constant inputs of the steps with sensors and estimators (besides CONSTANT_INPUTS).
 ESTIMATION_CONSTANTS = ("s", "p_est", "Qa", "Ra", "Qv", "Rv")
 #: Outputs of the steps with sensors and estimators (besides the PERIOD_OUTPUTS).
-ESTIMATION_OUTPUTS = FEEDBACK_OUTPUTS
+ESTIMATION_OUTPUTS = ("x_hat", "meas", "nis", "repairs")
 
 
 def seq_inputs(step: ca.Function) -> tuple[int, ...]:
@@ -166,74 +164,67 @@ def make_estimating_step(
     estimator: EstimatorBlocks,
     n_sub: int = N_SUB,
 ) -> ca.Function:
-    """One control period with noisy sensors and estimators, ``ballbot_cl_step_<ctrl>_<est>``.
+    """One control period with sensors and the embedded software, ``ballbot_cl_step_<ctrl>_<est>``.
 
-    :func:`ballbot_casadi.sim.period.control_period` on CasADi symbols whose controllers
-    read the estimate of :func:`ballbot_casadi.sim.feedback.sense_and_estimate`; the plant
-    carries the wheel angles (``ballbot_ode_wheel_angles`` in RK4).
+    :func:`ballbot_casadi.sim.period.control_period` on CasADi symbols whose controller
+    is the robot: the plant-side sensors (:func:`~ballbot_casadi.sim.embedded.sense`)
+    and a call of the embedded software ``ballbot_embedded_<ctrl>_<est>``
+    (:func:`~ballbot_casadi.sim.embedded.make_embedded_step`, the same Function the
+    controller FMU runs); the plant carries the wheel angles (``ballbot_ode_wheel_angles``
+    in RK4).
 
     Returns
     -------
     casadi.Function
-        Inputs ``xz = [x (15, with the wheel angles); z; e]`` (accumulated; ``e`` the
-        feedback state of :func:`~ballbot_casadi.sim.feedback.feedback_layout`), the
+        Inputs ``xz = [x (15, with the wheel angles); c; s]`` (accumulated; ``c`` the
+        controller state of :func:`~ballbot_casadi.sim.embedded.controller_layout`, ``s``
+        the sensor state :data:`~ballbot_casadi.sim.embedded.SENSOR_STATE`), the
         sequences of :func:`make_closed_loop_step` plus ``noise`` (9, standard normal)
         and ``valid`` (3), the constants of :func:`make_closed_loop_step` plus ``s``
         (sensor parameters), ``p_est`` (the filters' model parameters) and the filter
         covariances ``Qa, Ra, Qv, Rv`` (column-major).  Outputs those of
         :func:`make_closed_loop_step` (``x`` the true 12-state) plus ``x_hat`` (what the
-        controllers read), ``meas`` (acc, gyro, encoder rates as read), ``nis`` and
-        ``repairs``.
+        controllers read), ``meas`` (the readings), ``nis`` and ``repairs``.
     """
     blocks = PeriodBlocks(balance, velocity)
     sz = check_blocks(blocks, NP)
-    L = feedback_layout(estimator.name)
+    embedded = make_embedded_step(balance, velocity, estimator)
+    nc = embedded.size1_in(0)
     nxw = NX + N_WHEEL
     ode_w = make_wheel_angle_ode(ode, wheel_speeds)
     MX = ca.MX.sym
-    xz = MX("xz", nxw + sz["nz"] + L.size)
+    xz = MX("xz", nxw + nc + SENSOR_STATE.size)
     seq = {"q_ref": MX("q_ref", 4), "dq_ref": MX("dq_ref", 4), "ddq_ref": MX("ddq_ref", 4),
            "v_ref": MX("v_ref", 3), "w": MX("w", DISTURBANCE.size),
            "noise": MX("noise", NOISE.size), "valid": MX("valid", VALID.size)}
-    nv = estimator.velocity.size1_in(1)
     const = {"p_plant": MX("p_plant", NP), "p_ctrl": MX("p_ctrl", NP), "k_bal": MX("k_bal", sz["nk"]),
              "k_vel": MX("k_vel", sz["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade"),
              "feedforward": MX("feedforward"), "s": MX("s", estimator.imu.size1_in(3)),
-             "p_est": MX("p_est", NP), "Qa": MX("Qa", 36), "Ra": MX("Ra", 36),
-             "Qv": MX("Qv", nv * nv), "Rv": MX("Rv", 36)}
-    cov = {"Qa": ca.reshape(const["Qa"], 6, 6), "Ra": ca.reshape(const["Ra"], 6, 6),
-           "Qv": ca.reshape(const["Qv"], nv, nv), "Rv": ca.reshape(const["Rv"], 6, 6)}
-    x, z, e = xz[:nxw], xz[nxw:nxw + sz["nz"]], xz[nxw + sz["nz"]:]
-    fb: dict[str, Any] = {}
+             "p_est": MX("p_est", NP), "Qa": MX("Qa", embedded.size1_in(13)),
+             "Ra": MX("Ra", embedded.size1_in(14)), "Qv": MX("Qv", embedded.size1_in(15)),
+             "Rv": MX("Rv", embedded.size1_in(16))}
 
-    def observe(xk: ca.MX) -> ca.MX:
-        fb.update(sense_and_estimate(estimator, xk, e, seq, {**const, **cov}))
-        return fb["x_hat"]
+    def robot(xk: ca.MX, cs: ca.MX, sq: Mapping[str, Any], cn: Mapping[str, Any]) -> dict[str, Any]:
+        c, s_state = cs[:nc], cs[nc:]
+        meas, s_mid = sense(estimator, xk, s_state, sq["noise"], sq["valid"], cn["p_plant"], cn["s"],
+                            cn["Ts"])
+        out = embedded.call({"c": c, "meas": meas, **{k: sq[k] for k in ("q_ref", "dq_ref", "ddq_ref", "v_ref")},
+                             **{k: cn[k] for k in EMBEDDED_INPUTS[6:]}})
+        return {**out, "z_next": ca.vertcat(out["c_next"], s_mid), "meas": meas}
 
     plant = rk4_plant(ode_w, n_sub, const["p_plant"], const["Ts"])
-    out = control_period(blocks, x, z, seq, const, plant, observe=observe)
-    e_next = ca.vertcat(out["tau"], fb["e_next"][L["tau_prev"].stop:])
+    out = control_period(blocks, xz[:nxw], xz[nxw:], seq, const, plant, controller=robot)
+    # the sensor state starts with the torque that acted on the plant in this period
+    z_next = ca.vertcat(out["z_next"][:nc], out["tau"], out["z_next"][nc:])
     out["x"] = out["x"][:NX]
     return ca.Function(
         f"ballbot_cl_step_{blocks.name}_{estimator.name}",
         [xz, *seq.values(), *const.values()],
-        [ca.vertcat(out["x_next"], out["z_next"], e_next), *(out[k] for k in PERIOD_OUTPUTS),
-         *(fb[k] for k in FEEDBACK_OUTPUTS)],
+        [ca.vertcat(out["x_next"], z_next), *(out[k] for k in PERIOD_OUTPUTS),
+         *(out[k] for k in ESTIMATION_OUTPUTS)],
         ["xz", *seq, *const],
-        ["xz_next", *PERIOD_OUTPUTS, *FEEDBACK_OUTPUTS],
+        ["xz_next", *PERIOD_OUTPUTS, *ESTIMATION_OUTPUTS],
     )
-
-
-def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function) -> EstimatorBlocks:
-    """The sensing and estimation Functions of estimator choice ``"ukf"`` or ``"ekf"``."""
-    if estimator not in ESTIMATOR_FILTERS:
-        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, {', '.join(ESTIMATOR_FILTERS)}")
-    att, vel = ESTIMATOR_FILTERS[estimator]
-    attitude = make_qukf if att == "qukf" else make_qekf
-    return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(),
-                           attitude(compensate_acceleration=True),
-                           (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True),
-                           estimator)
 
 
 def make_mission(step: ca.Function, n_periods: int) -> ca.Function:
@@ -541,8 +532,8 @@ class ClosedLoop:
         mode, see :mod:`~ballbot_casadi.sim.period`).  With ``estimator`` ``"ukf"`` or
         ``"ekf"`` the controllers read estimates from noisy sensors
         (:func:`make_estimating_step`); ``estimation`` then holds ``noise`` (N, 9),
-        ``valid`` (N, 3), ``s``, ``p_est``, ``Qa``, ``Ra``, ``Qv``, ``Rv`` and ``e0`` (the
-        initial feedback state).
+        ``valid`` (N, 3), ``s``, ``p_est``, ``Qa``, ``Ra``, ``Qv``, ``Rv``, ``e0`` (the
+        filters' initial state) and ``s0`` (the initial sensor state).
 
         Returns the named arrays of the log: ``time`` (N+1), ``state`` (N+1, 12; row
         k < N is the plant state at ``t_k`` after a push, the last row the final
@@ -551,7 +542,7 @@ class ClosedLoop:
         references used), ``v_ref`` (N, 3), ``w`` (N, 6), ``diag`` (N, ND); with an
         estimator also ``x_hat`` (N, 12, what the controllers read), ``meas`` (N, 9),
         ``nis`` (N, 2), ``repairs`` (N, 1), ``noise``, ``valid``, ``phi`` (N+1, 3, wheel
-        angles) and ``e_final`` (the final feedback state).
+        angles) and ``c_final`` (the embedded software's final state).
         """
         n_sub = self.n_sub if n_sub is None else n_sub
         if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
@@ -579,7 +570,7 @@ class ClosedLoop:
         parts = [x0, np.zeros(N_WHEEL)] if est else [x0]
         parts += [np.asarray(z0, float).reshape(-1)]
         if est:
-            parts.append(np.asarray(extra["e0"], float).reshape(-1))
+            parts += [np.asarray(extra["e0"], float).reshape(-1), np.asarray(extra["s0"], float).reshape(-1)]
         xz0 = np.concatenate(parts)
         const = {"p_plant": p_plant, "p_ctrl": p_ctrl, "k_bal": k_bal, "k_vel": k_vel, "Ts": Ts,
                  "cascade": 1.0 if cascade else 0.0, "feedforward": 1.0 if feedforward else 0.0,
@@ -620,10 +611,10 @@ class ClosedLoop:
             "diag": out["diag"],
         }
         if est:
-            log.update({k: out[k] for k in FEEDBACK_OUTPUTS})
+            log.update({k: out[k] for k in ESTIMATION_OUTPUTS})
             log.update({k: seqs[k] for k in ESTIMATION_SEQUENCES})
             log["phi"] = np.vstack([xz0[None, NX:nxw], xz_next[:, NX:nxw]])
-            log["e_final"] = xz_next[-1, nxw + nz:]
+            log["c_final"] = xz_next[-1, nxw:xz_next.shape[1] - SENSOR_STATE.size]
         return log
 
 

@@ -5,19 +5,21 @@ The sequence of one period ``[t_k, t_k + Ts)`` is
 1. **push** - a disturbance jump of the plant attitude (thesis §8.4.3): ``q`` and ``dq``
    are rotated in {K} by the rotation vector ``w[push]``,
    ``q <- exp(w/2) o q``, ``dq <- exp(w/2) o dq`` (body rates unchanged);
-2. **velocity controller** (outer loop, thesis §7.3) produces ``q_ref, dq_ref, ddq_ref``
+2. (with sensors) **sensing and estimation**: what the controllers read
+   (:mod:`ballbot_casadi.sim.embedded`);
+3. **velocity controller** (outer loop, thesis §7.3) produces ``q_ref, dq_ref, ddq_ref``
    and its next state ``z``; with ``cascade = 0`` the references come from the input
    sequences instead (balance controller alone, thesis Fig. 8.1) and ``z`` is held;
-3. **balance controller** (FLC thesis 8.26/8.44, or SMC) computes ``tau_cmd`` on its own
+4. **balance controller** (FLC thesis 8.26/8.44, or SMC) computes ``tau_cmd`` on its own
    internal-model parameters ``p_ctrl``; with ``feedforward = 0`` it gets the reference's
    second derivative as zero, as the thesis's FLC (8.44) and the predecessor's sliding
    mode controller did (``feedforward = 1``: the exact reference acceleration);
-4. **torque limits** - a direction-preserving limit at the controller's ``tau_max``
+5. **torque limits** - a direction-preserving limit at the controller's ``tau_max``
    (:func:`~ballbot_casadi.control.saturate_torques`), then the plant's physical
    per-wheel saturation at the plant's ``tau_max``;
-5. **disturbance** - the wheel-torque disturbance ``w[tau_dist]`` is added *after* the
+6. **disturbance** - the wheel-torque disturbance ``w[tau_dist]`` is added *after* the
    saturation (it is an external torque on the wheel axes, not a motor command);
-6. **plant** - the resulting torque is held over the period (zero-order hold) while the
+7. **plant** - the resulting torque is held over the period (zero-order hold) while the
    plant advances by ``Ts``.
 
 :func:`control_period` is that sequence, written once.  It evaluates on CasADi
@@ -49,6 +51,7 @@ __all__ = [
     "check_blocks",
     "apply_push",
     "actuate",
+    "controller_part",
     "control_period",
     "rk4_plant",
     "PERIOD_OUTPUTS",
@@ -151,6 +154,35 @@ def actuate(tau_lim: Any, tau_dist: Any, tau_max: Any) -> Any:
     return np.clip(tau_lim, -tau_max, tau_max) + np.asarray(tau_dist, dtype=float)
 
 
+def controller_part(
+    blocks: PeriodBlocks,
+    x_seen: Any,
+    z: Any,
+    seq: Mapping[str, Any],
+    const: Mapping[str, Any],
+) -> dict[str, Any]:
+    """The robot's controllers for one period: velocity controller, balance controller and
+    the direction-preserving torque limit (steps 2-4 of the module docstring).
+
+    ``x_seen`` is what the controllers read (the true state or an estimate).  Returns
+    ``z_next``, ``tau_cmd`` (balance controller output), ``tau_lim`` (after the limit at
+    the controller's ``tau_max``), the references used and ``diag``.
+    """
+    p_ctrl = const["p_ctrl"]
+    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(x_seen, seq["v_ref"], z, p_ctrl,
+                                                            const["k_vel"], const["Ts"]))
+    on = const["cascade"] > 0.5 if _symbolic(const["cascade"]) else bool(const["cascade"])
+    qr = _select(on, qv, seq["q_ref"])
+    dqr = _select(on, dqv, seq["dq_ref"])
+    ddqr = _select(on, ddqv, seq["ddq_ref"])
+    ddqr = ddqr * (const["feedforward"] if _symbolic(const["feedforward"]) else float(const["feedforward"]))
+    z_next = _select(on, zv, z)
+    tau_cmd, diag = (_value(v) for v in blocks.balance(x_seen, qr, dqr, ddqr, p_ctrl, const["k_bal"]))
+    tau_lim = saturate_torques(tau_cmd, p_ctrl[_TAU_MAX])
+    return {"z_next": z_next, "tau_cmd": tau_cmd, "tau_lim": tau_lim, "q_ref_used": qr,
+            "dq_ref_used": dqr, "ddq_ref_used": ddqr, "diag": diag}
+
+
 def control_period(
     blocks: PeriodBlocks,
     x: Any,
@@ -158,7 +190,7 @@ def control_period(
     seq: Mapping[str, Any],
     const: Mapping[str, Any],
     plant: Callable[[Any, Any, Any, Any], Any],
-    observe: Callable[[Any], Any] | None = None,
+    controller: Callable[[Any, Any, Mapping[str, Any], Mapping[str, Any]], dict[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """One control period (see the module docstring): symbolic or numeric.
 
@@ -167,7 +199,7 @@ def control_period(
     blocks
         The controllers.
     x, z
-        Plant state at ``t_k`` (before a push) and velocity-controller state.
+        Plant state at ``t_k`` (before a push) and the controller's state.
     seq
         This period's :data:`SEQUENCE_INPUTS` (``q_ref``, ``dq_ref``, ``ddq_ref``,
         ``v_ref``, ``w``).
@@ -179,39 +211,31 @@ def control_period(
         period from the pushed state ``xk``; ``tau`` is the torque acting on the plant
         (:func:`actuate`), ``tau_lim`` and ``tau_dist`` its two parts for a plant that
         saturates its motor torque itself (an FMU).
-    observe
-        ``observe(xk) -> x_hat``: what the controllers read of the pushed plant state
-        (the sensors and estimators of :mod:`ballbot_casadi.sim.feedback`); default: the
-        true state.
+    controller
+        ``controller(xk, z, seq, const) -> dict``: the robot between the pushed plant
+        state and the limited torque command, returning at least the keys of
+        :func:`controller_part`; default :func:`controller_part` on the true state.  The
+        estimating loop passes its sensors and embedded software here
+        (:mod:`ballbot_casadi.sim.embedded`).
 
     Returns
     -------
     dict
         ``x_next``, ``z_next`` and the :data:`PERIOD_OUTPUTS`: ``x`` (the pushed plant
         state at ``t_k``), ``tau_cmd`` (controller output), ``tau`` (torque acting on the
-        plant), the references used and ``diag``.
+        plant), the references used and ``diag``, plus whatever else ``controller``
+        returned.
     """
     w = seq["w"]
-    p_plant, p_ctrl = const["p_plant"], const["p_ctrl"]
     xk = apply_push(x, w[DISTURBANCE["push"]])
-    x_seen = xk if observe is None else observe(xk)
-
-    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(x_seen, seq["v_ref"], z, p_ctrl,
-                                                            const["k_vel"], const["Ts"]))
-    on = const["cascade"] > 0.5 if _symbolic(const["cascade"]) else bool(const["cascade"])
-    qr = _select(on, qv, seq["q_ref"])
-    dqr = _select(on, dqv, seq["dq_ref"])
-    ddqr = _select(on, ddqv, seq["ddq_ref"])
-    ddqr = ddqr * (const["feedforward"] if _symbolic(const["feedforward"]) else float(const["feedforward"]))
-    z_next = _select(on, zv, z)
-
-    tau_cmd, diag = (_value(v) for v in blocks.balance(x_seen, qr, dqr, ddqr, p_ctrl, const["k_bal"]))
-    tau_lim = saturate_torques(tau_cmd, p_ctrl[_TAU_MAX])
+    if controller is None:
+        ctrl = controller_part(blocks, xk, z, seq, const)
+    else:
+        ctrl = controller(xk, z, seq, const)
     tau_dist = w[DISTURBANCE["tau_dist"]]
-    tau = actuate(tau_lim, tau_dist, p_plant[_TAU_MAX])
-    x_next = plant(xk, tau, tau_lim, tau_dist)
-    return {"x_next": x_next, "z_next": z_next, "x": xk, "tau_cmd": tau_cmd, "tau": tau,
-            "q_ref_used": qr, "dq_ref_used": dqr, "ddq_ref_used": ddqr, "diag": diag}
+    tau = actuate(ctrl["tau_lim"], tau_dist, const["p_plant"][_TAU_MAX])
+    x_next = plant(xk, tau, ctrl["tau_lim"], tau_dist)
+    return {**ctrl, "x_next": x_next, "x": xk, "tau": tau}
 
 
 def rk4_plant(ode: ca.Function, n_sub: int, p_plant: Any, Ts: Any) -> Callable[[Any, Any, Any, Any], Any]:

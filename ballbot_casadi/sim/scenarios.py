@@ -47,11 +47,11 @@ from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.model.sensors import NOISE_STREAMS
 from ballbot_casadi.sim import references as R
-from ballbot_casadi.sim.feedback import (
+from ballbot_casadi.sim.embedded import (
     ESTIMATOR_FILTERS,
     NOISE,
     VALID,
-    initial_feedback_state,
+    initial_estimator_state,
 )
 
 __all__ = [
@@ -494,8 +494,8 @@ class Scenario:
             "s": sp.to_vector(),
             "p_est": self.estimator_params(base).to_vector(),
             "Qa": Qa, "Ra": att.R, "Qv": vel.Q, "Rv": Rv,
-            "e0": initial_feedback_state(self.estimator, np.asarray(self.x0, float),
-                                         np.asarray(sp.gyro_bias0, float)),
+            "e0": initial_estimator_state(self.estimator, np.asarray(self.x0, float)),
+            "s0": np.concatenate([np.zeros(3), np.asarray(sp.gyro_bias0, float), np.zeros(3)]),
         }
 
     # -- serialisation -----------------------------------------------------------------

@@ -1,0 +1,244 @@
+"""The robot's sensors and embedded software: what the controllers read (thesis Fig. 9.8).
+
+With an estimator in the loop the plant carries the three wheel angles as well
+(``[x; phi]``, 15 entries, integrated with the plant) and every control period is
+
+1. **sensors** at ``t_k`` (after a push), thesis §3.1, on the plant side
+   (:func:`sense`): the IMU (``ballbot_imu``: specific force at the IMU including the
+   body's own acceleration, scale, bias, misalignment, noise) with the torque that acted
+   on the plant just before ``t_k``; the gyroscope bias ``b_k`` (random walk,
+   ``ballbot_gyro_bias_step``); the encoders (``ballbot_encoders``: wheel angles
+   quantised to ``n_ticks`` per revolution, differenced over the period, in ticks/s).
+   Standard-normal noise enters as the per-period input ``noise = [n_acc, n_gyro,
+   n_rw]``; the per-period input ``valid = [acc, gyro, enc]`` (1 available, 0 missing)
+   turns missing readings into NaN;
+2. the **embedded software**, one Function ``ballbot_embedded_<ctrl>_<est>``
+   (:func:`make_embedded_step`) that the controller FMU runs too: the attitude filter
+   (QUKF thesis ch. 4, or the predecessor's QEKF) on ``[acc, gyro]``, its accelerometer
+   prediction compensated by the velocity filter's last estimate of the ball's
+   acceleration (the thesis's model (4.29) takes the accelerometer as measuring gravity
+   only, which tilts the estimate by ``atan(a/g)`` whenever the ball accelerates), the
+   velocity filter (VUKF ch. 5, or VEKF) on the encoder tick increments (predicted at
+   the period's middle) and the accelerometer, the estimate ``x_hat = [pos, q, v, dq]``
+   (``dq = 1/2 q o [0, omega]``; the position integrates the velocity estimate: the
+   robot has no position sensor), then the controllers and the torque limit of
+   :func:`~ballbot_casadi.sim.period.controller_part` on ``x_hat``.  A NaN reading makes
+   its filter predict only for that sensor.
+
+The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos]`` (:func:`controller_layout`)
+and the sensor state ``[tau_prev, bias, phi_prev]`` (:data:`SENSOR_STATE`) are carried
+by the mission.  The sensors belong to the plant (``p_plant`` and the sensor
+parameters ``s``); the filters run on their own model parameters ``p_est``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import casadi as ca
+import numpy as np
+
+from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.layout import STATE, STATE_DXY, STATE_XY, Layout
+from ballbot_casadi.core.params import PARAM_NAMES
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.estimation import (
+    DEFAULT_TUNING,
+    initial_state,
+    make_qekf,
+    make_qukf,
+    make_vekf,
+    make_vukf,
+)
+from ballbot_casadi.model.sensors import make_encoders, make_gyro_bias_step, make_imu
+from ballbot_casadi.sim.period import PeriodBlocks, check_blocks, controller_part
+
+__all__ = [
+    "ESTIMATOR_FILTERS",
+    "NOISE",
+    "VALID",
+    "MEAS",
+    "SENSOR_STATE",
+    "N_WHEEL",
+    "EMBEDDED_INPUTS",
+    "EMBEDDED_OUTPUTS",
+    "EstimatorBlocks",
+    "estimator_blocks",
+    "estimator_layout",
+    "controller_layout",
+    "sense",
+    "make_embedded_step",
+    "initial_estimator_state",
+]
+
+#: Filters of each estimator choice: (attitude filter, velocity filter).
+ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ekf": ("qekf", "vekf")}
+#: Per-period standard-normal noise input of the sensors.
+NOISE = Layout("sensor noise", [("acc", 3), ("gyro", 3), ("gyro_rw", 3)])
+#: Per-period sensor availability (1 = reading available, 0 = missing).
+VALID = Layout("sensor availability", [("acc", 1), ("gyro", 1), ("enc", 1)])
+#: The readings the embedded software gets: m/s^2, rad/s, ticks/s (NaN = missing).
+MEAS = Layout("sensor readings", [("acc", 3), ("gyro", 3), ("enc", 3)])
+#: Plant-side sensor state: torque of the previous period, gyro bias, wheel angles at the last sample.
+SENSOR_STATE = Layout("sensor state", [("tau_prev", 3), ("bias", 3), ("phi_prev", 3)])
+#: Wheel angles appended to the plant state.
+N_WHEEL = 3
+#: Inputs of the embedded step (besides the controller state ``c`` and the readings ``meas``).
+EMBEDDED_INPUTS = ("c", "meas", "q_ref", "dq_ref", "ddq_ref", "v_ref", "p_ctrl", "p_est", "k_bal",
+                   "k_vel", "Ts", "cascade", "feedforward", "Qa", "Ra", "Qv", "Rv")
+#: Outputs of the embedded step.
+EMBEDDED_OUTPUTS = ("c_next", "tau_lim", "tau_cmd", "x_hat", "q_ref_used", "dq_ref_used",
+                    "ddq_ref_used", "diag", "nis", "repairs")
+
+
+@dataclass(frozen=True)
+class EstimatorBlocks:
+    """The sensing and estimation Functions of one estimator choice.
+
+    Attributes
+    ----------
+    imu, bias_step, encoders
+        ``ballbot_imu``, ``ballbot_gyro_bias_step``, ``ballbot_encoders``
+        (:mod:`ballbot_casadi.model.sensors`).
+    attitude, velocity
+        The filters (``ballbot_qukf``/``ballbot_qekf`` with the acceleration input,
+        ``ballbot_vukf``/``ballbot_vekf`` with mid-period encoder prediction).
+    name
+        ``"ukf"`` or ``"ekf"``.
+    """
+
+    imu: ca.Function
+    bias_step: ca.Function
+    encoders: ca.Function
+    attitude: ca.Function
+    velocity: ca.Function
+    name: str
+
+
+def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function) -> EstimatorBlocks:
+    """The sensing and estimation Functions of estimator choice ``"ukf"`` or ``"ekf"``."""
+    if estimator not in ESTIMATOR_FILTERS:
+        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
+    att, vel = ESTIMATOR_FILTERS[estimator]
+    attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
+    velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True)
+    return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
+                           velocity, estimator)
+
+
+def estimator_layout(estimator: str) -> Layout:
+    """Layout of the filters' part of the controller state (``"ukf"`` or ``"ekf"``)."""
+    if estimator not in ESTIMATOR_FILTERS:
+        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
+    att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[estimator])
+    return Layout("estimator state", [("xa", att.x0.size), ("Pa", att.P0.size),
+                                      ("xv", vel.x0.size), ("Pv", vel.P0.size), ("pos", 2)])
+
+
+def controller_layout(estimator: str, nz: int) -> Layout:
+    """Layout of the embedded software's state ``c``: velocity controller, then filters."""
+    e = estimator_layout(estimator)
+    return Layout("controller state c", [("z", nz), *((f, e[f].stop - e[f].start) for f in e.fields)])
+
+
+def _drop(y: Any, ok: Any) -> Any:
+    """``y`` where ``ok``, NaN otherwise (the filters skip non-finite components)."""
+    return ca.if_else(ok > 0.5, y, ca.DM.nan(y.numel()))
+
+
+def sense(blocks: EstimatorBlocks, xk: ca.MX, s_state: ca.MX, noise: ca.MX, valid: ca.MX,
+          p_plant: ca.MX, s: ca.MX, Ts: ca.MX) -> tuple[ca.MX, ca.MX]:
+    """The readings at ``t_k`` and the sensor state after it (without the new ``tau_prev``).
+
+    ``xk``: plant state with wheel angles (15) after the push; ``s_state``:
+    :data:`SENSOR_STATE`.  Returns ``meas`` (:data:`MEAS`, NaN where missing) and
+    ``[bias_next, phi]`` (the caller prepends the period's torque).
+    """
+    S = SENSOR_STATE
+    x12, phi = xk[:STATE.size], xk[STATE.size:]
+    acc, gyro = blocks.imu(x12, s_state[S["tau_prev"]], p_plant, s, s_state[S["bias"]],
+                           noise[NOISE["acc"]], noise[NOISE["gyro"]])
+    enc, _ = blocks.encoders(phi, s_state[S["phi_prev"]], p_plant, Ts)
+    meas = ca.vertcat(_drop(acc, valid[VALID.index("acc")]), _drop(gyro, valid[VALID.index("gyro")]),
+                      _drop(enc, valid[VALID.index("enc")]))
+    bias_next = blocks.bias_step(s_state[S["bias"]], s, Ts, noise[NOISE["gyro_rw"]])
+    return meas, ca.vertcat(bias_next, phi)
+
+
+def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: EstimatorBlocks) -> ca.Function:
+    """The embedded software's period ``ballbot_embedded_<ctrl>_<est>`` (module docstring, 2.).
+
+    Inputs :data:`EMBEDDED_INPUTS`: the controller state ``c``
+    (:func:`controller_layout`), the readings ``meas`` (:data:`MEAS`), the references
+    ``q_ref, dq_ref, ddq_ref`` (balance-only mode) and ``v_ref`` (cascade), the
+    controllers' and the filters' model parameters, gains, ``Ts``, the ``cascade`` and
+    ``feedforward`` switches and the filter covariances (column-major).  Outputs
+    :data:`EMBEDDED_OUTPUTS`: ``c_next``, ``tau_lim`` (the wheel torque command after
+    the direction-preserving limit), ``tau_cmd``, ``x_hat`` (the estimate the
+    controllers read), the references used, ``diag``, ``nis`` (attitude, velocity) and
+    ``repairs`` (covariance repairs this period).
+    """
+    blocks = PeriodBlocks(balance, velocity)
+    sz = check_blocks(blocks, len(PARAM_NAMES))
+    C = controller_layout(est.name, sz["nz"])
+    na = int(round(np.sqrt(C["Pa"].stop - C["Pa"].start)))
+    nv = int(round(np.sqrt(C["Pv"].stop - C["Pv"].start)))
+    NP = len(PARAM_NAMES)
+    MX = ca.MX.sym
+    sym = {"c": MX("c", C.size), "meas": MX("meas", MEAS.size), "q_ref": MX("q_ref", 4),
+           "dq_ref": MX("dq_ref", 4), "ddq_ref": MX("ddq_ref", 4), "v_ref": MX("v_ref", 3),
+           "p_ctrl": MX("p_ctrl", NP), "p_est": MX("p_est", NP), "k_bal": MX("k_bal", sz["nk"]),
+           "k_vel": MX("k_vel", sz["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade"),
+           "feedforward": MX("feedforward"), "Qa": MX("Qa", 36), "Ra": MX("Ra", 36),
+           "Qv": MX("Qv", nv * nv), "Rv": MX("Rv", 36)}
+    c, meas, Ts, p_est = sym["c"], sym["meas"], sym["Ts"], sym["p_est"]
+    acc, gyro, enc = meas[MEAS["acc"]], meas[MEAS["gyro"]], meas[MEAS["enc"]]
+
+    # the velocity filter's last acceleration estimate compensates the accelerometer
+    xv_prev = c[C["xv"]]
+    att = est.attitude(xhat=c[C["xa"]], P=ca.reshape(c[C["Pa"]], na, na), z=ca.vertcat(acc, gyro),
+                       Q=ca.reshape(sym["Qa"], 6, 6), R=ca.reshape(sym["Ra"], 6, 6), dt=Ts, p=p_est,
+                       a=ca.vertcat(xv_prev[2:4], 0))
+    xa = att["xhat_next"]
+    vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
+                       att=xa, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
+                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est)
+    xv = vel["xhat_next"]
+    q_hat, w_hat, v_hat = xa[0:4], xa[4:7], xv[0:2]
+    pos = c[C["pos"]] + Ts * v_hat
+    x_hat = ca.vertcat(pos, q_hat, v_hat, 0.5 * Q.mul(q_hat, ca.vertcat(0, w_hat)))
+
+    ctrl = controller_part(blocks, x_hat, c[C["z"]], sym, sym)
+    c_next = ca.vertcat(ctrl["z_next"], xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos)
+    outs = {"c_next": c_next, "x_hat": x_hat, "nis": ca.vertcat(att["nis"], vel["nis"]),
+            "repairs": att["n_repair"] + vel["n_repair"], **ctrl}
+    return ca.Function(f"ballbot_embedded_{blocks.name}_{est.name}",
+                       [sym[k] for k in EMBEDDED_INPUTS], [outs[k] for k in EMBEDDED_OUTPUTS],
+                       list(EMBEDDED_INPUTS), list(EMBEDDED_OUTPUTS))
+
+
+def initial_estimator_state(estimator: str, x0: np.ndarray) -> np.ndarray:
+    """The filters' part of ``c`` at the start of a run (:func:`estimator_layout`).
+
+    The filters start aligned with the robot's initial attitude, body rate and velocity
+    (as after the robot's start-up calibration at rest) with the thesis's initial
+    covariances (4.4, 5.4) and a zero accelerometer-bias estimate; the position estimate
+    starts at the true position.
+    """
+    L = estimator_layout(estimator)
+    att, vel = ESTIMATOR_FILTERS[estimator]
+    x0 = np.asarray(x0, float).reshape(-1)
+    q = x0[STATE["q"]] / np.linalg.norm(x0[STATE["q"]])
+    omega = 2 * Q.vee(Q.mul(Q.conj(q), x0[STATE["dq"]]))
+    xa0, Pa0 = initial_state(att, np.concatenate([q, omega]))
+    xv0, Pv0 = initial_state(vel)
+    xv0 = xv0.copy()
+    xv0[0:2] = x0[STATE_DXY]
+    e = np.zeros(L.size)
+    e[L["xa"]] = xa0
+    e[L["Pa"]] = np.asarray(Pa0, float).ravel(order="F")
+    e[L["xv"]] = xv0
+    e[L["Pv"]] = np.asarray(Pv0, float).ravel(order="F")
+    e[L["pos"]] = x0[STATE_XY]
+    return e
