@@ -8,6 +8,7 @@ from pathlib import Path
 from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.sim.scenarios import ESTIMATOR_CHOICES, FEEDFORWARD_MODES
 from ballbot_casadi.studies import chirp as chirp_study
 from ballbot_casadi.studies.registry import (
     STUDIES,
@@ -48,6 +49,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
         check_output_dir(args.out, "--out", owned=None if args.name == "all" else OWNED_OUTPUTS)
     params = load_params(args.params) if args.params else None
     overrides = parse_overrides(args.set or [])
+    overrides += [(k, v) for k, v in (("estimator", args.estimator), ("seed", args.seed),
+                                      ("feedforward", args.feedforward)) if v is not None]
     if (args.axis or args.amplitude is not None) and args.name != "chirp":
         raise ScenarioError("--axis and --amplitude apply to the chirp study only")
     if args.amplitude is not None and not 0 < args.amplitude <= 45:
@@ -57,7 +60,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
         overrides += chirp_study.axis_overrides(table, args.axis, args.amplitude)
     if args.name == "all":
         if overrides or params is not None:
-            raise ScenarioError("--set and --params apply to one study, not to 'all'")
+            raise ScenarioError("--set, --estimator, --seed, --feedforward and --params apply to one "
+                                "study, not to 'all'")
         table = run_all(Path(args.out) if args.out else None, plot=not args.no_plot)
         ok = True
         for res in table.values():
@@ -89,6 +93,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change a scenario-file key of every run, e.g. duration_s=20 or "
                         "attitude.roll.amplitude_deg=5 (repeatable)")
+    p.add_argument("--estimator", choices=ESTIMATOR_CHOICES,
+                   help="what the controllers read: the true state, or noisy sensors with the "
+                        "QUKF + VUKF (ukf) or the predecessor's EKFs (ekf); default: the study's files "
+                        "(true for the thesis's controller studies, ukf for 'estimators' and 'full')")
+    p.add_argument("--seed", type=int, metavar="N", help="sensor-noise seed (default: the study's files)")
+    p.add_argument("--feedforward", choices=FEEDFORWARD_MODES,
+                   help="balance controller feed-forward: exact reference acceleration, or none (the "
+                        "thesis's FLC 8.44 and SMC); default: the study's files")
     p.add_argument("--axis", choices=("roll", "pitch"), help="chirp: the excited axis (default roll)")
     p.add_argument("--amplitude", type=float, metavar="DEG", help="chirp: amplitude in deg (default 3)")
     p.add_argument("--quiet", action="store_true", help="print nothing")
