@@ -18,6 +18,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from ballbot_casadi.bench.control import bench_control
+from ballbot_casadi.bench.estimation import bench_estimation
 from ballbot_casadi.bench.fmu import bench_fmu
 from ballbot_casadi.bench.montecarlo import bench_montecarlo
 from ballbot_casadi.codegen.libraries import model_library
@@ -80,6 +81,7 @@ BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
     "model": bench_model,
     "fmu": bench_fmu,
     "control": bench_control,
+    "estimation": bench_estimation,
     "montecarlo": bench_montecarlo,
 })
 

@@ -163,6 +163,7 @@ def make_estimating_step(
     wheel_speeds: ca.Function,
     estimator: EstimatorBlocks,
     n_sub: int = N_SUB,
+    embedded: ca.Function | None = None,
 ) -> ca.Function:
     """One control period with sensors and the embedded software, ``ballbot_cl_step_<ctrl>_<est>``.
 
@@ -188,7 +189,8 @@ def make_estimating_step(
     """
     blocks = PeriodBlocks(balance, velocity)
     sz = check_blocks(blocks, NP)
-    embedded = make_embedded_step(balance, velocity, estimator)
+    if embedded is None:
+        embedded = make_embedded_step(balance, velocity, estimator)
     nc = embedded.size1_in(0)
     nxw = NX + N_WHEEL
     ode_w = make_wheel_angle_ode(ode, wheel_speeds)
@@ -314,7 +316,8 @@ def closed_loop_functions(n_sub: int = N_SUB, estimator: str = "true",
     exported
         The step and chunk (:func:`make_chunk`) Functions plus, for ``"true"``, the
         controllers ``ballbot_flc``, ``ballbot_smc``, ``ballbot_velocity`` (for the C
-        benchmark), otherwise the filters (for the estimator benchmark).
+        benchmark), otherwise the embedded software ``ballbot_embedded_<ctrl>_<est>`` (the
+        controller FMU's code) and the filters (for the estimator benchmark).
     """
     ode, affine = make_ode(), make_affine()
     velocity = make_velocity_controller()
@@ -325,11 +328,12 @@ def closed_loop_functions(n_sub: int = N_SUB, estimator: str = "true",
         bal = builder(affine)
         if est is None:
             steps[name] = make_closed_loop_step(bal, velocity, ode, n_sub)
+            exported += [steps[name], make_chunk(steps[name]), bal]
         else:
-            steps[name] = make_estimating_step(bal, velocity, ode, make_wheel_speeds(), est, n_sub)
-        exported += [steps[name], make_chunk(steps[name])]
-        if est is None:
-            exported.append(bal)
+            embedded = make_embedded_step(bal, velocity, est)
+            steps[name] = make_estimating_step(bal, velocity, ode, make_wheel_speeds(), est, n_sub,
+                                               embedded)
+            exported += [steps[name], make_chunk(steps[name]), embedded]
     exported += [velocity] if est is None else [est.attitude, est.velocity]
     return steps, exported
 
@@ -341,25 +345,28 @@ def library_name(n_sub: int, estimator: str = "true") -> str:
 
 
 def closed_loop_library(n_sub: int = N_SUB, root: Path | None = None, estimator: str = "true",
-                        ) -> tuple[Library, dict[str, ca.Function]]:
+                        ) -> tuple[Library, dict[str, ca.Function], list[ca.Function]]:
     """Generate and compile the closed-loop library (steps, chunks and controllers).
 
     Cached by the hash of the generated C (see :func:`~ballbot_casadi.core.toolchain.build_library`).
 
     Returns
     -------
-    library, steps
-        The :class:`~ballbot_casadi.core.toolchain.Library` and the symbolic step Functions.
+    library, steps, exported
+        The :class:`~ballbot_casadi.core.toolchain.Library`, the symbolic step Functions and
+        every Function the library exports.
     """
     steps, exported = closed_loop_functions(n_sub, estimator)
-    return build_library(library_name(n_sub, estimator), exported, root), steps
+    return build_library(library_name(n_sub, estimator), exported, root), steps, exported
 
 
 class _Variant:
     """The step Functions of one ``n_sub`` (compiled or symbolic) and their missions."""
 
-    def __init__(self, symbolic: Mapping[str, ca.Function], lib: Library | None, use_driver: bool) -> None:
+    def __init__(self, symbolic: Mapping[str, ca.Function], lib: Library | None, use_driver: bool,
+                 exported: list[ca.Function] | None = None) -> None:
         self.library = lib
+        self.exported = list(exported or [])
         self.symbolic = dict(symbolic)
         self.chunks: dict[str, ca.Function] = {}
         self.driver: MissionDriver | None = None
@@ -459,10 +466,10 @@ class ClosedLoop:
                 raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, "
                                     f"{', '.join(ESTIMATOR_FILTERS)}")
             if self.compiled:
-                lib, symbolic = closed_loop_library(key[0], self.root, estimator)
+                lib, symbolic, exported = closed_loop_library(key[0], self.root, estimator)
             else:
-                lib, (symbolic, _) = None, closed_loop_functions(key[0], estimator)
-            self._variants[key] = _Variant(symbolic, lib, self.use_driver)
+                lib, (symbolic, exported) = None, closed_loop_functions(key[0], estimator)
+            self._variants[key] = _Variant(symbolic, lib, self.use_driver, exported)
         return self._variants[key]
 
     @property

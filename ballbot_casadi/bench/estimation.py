@@ -1,0 +1,108 @@
+"""Benchmark group ``estimation`` (``ballbot bench --only estimation``): the complete system's speed.
+
+Keys
+----
+``estimator_step_us``
+    One period of the QUKF and the VUKF (``ballbot_qukf`` + ``ballbot_vukf``, the
+    filters of the estimating closed-loop library) in generated C, timed by the C
+    driver ``csrc/bench_function.c`` on a realistic operating point.  Target <= 10 us
+    (the loop period is 5000 us).  Also ``qukf_step_us``, ``vukf_step_us`` and
+    ``embedded_step_us`` (the whole embedded software: filters, controllers, limit).
+``mission_full_100s_s``
+    Wall time of 100 s of the complete system (sensor noise, QUKF + VUKF, velocity LQR,
+    FLC, plant) run from Python as one call of the compiled mission, inputs prepared
+    beforehand (``mission_full_100s_with_inputs_s`` includes drawing the noise and
+    building the inputs).  Target <= 0.5 s.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+from importlib import resources
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from ballbot_casadi.core.toolchain import CFLAGS, Library, build_root, compiler_command, run_tool
+from ballbot_casadi.errors import BuildError
+from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.scenario_file import load_scenario_file
+
+__all__ = ["bench_estimation", "c_function_us"]
+
+
+def c_function_us(lib: Library, function: ca.Function, inputs: list, n_calls: int) -> float:
+    """Microseconds per call of ``function`` (exported by ``lib``) in a C loop."""
+    out = build_root() / "bench"
+    out.mkdir(parents=True, exist_ok=True)
+    src = Path(str(resources.files("ballbot_casadi.bench") / "csrc" / "bench_function.c"))
+    exe = out / f"bench_{function.name()}_{lib.digest}"
+    run_tool([*compiler_command(), *CFLAGS, f"-DBENCH_FN={function.name()}",
+              f'-DBENCH_HEADER="{lib.header.name}"', "-I", str(lib.header.parent), "-o", str(exe),
+              str(src), str(lib.static), "-lm"], f"compiling the benchmark of {function.name()}")
+    values = []
+    for i, v in enumerate(inputs):
+        arr = np.asarray(v, float).reshape(function.size_in(i), order="F") if np.size(v) > 1 else np.asarray(v, float)
+        values.append(" ".join(repr(float(e)) for e in np.ravel(arr, order="F")))
+    data = out / f"bench_{function.name()}_input.txt"
+    data.write_text("\n".join(values) + "\n")
+    run = subprocess.run([str(exe), str(n_calls), str(data)], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise BuildError(f"benchmark of {function.name()} failed: {run.stderr[-2000:]}")
+    res = json.loads(run.stdout)
+    if not res["finite"]:
+        raise BuildError(f"benchmark of {function.name()} produced a non-finite output")
+    return float(res["us_per_call"])
+
+
+def _full_scenario():
+    path = Path(str(resources.files("ballbot_casadi.studies") / "scenarios" / "full_velocity.toml"))
+    return load_scenario_file(path).scenario
+
+
+def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]:
+    """Run the ``estimation`` benchmark group (see the module docstring)."""
+    sc = _full_scenario()
+    sim = ClosedLoop(compiled=True)
+    t0 = time.perf_counter()
+    inputs = sc.inputs()
+    t_inputs = time.perf_counter() - t0
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        log = sim.simulate(sc.controller, **inputs, n_sub=sc.n_sub)
+        best = min(best, time.perf_counter() - t0)
+    if not np.all(np.isfinite(log["state"])):
+        raise BuildError("the complete-system benchmark mission diverged")
+    data = {"mission_full_100s_s": best, "mission_full_100s_with_inputs_s": best + t_inputs,
+            "mission_full_100s_target_s": 0.5}
+    variant = sim._variant(sc.n_sub, sc.estimator)
+    lib = variant.library
+    est = inputs["estimation"]
+    # a realistic operating point: the filters' state in the middle of the run
+    k = log["x_hat"].shape[0] // 2
+    c = log["c_final"]
+    names = {f.name(): f for f in variant.exported}
+    qukf, vukf = names["ballbot_qukf"], names["ballbot_vukf"]
+    embedded = names[f"ballbot_embedded_{sc.controller}_{sc.estimator}"]
+    nz = np.size(inputs["z0"])
+    xa, Pa = c[nz:nz + 7], c[nz + 7:nz + 43]
+    xv, Pv = c[nz + 43:nz + 50], c[nz + 50:nz + 99]
+    meas = log["meas"][k]
+    p = est["p_est"]
+    q_in = [xa, Pa, meas[:6], est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
+    v_in = [xv, Pv, np.r_[meas[6:9] * inputs["Ts"], meas[:3]], xa, np.eye(3) * 1e-8, est["Qv"],
+            est["Rv"], inputs["Ts"], p]
+    data["qukf_step_us"] = c_function_us(lib, qukf, q_in, n_calls)
+    data["vukf_step_us"] = c_function_us(lib, vukf, v_in, n_calls)
+    data["estimator_step_us"] = data["qukf_step_us"] + data["vukf_step_us"]
+    e_in = [c, meas, *(inputs[s][k] for s in ("q_ref", "dq_ref", "ddq_ref", "v_ref")),
+            inputs["p_ctrl"], p, inputs["k_bal"], inputs["k_vel"], inputs["Ts"],
+            1.0 if inputs["cascade"] else 0.0, 1.0 if inputs["feedforward"] else 0.0,
+            est["Qa"], est["Ra"], est["Qv"], est["Rv"]]
+    data["embedded_step_us"] = c_function_us(lib, embedded, e_in, n_calls)
+    data["estimator_step_target_us"] = 10.0
+    return data
