@@ -270,14 +270,16 @@ def run_file(
     sim: ClosedLoop | None = None,
     plot: bool = True,
     params: Params | None = None,
+    log_every: int = 1,
 ) -> dict[str, Any]:
     """Run one scenario file (``ballbot simulate``); outputs as :func:`run_study`, plus
-    ``scenario.toml`` (the validated file as run)."""
+    ``scenario.toml`` (the validated file as run).  ``log_every > 1`` runs the mission in
+    segments and keeps every ``log_every``-th period (long runs in little memory)."""
     sc = source.scenario
     if params is not None:
         sc = rebase_on_params(sc, params)
     sim = ClosedLoop() if sim is None else sim
-    log = run_scenario(sc, sim)
+    log = run_scenario(sc, sim, log_every=log_every)
     metrics = run_metrics(log)
     if any(sig.get("type") == "chirp" for sig in sc.attitude.values()):
         cm = chirp_metrics(log)

@@ -530,6 +530,7 @@ class ClosedLoop:
         n_sub: int | None = None,
         estimator: str = "true",
         estimation: Mapping[str, Any] | None = None,
+        xz0: np.ndarray | None = None,
     ) -> dict[str, np.ndarray]:
         """Run one mission in a single Function call.
 
@@ -540,7 +541,9 @@ class ClosedLoop:
         ``"ekf"`` the controllers read estimates from noisy sensors
         (:func:`make_estimating_step`); ``estimation`` then holds ``noise`` (N, 9),
         ``valid`` (N, 3), ``s``, ``p_est``, ``Qa``, ``Ra``, ``Qv``, ``Rv``, ``e0`` (the
-        filters' initial state) and ``s0`` (the initial sensor state).
+        filters' initial state) and ``s0`` (the initial sensor state).  ``xz0``
+        (optional) replaces the whole initial accumulated state built from those (a
+        segment of a long run continues from the previous segment's ``xz_final``).
 
         Returns the named arrays of the log: ``time`` (N+1), ``state`` (N+1, 12; row
         k < N is the plant state at ``t_k`` after a push, the last row the final
@@ -578,7 +581,7 @@ class ClosedLoop:
         parts += [np.asarray(z0, float).reshape(-1)]
         if est:
             parts += [np.asarray(extra["e0"], float).reshape(-1), np.asarray(extra["s0"], float).reshape(-1)]
-        xz0 = np.concatenate(parts)
+        xz0 = np.concatenate(parts) if xz0 is None else np.asarray(xz0, float).reshape(-1)
         const = {"p_plant": p_plant, "p_ctrl": p_ctrl, "k_bal": k_bal, "k_vel": k_vel, "Ts": Ts,
                  "cascade": 1.0 if cascade else 0.0, "feedforward": 1.0 if feedforward else 0.0,
                  **{k: np.asarray(extra[k], float).ravel(order="F")
@@ -616,6 +619,7 @@ class ClosedLoop:
             "v_ref": seqs["v_ref"],
             "w": seqs["w"],
             "diag": out["diag"],
+            "xz_final": xz_next[-1].copy(),
         }
         if est:
             log.update({k: out[k] for k in ESTIMATION_OUTPUTS})
@@ -625,7 +629,8 @@ class ClosedLoop:
         return log
 
 
-def run_scenario(scenario: Any, sim: ClosedLoop | None = None) -> SimulationLog:
+def run_scenario(scenario: Any, sim: ClosedLoop | None = None, log_every: int = 1,
+                 segment_periods: int | None = None) -> SimulationLog:
     """Run a :class:`~ballbot_casadi.sim.scenarios.Scenario` and return its log.
 
     Parameters
@@ -634,15 +639,52 @@ def run_scenario(scenario: Any, sim: ClosedLoop | None = None) -> SimulationLog:
         The scenario (validated on construction); its ``Ts`` and ``n_sub`` are used.
     sim
         A :class:`ClosedLoop` to reuse (compiled C by default); ``None`` builds one.
+    log_every
+        Keep every ``log_every``-th period in the log (decimated logging; the final state
+        is always kept).  Metrics that need every period (lags, total variation) are
+        then computed on the decimated log.
+    segment_periods
+        Run the mission in segments of this many periods, each one compiled call
+        continuing from the previous one's final state, with the inputs of each segment
+        built just before it: memory then grows only with the decimated log, not with
+        the run's length (default: one segment, or 12000 periods = 60 s when decimating).
+        The result equals the single-call run bit for bit (same inputs, same code).
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"run_scenario needs a Scenario, got {type(scenario).__name__}")
+    for name, v in (("log_every", log_every), ("segment_periods", segment_periods)):
+        if v is not None and (not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1):
+            raise ScenarioError(f"{name} must be an int >= 1, got {v!r}")
     sim = ClosedLoop() if sim is None else sim
-    arrays = sim.simulate(scenario.controller, **scenario.inputs(), n_sub=scenario.n_sub)
+    n = scenario.n_periods
+    seg = segment_periods or (n if log_every == 1 else min(n, 12000))
+    arrays: dict[str, list[np.ndarray]] = {}
+    xz = None
+    for k0 in range(0, n, seg):
+        k1 = min(n, k0 + seg)
+        inp = scenario.inputs(periods=(k0, k1))
+        part = sim.simulate(scenario.controller, **inp, n_sub=scenario.n_sub, xz0=xz)
+        xz = part.pop("xz_final")
+        final = {k: part[k][-1:] for k in ("time", "state", "z", "phi") if k in part}
+        keep = np.arange(0, k1 - k0)
+        keep = keep[(keep + k0) % log_every == 0]
+        for key, val in part.items():
+            if key in ("c_final",):
+                arrays[key] = [val]
+                continue
+            rows = val[:k1 - k0] if val.shape[0] > k1 - k0 else val
+            arrays.setdefault(key, []).append(rows[keep])
+    # time, state, z and phi carry one more row: the final state
+    for key, val in final.items():
+        arrays[key].append(val)
+    out = {k: np.concatenate(v) if k != "c_final" else v[0] for k, v in arrays.items()}
+    out["time"] = np.concatenate([np.arange(n)[np.arange(n) % log_every == 0], [n]]) * float(scenario.Ts)
+    extra = {"log_every": int(log_every)} if log_every != 1 else {}
     return SimulationLog(
-        arrays=arrays,
+        arrays=out,
         scenario=scenario.to_dict(),
         params=scenario.plant_params(),
         ctrl_params=scenario.controller_params(),
         diag_names=scenario.diag_names(),
+        extra=extra,
     )

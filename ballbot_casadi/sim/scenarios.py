@@ -372,9 +372,19 @@ class Scenario:
         """Number of control periods."""
         return int(round(self.duration / self.Ts))
 
-    def time(self) -> np.ndarray:
-        """Control instants ``t_k = k Ts``, k = 0..N-1."""
-        return np.arange(self.n_periods) * self.Ts
+    def window(self, periods: tuple[int, int] | None = None) -> tuple[int, int]:
+        """Validated period range ``[k0, k1)`` (default: the whole run)."""
+        if periods is None:
+            return 0, self.n_periods
+        k0, k1 = (int(v) for v in periods)
+        if not 0 <= k0 < k1 <= self.n_periods:
+            raise ScenarioError(f"scenario {self.name!r}: periods [{k0}, {k1}) outside [0, {self.n_periods})")
+        return k0, k1
+
+    def time(self, periods: tuple[int, int] | None = None) -> np.ndarray:
+        """Control instants ``t_k = k Ts``, k = 0..N-1 (or ``k`` in ``periods``)."""
+        k0, k1 = self.window(periods)
+        return np.arange(k0, k1) * self.Ts
 
     def plant_params(self, base: Params | None = None) -> Params:
         """Plant parameters: ``base`` (default thesis App. A) with :attr:`plant_changes`."""
@@ -384,28 +394,31 @@ class Scenario:
         """Controller internal-model parameters (``base`` with :attr:`ctrl_changes`)."""
         return apply_changes(base or load_params(), self.ctrl_changes, "ctrl_changes")
 
-    def attitude_reference(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def attitude_reference(self, periods: tuple[int, int] | None = None
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``q, dq, ddq`` (N, 4) sampled at the control instants (analytic derivatives)."""
-        t = self.time()
+        t = self.time(periods)
         sig = {ax: _signal(self.attitude.get(ax, {"type": "const"}), t) for ax in ("roll", "pitch", "yaw")}
         return R.rpy_reference(sig["roll"], sig["pitch"], sig["yaw"])
 
-    def velocity_reference(self) -> np.ndarray:
+    def velocity_reference(self, periods: tuple[int, int] | None = None) -> np.ndarray:
         """``[vx, vy, yaw_rate]`` (N, 3) at the control instants."""
-        t = self.time()
+        t = self.time(periods)
         if not self.velocity_keyframes:
             return np.zeros((t.size, 3))
         return R.velocity_profile(t, self.velocity_keyframes).value
 
-    def disturbance(self) -> np.ndarray:
+    def disturbance(self, periods: tuple[int, int] | None = None) -> np.ndarray:
         """Per-period disturbance ``w`` (N, 6, :data:`~ballbot_casadi.core.layout.DISTURBANCE`):
         attitude jumps (rotation vectors) and wheel-torque disturbances."""
-        w = np.zeros((self.n_periods, DISTURBANCE.size))
+        k0, k1 = self.window(periods)
+        w = np.zeros((k1 - k0, DISTURBANCE.size))
         for t, roll, pitch, yaw in self.pushes:
             k = min(int(round(t / self.Ts)), self.n_periods - 1)
-            q = Q.from_rpy(math.radians(roll), math.radians(pitch), math.radians(yaw))
-            w[k, DISTURBANCE["push"]] += Q.to_rotation_vector(q)
-        t = self.time()
+            if k0 <= k < k1:
+                q = Q.from_rpy(math.radians(roll), math.radians(pitch), math.radians(yaw))
+                w[k - k0, DISTURBANCE["push"]] += Q.to_rotation_vector(q)
+        t = self.time(periods)
         for t0, t1, *tau in self.torque_disturbances:
             w[(t >= t0 - 1e-12) & (t < t1 - 1e-12), DISTURBANCE["tau_dist"]] += tau
         return w
@@ -415,8 +428,12 @@ class Scenario:
 
         return tuple(getattr(controllers, "BALANCE_DIAG_NAMES", ()))
 
-    def inputs(self, base: Params | None = None) -> dict[str, Any]:
-        """Keyword arguments of :meth:`~ballbot_casadi.sim.closed_loop.ClosedLoop.simulate`."""
+    def inputs(self, base: Params | None = None, periods: tuple[int, int] | None = None) -> dict[str, Any]:
+        """Keyword arguments of :meth:`~ballbot_casadi.sim.closed_loop.ClosedLoop.simulate`.
+
+        ``periods = (k0, k1)`` gives the sequences of that window only (a long run is
+        simulated in segments; the initial values still describe ``t = 0``).
+        """
 
         p_plant = self.plant_params(base).to_vector()
         p_ctrl = self.controller_params(base).to_vector()
@@ -428,7 +445,7 @@ class Scenario:
         else:  # balance controller alone: the velocity loop is open, no LQR design needed
             k_vel = np.concatenate([np.zeros(VELOCITY_NKV - VELOCITY_DEFAULT_LIMITS.size),
                                     VELOCITY_DEFAULT_LIMITS])
-        q, dq, ddq = self.attitude_reference()
+        q, dq, ddq = self.attitude_reference(periods)
         for key, arr in (("q_ref", q), ("dq_ref", dq), ("ddq_ref", ddq)):
             if not np.all(np.isfinite(arr)):
                 raise ScenarioError(f"scenario {self.name!r}: {key} contains NaN or Inf")
@@ -443,13 +460,13 @@ class Scenario:
             "q_ref": q,
             "dq_ref": dq,
             "ddq_ref": ddq,
-            "v_ref": self.velocity_reference(),
-            "w": self.disturbance(),
+            "v_ref": self.velocity_reference(periods),
+            "w": self.disturbance(periods),
             "Ts": self.Ts,
             "cascade": self.cascade,
             "feedforward": self.feedforward == "exact",
             "estimator": self.estimator,
-            **({"estimation": self.estimation_inputs(base)} if self.estimator != "true" else {}),
+            **({"estimation": self.estimation_inputs(base, periods)} if self.estimator != "true" else {}),
         }
 
     def estimator_params(self, base: Params | None = None) -> Params:
@@ -460,7 +477,8 @@ class Scenario:
         """The plant's sensor parameters (defaults with :attr:`sensor_changes`)."""
         return _sensor_params(self.sensor_changes, "sensor_changes")
 
-    def estimation_inputs(self, base: Params | None = None) -> dict[str, Any]:
+    def estimation_inputs(self, base: Params | None = None, periods: tuple[int, int] | None = None
+                          ) -> dict[str, Any]:
         """The ``estimation`` inputs of :meth:`~ballbot_casadi.sim.closed_loop.ClosedLoop.simulate`.
 
         Noise rows ``k`` are ``[n_acc, n_gyro, n_rw]`` drawn from the counter-based
@@ -470,15 +488,18 @@ class Scenario:
         """
         if self.estimator == "true":
             raise ScenarioError(f"scenario {self.name!r} has no estimator in the loop")
-        n = self.n_periods
+        k0, k1 = self.window(periods)
+        n = k1 - k0
         if self.noise:
             rng = NoiseStream(self.seed)
-            noise = np.hstack([rng.normal(NOISE_STREAMS[k], n, 3) for k in ("acc", "gyro", "gyro_bias_rw")])
+            noise = np.hstack([rng.normal(NOISE_STREAMS[k], n, 3, start=k0)
+                               for k in ("acc", "gyro", "gyro_bias_rw")])
         else:
             noise = np.zeros((n, NOISE.size))
         valid = np.ones((n, VALID.size))
-        valid[0, VALID.index("enc")] = 0.0  # no previous count to difference at the first sample
-        t = self.time()
+        if k0 == 0:
+            valid[0, VALID.index("enc")] = 0.0  # no previous count to difference at the first sample
+        t = self.time(periods)
         for t0, t1, sensor in self.sensor_dropouts:
             valid[(t >= t0 - 1e-12) & (t < t1 - 1e-12), VALID.index(sensor)] = 0.0
         sp = self.sensor_params()
