@@ -1,10 +1,10 @@
 """Legal but extreme parameters: a clear result or a clear refusal, never a LinAlgError.
 
-``g = 0`` and ``l = 1e-9`` leave nothing for the velocity loop to act through (no
-stabilising discrete LQR gain exists): the closed-loop part is skipped with that
-message; ``Mb = 1e6`` has a 900 rad/s tilt mode whose Gramian over 1 s would overflow
-(the horizon is shortened and reported); ``Mb = 1e308`` overflows the model itself and
-is refused.
+``g = 0`` leaves nothing for the velocity loop to act through (no stabilising discrete
+LQR gain exists): the closed-loop part is skipped with that message; a 10 t body on a
+1e-3 kg.m2 inertia has a 240 rad/s tilt mode whose Gramian over 1 s would overflow (the
+horizon is shortened and reported); ``l = 1e-9``, ``Mb = 1e6`` or ``Mb = 1e308`` are
+outside the physical ranges the model supports and refused with the reason.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def funcs():
     return make_model_functions()
 
 
-@pytest.mark.parametrize("override", [{"g": 0.0}, {"l": 1e-9}])
+@pytest.mark.parametrize("override", [{"g": 0.0}])
 def test_no_stabilising_velocity_gain_is_a_result(funcs, override):
     params = load_params(**override)
     with pytest.raises(ParameterError, match=NO_GAIN):
@@ -47,23 +47,25 @@ def test_without_gravity_nothing_is_unstable(funcs):
     assert plant["unstable_poles"] == []  # the pendulum needs gravity to fall
 
 
+@pytest.mark.parametrize("override, reason", [
+    ({"l": 1e-9}, "between 1 mm and 10 m"), ({"Mb": 1e6}, "<= 10000 kg"), ({"Mb": 1e308}, "<= 10000 kg")])
+def test_unsupported_parameters_are_refused_with_the_physical_range(override, reason):
+    with pytest.raises(ParameterError, match=reason):
+        load_params(**override)
+
+
 def test_fast_modes_shorten_the_gramian_horizon(funcs):
-    params = load_params(Mb=1e6)
+    params = load_params(Mb=1e4, Jbx=1e-3, Jby=1e-3)
     lin, plant = an.analyze_plant(params, functions=funcs)
     T = plant["controllability"]["gramian_horizon_s"]
     lam = max(abs(np.linalg.eigvals(an.state_scaling(lin)[0]).real))
-    assert lam > 500  # the heavy body falls fast
+    assert lam > 200  # the heavy body falls fast
     assert T == pytest.approx(an._MAX_GRAMIAN_EXPONENT / lam, rel=1e-12) and T < 1.0
     energies = [m["energy"] for m in plant["controllability"]["modes"]]
     assert all(not np.isnan(e) and e > 0 for e in energies)  # inf: out of reach in T
     # the default robot keeps the requested 1 s horizon
     _, default = an.analyze_plant(load_params(), functions=funcs)
     assert default["controllability"]["gramian_horizon_s"] == 1.0
-
-
-def test_overflowing_parameters_are_refused_with_the_reason(funcs):
-    with pytest.raises(ParameterError, match=r"Inf/NaN.*Mb = 1e\+308"):
-        an.analyze_plant(load_params(Mb=1e308), functions=funcs)
 
 
 def test_cli_reports_the_skipped_closed_loop(tmp_path, capsys):
@@ -83,5 +85,5 @@ def test_cli_refuses_overflowing_parameters_in_one_line(tmp_path, capsys):
     rc = cli.main(["analyze", "--params", str(pfile), "--out", str(tmp_path / "o"), "--no-plots"])
     assert rc == 2
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "Mb = 1e+308" in err and "Traceback" not in err
+    assert err.count("\n") == 0 and "'Mb'" in err and "10000 kg" in err and "Traceback" not in err
     assert not (tmp_path / "o").exists()

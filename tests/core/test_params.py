@@ -132,19 +132,42 @@ def test_angle_given_as_plain_degrees_number_explains_radians():
 
 # Expected rule of every parameter, written out independently of PARAM_INFO.
 _EXPECTED_RULE = {
-    **dict.fromkeys(["Mb", "l", "Jbx", "Jby", "Jbz", "Jw", "rw", "rk", "Mk", "Jk", "tau_max",
-                     "n_ticks"], "pos"),
-    **dict.fromkeys(["Bvk", "Bvm", "Bvb", "g", "beta"], "nonneg"),
-    **dict.fromkeys(["com_x", "com_y"], "any"),
+    **dict.fromkeys(["Mb", "Mk"], "mass"),
+    **dict.fromkeys(["l", "rw", "rk"], "length"),
+    **dict.fromkeys(["Jbx", "Jby", "Jbz", "Jk"], "inertia"),
+    "Jw": "wheel_inertia",
+    **dict.fromkeys(["Bvk", "Bvm", "Bvb"], "friction"),
+    "tau_max": "torque",
+    "n_ticks": "ticks",
+    "g": "gravity",
+    **dict.fromkeys(["com_x", "com_y"], "offset"),
+    "beta": "baumgarte",
     "alpha": "alpha",
     "gamma": "gamma",
 }
 _TINY = 5e-324
+
+
+def _up(v: float) -> float:
+    return math.nextafter(v, math.inf)
+
+
+def _down(v: float) -> float:
+    return math.nextafter(v, -math.inf)
+
+
 # rule -> (values exactly on or just inside a boundary that must pass, values that must fail)
 _BOUNDARIES = {
-    "pos": ([_TINY, 1e308], [0.0, -0.0, -_TINY, math.inf]),
-    "nonneg": ([0.0, -0.0, _TINY], [-_TINY, math.inf]),
-    "any": ([-1.7e308, 1.7e308, 0.0], [math.inf, -math.inf, math.nan]),
+    "mass": ([_TINY, 1e4], [0.0, -0.0, -_TINY, _up(1e4), math.inf]),
+    "length": ([1e-3, 10.0], [_down(1e-3), _up(10.0), 0.0, math.inf]),
+    "inertia": ([_TINY, 1e4], [0.0, -_TINY, _up(1e4)]),
+    "wheel_inertia": ([_TINY, 1.0], [0.0, _up(1.0)]),
+    "friction": ([0.0, -0.0, 1e3], [-_TINY, _up(1e3), math.inf]),
+    "torque": ([_TINY, 1e3], [0.0, _up(1e3)]),
+    "ticks": ([_TINY, 1e9], [0.0, _up(1e9)]),
+    "gravity": ([0.0, 100.0], [-_TINY, _up(100.0)]),
+    "offset": ([-1.0, 1.0, 0.0], [_down(-1.0), _up(1.0), math.nan]),
+    "baumgarte": ([0.0, 2000.0], [-_TINY, _up(2000.0)]),
     "alpha": ([_TINY, math.nextafter(math.pi / 2, 0.0)], [0.0, math.pi / 2, -_TINY]),
     "gamma": ([_TINY, math.nextafter(math.pi, 0.0)], [0.0, math.pi, -_TINY]),
 }
@@ -180,7 +203,7 @@ def test_range_rules_defined_once_as_plain_tuples():
         assert rule.contains(hi) is (not hi_open) or not math.isfinite(hi)
     assert PARAM_RULES["alpha"][:4] == (0.0, math.pi / 2, True, True)
     with pytest.raises(TypeError):
-        PARAM_RULES["pos"] = PARAM_RULES["any"]  # read-only
+        PARAM_RULES["mass"] = PARAM_RULES["any"]  # read-only
 
 
 def test_sensors_table_is_skipped(tmp_path):
