@@ -15,6 +15,7 @@ __all__ = [
     "ScenarioError",
     "BallbotTypeError",
     "BuildError",
+    "PathError",
 ]
 
 
@@ -44,3 +45,7 @@ class BallbotTypeError(BallbotError, TypeError):
 
 class BuildError(BallbotError, RuntimeError):
     """Generating or compiling C code failed."""
+
+
+class PathError(BallbotError, ValueError):
+    """A file or folder path cannot be used (missing, wrong kind, not writable)."""

@@ -8,7 +8,8 @@ from pathlib import Path
 from fmpy import dump
 from fmpy.validation import validate_fmu
 
-from ballbot_casadi.core.files import PathError, check_input_file, check_output_dir
+from ballbot_casadi.core.files import check_input_file, check_output_dir
+from ballbot_casadi.errors import PathError
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.fmi.build import build_fmu, validate_fmu_archive
 

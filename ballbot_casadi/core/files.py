@@ -47,7 +47,7 @@ import tempfile
 from pathlib import Path
 from typing import Iterable, Iterator, Mapping
 
-from ballbot_casadi.errors import BallbotError
+from ballbot_casadi.errors import PathError
 
 __all__ = [
     "PathError",
@@ -67,10 +67,6 @@ __all__ = [
 OUTPUT_MARKER = ".ballbot-output"
 #: Read block size of :func:`sha256_file`.
 _BLOCK = 1 << 20
-
-
-class PathError(BallbotError, ValueError):
-    """A file or folder path cannot be used (missing, wrong kind, not writable)."""
 
 
 # --------------------------------------------------------------------------- atomic files

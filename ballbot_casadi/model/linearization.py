@@ -64,6 +64,8 @@ __all__ = [
 NR = 10
 REDUCED_STATE_NAMES = ("x", "y", "v1", "v2", "v3", "dx", "dy", "dv1", "dv2", "dv3")
 
+#: Largest ball speed of an operating point (m/s): far beyond any ballbot, finite numbers.
+MAX_SPEED = 10.0
 #: Absolute tolerance on the trim accelerations (m/s^2 and quaternion units / s^2).
 TRIM_TOL = 1e-8
 
@@ -186,6 +188,9 @@ def parse_state_spec(text: str, params: Params) -> np.ndarray:
             raise StateError(f"operating point item {item!r}: {raw.strip()!r} is not a number") from None
         if not np.isfinite(v):
             raise StateError(f"operating point item {item!r}: value must be finite")
+        if key in ("dx", "dy") and abs(v) > MAX_SPEED:
+            raise StateError(f"operating point item {item!r}: a ball speed above {MAX_SPEED:g} m/s "
+                             "is outside what the model describes (no slip, small friction)")
         vals[key] = v * _SPEC_KEYS[key]
     x = np.concatenate(
         [[vals.get("x", 0.0), vals.get("y", 0.0)], np.array([1.0, 0, 0, 0]),
