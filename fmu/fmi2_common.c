@@ -1,23 +1,27 @@
 /*
- * fmi2_common.c - shared, hand-written FMI 2.0 layer (Model Exchange + Co-Simulation).
+ * fmi2_common.c - shared, hand-written FMI 2.0 layer (Model Exchange and/or Co-Simulation).
  *
  * See fmi2_common.h.  Policies:
- *  - Every call checks the instance pointer, the FMU type and the state machine (FMI 2.0
- *    section 3.2.3 / 4.2.4); a call in the wrong state returns fmi2Error with a message
- *    and leaves the instance unchanged.
+ *  - Every call checks the instance pointer, the FMU type and the state machine against
+ *    one table (`call_rules` below: FMI 2.0 sections 3.2.3 and 4.2.4); a call in the
+ *    wrong state returns fmi2Error with a message and leaves the instance unchanged.
+ *    Which variable kind may be set in which state is a second table (`set_rules`).
  *  - Invalid arguments (unknown value reference, variable not settable now, NaN/Inf,
- *    non-physical parameter, NULL pointers, bad sizes) return fmi2Error with a message
- *    and change nothing: setters validate all values before storing any.
- *  - Numerical failure (non-finite derivatives) returns fmi2Error and puts the instance
- *    into the error state, where fmi2GetReal keeps returning fmi2Error (never values that
- *    may be NaN) until fmi2Reset or fmi2SetFMUstate; a failed co-simulation step returns
- *    fmi2Discard, restores the state at the start of the step and enters the stepFailed
- *    state.
+ *    value outside the variable's range, Boolean other than 0/1, NULL pointers, bad
+ *    sizes) return fmi2Error with a message and change nothing: setters validate all
+ *    values before storing any.
+ *  - Numerical failure (non-finite derivatives or outputs) returns fmi2Error and puts the
+ *    instance into the error state, where the value getters keep returning fmi2Error
+ *    (never values that may be NaN) until fmi2Reset or fmi2SetFMUstate; a failed
+ *    co-simulation step returns fmi2Discard, restores every value at the start of the
+ *    step and enters the stepFailed state; a step the model refuses (fmi2Error) restores
+ *    every value and keeps the state.
  *  - FMU states (fmi2SetFMUstate, fmi2DeSerializeFMUstate) are validated before they are
- *    restored: exactly one mode bit, matching FMU type, finite time, every value accepted
- *    by the model's value checks and the start-value checks of
- *    fmi2ExitInitializationMode (the checksum of a serialised state is public, so a
- *    crafted state must not bypass them).
+ *    restored: exactly one mode bit, matching FMU type, finite times, every stored value
+ *    within its variable's range and the model's start-value checks (the checksum of a
+ *    serialised state is public, so a crafted state must not bypass them).
+ *  - Derivatives and continuous outputs are evaluated lazily: only a read of such a
+ *    variable (or fmi2GetDerivatives) evaluates the model, once per change.
  *  - Logging: categories logStatusError and logStatusWarning are on by default, so every
  *    error is reported; logCalls (call tracing) is off unless loggingOn is true.  Nothing
  *    is logged on success unless logCalls is enabled.
@@ -30,13 +34,16 @@
 #include <stdio.h>
 #include <string.h>
 
-#define FMU_MAGIC 0x42424d55u /* "BBMU" */
-#define SNAP_MAGIC 0x42425353u /* "BBSS" */
-#define SER_MAGIC "BBPLANT\x01"
+#define FMU_MAGIC 0x464d5532u  /* "FMU2" */
+#define SNAP_MAGIC 0x534e4150u /* "SNAP" */
+#define SER_MAGIC "FMU2SNP\x02"
 #define MSG_LEN 512
+
+#define NVARS(t) (fmu_model.vars->n[t])
 
 static const char *const fmu_log_category_names[FMU_LOG_N] = {
     "logStatusError", "logStatusWarning", "logCalls"};
+static const char *const type_names[FMU_NTYPES + 1] = {"Real", "Integer", "Boolean", "String"};
 
 struct fmu_instance {
     unsigned magic;
@@ -47,29 +54,143 @@ struct fmu_instance {
     int log_on[FMU_LOG_N];
     double time;
     double t_start;
-    int dirty;             /* derivatives/outputs must be re-evaluated */
-    double *r;             /* all reals, indexed by value reference */
-    double *r_backup;      /* state at the start of a co-simulation step */
-    void *work;            /* model work memory */
+    int dirty;             /* derivatives/continuous outputs must be re-evaluated */
+    fmu_values v;          /* all values (one block) */
+    fmu_values backup;     /* values at the start of a co-simulation step */
+    double *jac;           /* Jacobian buffer (models with directional derivatives) */
+    void *work;            /* model scratch memory */
     char msg[MSG_LEN];     /* message buffer of the model callbacks */
     char logbuf[2 * MSG_LEN + 16];
 };
 
-/* Snapshot created by fmi2GetFMUstate. */
-typedef struct {
-    unsigned magic;
-    fmi2Type type;
-    fmu_state state;
-    double time;
-    double t_start;
-    double r[1]; /* n_reals entries */
-} fmu_snapshot;
-
-static size_t snapshot_bytes(void) {
-    return offsetof(fmu_snapshot, r) + fmu_model.n_reals * sizeof(double);
-}
-
 void *fmu_model_work(fmu_instance *inst) { return inst->work; }
+double fmu_start_time(const fmu_instance *inst) { return inst->t_start; }
+
+/* ------------------------------------------------------------------ the call table */
+
+typedef enum {
+    CALL_SET_DEBUG_LOGGING, CALL_SETUP_EXPERIMENT, CALL_ENTER_INIT, CALL_EXIT_INIT,
+    CALL_TERMINATE, CALL_RESET,
+    CALL_GET_REAL, CALL_GET_INTEGER, CALL_GET_BOOLEAN, CALL_GET_STRING,
+    CALL_SET_REAL, CALL_SET_INTEGER, CALL_SET_BOOLEAN, CALL_SET_STRING,
+    CALL_GET_FMU_STATE, CALL_SET_FMU_STATE, CALL_FREE_FMU_STATE, CALL_SERIALIZED_SIZE,
+    CALL_SERIALIZE, CALL_DESERIALIZE, CALL_DIRECTIONAL_DERIVATIVE,
+    CALL_ENTER_EVENT_MODE, CALL_NEW_DISCRETE_STATES, CALL_ENTER_CONT_MODE,
+    CALL_COMPLETED_INTEGRATOR_STEP, CALL_SET_TIME, CALL_SET_CONT_STATES, CALL_GET_DERIVATIVES,
+    CALL_GET_EVENT_INDICATORS, CALL_GET_CONT_STATES, CALL_GET_NOMINALS,
+    CALL_SET_REAL_INPUT_DERIVATIVES, CALL_GET_REAL_OUTPUT_DERIVATIVES, CALL_DO_STEP,
+    CALL_CANCEL_STEP, CALL_GET_STATUS, CALL_GET_REAL_STATUS, CALL_GET_INTEGER_STATUS,
+    CALL_GET_BOOLEAN_STATUS, CALL_GET_STRING_STATUS,
+    CALL_N
+} fmu_call;
+
+typedef struct {
+    const char *name;
+    unsigned interfaces; /* FMU_ME and/or FMU_CS instances may make the call */
+    unsigned states;     /* fmu_state bits in which the call is allowed */
+} call_rule;
+
+#define ME FMU_ME
+#define CS FMU_CS
+#define RULE(fn, iface, inst, init, evnt, cont, step, fail, term, err)                         \
+    {fn, iface,                                                                             \
+     (inst ? FMU_ST_INSTANTIATED : 0u) | (init ? FMU_ST_INIT : 0u) |                        \
+         (evnt ? FMU_ST_EVENT : 0u) | (cont ? FMU_ST_CONT : 0u) |                           \
+         (step ? FMU_ST_STEP_COMPLETE : 0u) | (fail ? FMU_ST_STEP_FAILED : 0u) |            \
+         (term ? FMU_ST_TERMINATED : 0u) | (err ? FMU_ST_ERROR : 0u)}
+
+/* Which call is allowed in which state (1) for which instance type: the only place the
+ * call sequence is checked.  Columns: instantiated, initializationMode, eventMode,
+ * continuousTimeMode (ME), stepComplete, stepFailed (CS), terminated, error.  No call but
+ * fmi2FreeInstance is allowed in the fatal state.  Deviations from the FMI 2.0 tables:
+ * the value getters and directional derivatives are refused in the error state (values
+ * may be NaN there); fmi2CancelStep is answered (with an error) in stepComplete and
+ * stepFailed, since fmi2DoStep never returns fmi2Pending. */
+static const call_rule call_rules[CALL_N] = {
+    /*                                                           inst init evnt cont step fail term err */
+    [CALL_SET_DEBUG_LOGGING] = RULE("fmi2SetDebugLogging", ME | CS, 1, 1, 1, 1, 1, 1, 1, 1),
+    [CALL_SETUP_EXPERIMENT] = RULE("fmi2SetupExperiment", ME | CS,  1, 0, 0, 0, 0, 0, 0, 0),
+    [CALL_ENTER_INIT] = RULE("fmi2EnterInitializationMode", ME | CS, 1, 0, 0, 0, 0, 0, 0, 0),
+    [CALL_EXIT_INIT] = RULE("fmi2ExitInitializationMode", ME | CS,  0, 1, 0, 0, 0, 0, 0, 0),
+    [CALL_TERMINATE] = RULE("fmi2Terminate", ME | CS,               0, 0, 1, 1, 1, 1, 0, 0),
+    [CALL_RESET] = RULE("fmi2Reset", ME | CS,                       1, 1, 1, 1, 1, 1, 1, 1),
+    [CALL_GET_REAL] = RULE("fmi2GetReal", ME | CS,                  0, 1, 1, 1, 1, 1, 1, 0),
+    [CALL_GET_INTEGER] = RULE("fmi2GetInteger", ME | CS,            0, 1, 1, 1, 1, 1, 1, 0),
+    [CALL_GET_BOOLEAN] = RULE("fmi2GetBoolean", ME | CS,            0, 1, 1, 1, 1, 1, 1, 0),
+    [CALL_GET_STRING] = RULE("fmi2GetString", ME | CS,              0, 1, 1, 1, 1, 1, 1, 0),
+    [CALL_SET_REAL] = RULE("fmi2SetReal", ME | CS,                  1, 1, 1, 1, 1, 0, 0, 0),
+    [CALL_SET_INTEGER] = RULE("fmi2SetInteger", ME | CS,            1, 1, 1, 1, 1, 0, 0, 0),
+    [CALL_SET_BOOLEAN] = RULE("fmi2SetBoolean", ME | CS,            1, 1, 1, 1, 1, 0, 0, 0),
+    [CALL_SET_STRING] = RULE("fmi2SetString", ME | CS,              1, 1, 1, 1, 1, 0, 0, 0),
+    [CALL_GET_FMU_STATE] = RULE("fmi2GetFMUstate", ME | CS,         1, 1, 1, 1, 1, 1, 1, 1),
+    [CALL_SET_FMU_STATE] = RULE("fmi2SetFMUstate", ME | CS,         1, 1, 1, 1, 1, 1, 1, 1),
+    [CALL_FREE_FMU_STATE] = RULE("fmi2FreeFMUstate", ME | CS,       1, 1, 1, 1, 1, 1, 1, 1),
+    [CALL_SERIALIZED_SIZE] = RULE("fmi2SerializedFMUstateSize", ME | CS, 1, 1, 1, 1, 1, 1, 1, 1),
+    [CALL_SERIALIZE] = RULE("fmi2SerializeFMUstate", ME | CS,       1, 1, 1, 1, 1, 1, 1, 1),
+    [CALL_DESERIALIZE] = RULE("fmi2DeSerializeFMUstate", ME | CS,   1, 1, 1, 1, 1, 1, 1, 1),
+    [CALL_DIRECTIONAL_DERIVATIVE] = RULE("fmi2GetDirectionalDerivative", ME | CS,
+                                                                    0, 1, 1, 1, 1, 1, 1, 0),
+    [CALL_ENTER_EVENT_MODE] = RULE("fmi2EnterEventMode", ME,        0, 0, 1, 1, 0, 0, 0, 0),
+    [CALL_NEW_DISCRETE_STATES] = RULE("fmi2NewDiscreteStates", ME,  0, 0, 1, 0, 0, 0, 0, 0),
+    [CALL_ENTER_CONT_MODE] = RULE("fmi2EnterContinuousTimeMode", ME, 0, 0, 1, 0, 0, 0, 0, 0),
+    [CALL_COMPLETED_INTEGRATOR_STEP] = RULE("fmi2CompletedIntegratorStep", ME,
+                                                                    0, 0, 0, 1, 0, 0, 0, 0),
+    [CALL_SET_TIME] = RULE("fmi2SetTime", ME,                       0, 0, 1, 1, 0, 0, 0, 0),
+    [CALL_SET_CONT_STATES] = RULE("fmi2SetContinuousStates", ME,    0, 0, 0, 1, 0, 0, 0, 0),
+    [CALL_GET_DERIVATIVES] = RULE("fmi2GetDerivatives", ME,         0, 1, 1, 1, 0, 0, 1, 0),
+    [CALL_GET_EVENT_INDICATORS] = RULE("fmi2GetEventIndicators", ME, 0, 1, 1, 1, 0, 0, 1, 0),
+    [CALL_GET_CONT_STATES] = RULE("fmi2GetContinuousStates", ME,    0, 1, 1, 1, 0, 0, 1, 0),
+    [CALL_GET_NOMINALS] = RULE("fmi2GetNominalsOfContinuousStates", ME,
+                                                                    1, 1, 1, 1, 0, 0, 1, 0),
+    [CALL_SET_REAL_INPUT_DERIVATIVES] = RULE("fmi2SetRealInputDerivatives", CS,
+                                                                    1, 1, 0, 0, 1, 0, 0, 0),
+    [CALL_GET_REAL_OUTPUT_DERIVATIVES] = RULE("fmi2GetRealOutputDerivatives", CS,
+                                                                    0, 0, 0, 0, 1, 1, 1, 0),
+    [CALL_DO_STEP] = RULE("fmi2DoStep", CS,                         0, 0, 0, 0, 1, 0, 0, 0),
+    [CALL_CANCEL_STEP] = RULE("fmi2CancelStep", CS,                 0, 0, 0, 0, 1, 1, 0, 0),
+    [CALL_GET_STATUS] = RULE("fmi2GetStatus", CS,                   0, 0, 0, 0, 1, 1, 1, 0),
+    [CALL_GET_REAL_STATUS] = RULE("fmi2GetRealStatus", CS,          0, 0, 0, 0, 1, 1, 1, 0),
+    [CALL_GET_INTEGER_STATUS] = RULE("fmi2GetIntegerStatus", CS,    0, 0, 0, 0, 1, 1, 1, 0),
+    [CALL_GET_BOOLEAN_STATUS] = RULE("fmi2GetBooleanStatus", CS,    0, 0, 0, 0, 1, 1, 1, 0),
+    [CALL_GET_STRING_STATUS] = RULE("fmi2GetStringStatus", CS,      0, 0, 0, 0, 1, 1, 1, 0),
+};
+#undef RULE
+
+/* When may a variable of each kind be set (fmi2Set*), per instance type. */
+typedef struct {
+    unsigned me, cs;
+    const char *why; /* reason of a refusal */
+} set_rule;
+
+#define ST_BEFORE_INIT_END (FMU_ST_INSTANTIATED | FMU_ST_INIT)
+static const set_rule set_rules[FMU_KIND_N] = {
+    [0] = {0u, 0u, "the variable has no kind"},
+    [FMU_KIND_STATE] = {ST_BEFORE_INIT_END | FMU_ST_EVENT | FMU_ST_CONT, ST_BEFORE_INIT_END,
+                        "states can only be set before initialisation ends (Model Exchange: "
+                        "also in event and continuous-time mode)"},
+    [FMU_KIND_DERIVATIVE] = {0u, 0u, "derivatives are calculated and cannot be set"},
+    [FMU_KIND_INPUT] = {ST_BEFORE_INIT_END | FMU_ST_EVENT | FMU_ST_CONT,
+                        ST_BEFORE_INIT_END | FMU_ST_STEP_COMPLETE,
+                        "inputs cannot be set in this state"},
+    [FMU_KIND_DISCRETE_INPUT] = {ST_BEFORE_INIT_END | FMU_ST_EVENT,
+                                 ST_BEFORE_INIT_END | FMU_ST_STEP_COMPLETE,
+                                 "discrete inputs can only be set in event mode, between "
+                                 "steps or before initialisation ends"},
+    [FMU_KIND_OUTPUT] = {0u, 0u, "outputs are calculated and cannot be set"},
+    [FMU_KIND_DISCRETE_OUTPUT] = {0u, 0u, "outputs are calculated and cannot be set"},
+    [FMU_KIND_PARAMETER] = {ST_BEFORE_INIT_END, ST_BEFORE_INIT_END,
+                            "fixed parameters can only be set before initialisation ends"},
+    [FMU_KIND_LOCAL] = {0u, 0u, "local variables are internal states of the model and cannot "
+                                "be set"},
+};
+#undef ME
+#undef CS
+
+#define ALL_STATES                                                                          \
+    (FMU_ST_INSTANTIATED | FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_STEP_COMPLETE |  \
+     FMU_ST_STEP_FAILED | FMU_ST_TERMINATED | FMU_ST_ERROR)
+#define ME_ONLY_STATES (FMU_ST_EVENT | FMU_ST_CONT)
+#define CS_ONLY_STATES (FMU_ST_STEP_COMPLETE | FMU_ST_STEP_FAILED)
 
 /* ------------------------------------------------------------------ logging */
 
@@ -106,6 +227,15 @@ void fmu_log(fmu_instance *inst, fmi2Status status, int category, const char *fm
 #define LOG_ERR(inst, ...) fmu_log((inst), fmi2Error, FMU_LOG_ERROR, __VA_ARGS__)
 #define LOG_CALL(inst, ...) fmu_log((inst), fmi2OK, FMU_LOG_CALLS, __VA_ARGS__)
 
+/* Log a model callback's message with the status it returned (nothing for fmi2OK). */
+static void log_model(fmu_instance *inst, fmi2Status st, const char *fn) {
+    if (st == fmi2OK) return;
+    if (st == fmi2Warning || st == fmi2Discard)
+        fmu_log(inst, st, FMU_LOG_WARNING, "%s: %s", fn, inst->msg);
+    else
+        fmu_log(inst, st, FMU_LOG_ERROR, "%s: %s", fn, inst->msg);
+}
+
 /* ------------------------------------------------------------------ checks */
 
 static fmu_instance *as_instance(fmi2Component c) {
@@ -129,55 +259,96 @@ static const char *state_name(fmu_state s) {
     return "unknown";
 }
 
-/* Resolve the instance and check the call is allowed now; NULL if not (logged). */
-static fmu_instance *enter(fmi2Component c, const char *fn, unsigned allowed, int me_only,
-                           int cs_only) {
+static unsigned interface_of(fmi2Type type) {
+    return type == fmi2ModelExchange ? FMU_ME : FMU_CS;
+}
+
+/* Resolve the instance and check the call against the call table; NULL if refused (logged). */
+static fmu_instance *enter(fmi2Component c, fmu_call call) {
+    const call_rule *rule = &call_rules[call];
     fmu_instance *inst = as_instance(c);
     if (inst == NULL) return NULL; /* nothing to log to */
-    if (me_only && inst->type != fmi2ModelExchange) {
-        LOG_ERR(inst, "%s: only available for Model Exchange instances", fn);
+    if (!(rule->interfaces & interface_of(inst->type))) {
+        LOG_ERR(inst, "%s: only available for %s instances", rule->name,
+                rule->interfaces == FMU_ME ? "Model Exchange" : "Co-Simulation");
         return NULL;
     }
-    if (cs_only && inst->type != fmi2CoSimulation) {
-        LOG_ERR(inst, "%s: only available for Co-Simulation instances", fn);
+    if (!(inst->state & rule->states)) {
+        if (inst->state == FMU_ST_ERROR)
+            LOG_ERR(inst, "%s: not allowed in state error: the instance is in the error state "
+                          "after a failed call at t = %g; call fmi2Reset (or fmi2SetFMUstate) "
+                          "first", rule->name, inst->time);
+        else
+            LOG_ERR(inst, "%s: not allowed in state %s", rule->name, state_name(inst->state));
         return NULL;
     }
-    if (!(inst->state & allowed)) {
-        LOG_ERR(inst, "%s: not allowed in state %s", fn, state_name(inst->state));
-        return NULL;
-    }
-    LOG_CALL(inst, "%s", fn);
+    LOG_CALL(inst, "%s", rule->name);
     return inst;
 }
 
-#define ALL_STATES                                                                          \
-    (FMU_ST_INSTANTIATED | FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_STEP_COMPLETE |  \
-     FMU_ST_STEP_FAILED | FMU_ST_TERMINATED | FMU_ST_ERROR)
-#define ME_ONLY_STATES (FMU_ST_EVENT | FMU_ST_CONT)
-#define CS_ONLY_STATES (FMU_ST_STEP_COMPLETE | FMU_ST_STEP_FAILED)
-#define RESULT_STATES                                                                       \
-    (FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_STEP_COMPLETE | FMU_ST_STEP_FAILED |   \
-     FMU_ST_TERMINATED | FMU_ST_ERROR)
+/* The descriptor of value reference vr of type t (its value index in *ix), or NULL. */
+static const fmu_var *lookup(fmu_vtype t, fmi2ValueReference vr, size_t *ix) {
+    const fmu_variables *V = fmu_model.vars;
+    *ix = 0;
+    if (t >= FMU_NTYPES || vr < V->vr0[t] || (size_t)(vr - V->vr0[t]) >= V->n[t]) return NULL;
+    *ix = (size_t)(vr - V->vr0[t]);
+    return &V->var[t][*ix];
+}
 
-static int vr_ok(fmu_instance *inst, const char *fn, const fmi2ValueReference vr[], size_t nvr) {
-    size_t i;
+/* Are all value references known variables of type t (t = FMU_NTYPES: String)? */
+static int vrs_ok(fmu_instance *inst, const char *fn, fmu_vtype t, const fmi2ValueReference vr[],
+                  size_t nvr) {
+    size_t i, ix;
     if (nvr > 0 && vr == NULL) {
         LOG_ERR(inst, "%s: vr is NULL but nvr = %lu", fn, (unsigned long)nvr);
         return 0;
     }
     for (i = 0; i < nvr; ++i) {
-        if (vr[i] >= fmu_model.n_reals) {
-            LOG_ERR(inst, "%s: unknown value reference %lu", fn, (unsigned long)vr[i]);
+        if (lookup(t, vr[i], &ix) == NULL) {
+            LOG_ERR(inst, "%s: unknown value reference %lu (no %s variable has it)", fn,
+                    (unsigned long)vr[i], type_names[t]);
             return 0;
         }
     }
     return 1;
 }
 
-/* Evaluate derivatives and outputs if inputs, states or parameters changed. */
+/* Is v an allowed stored value of variable d of type t?  1, or 0 with a reason in msg. */
+static int value_ok(fmu_vtype t, const fmu_var *d, double v, char *msg, size_t len) {
+    if (t == FMU_REAL && !isfinite(v)) {
+        snprintf(msg, len, "must be finite, got %g", v);
+        return 0;
+    }
+    if (t == FMU_BOOLEAN && v != 0.0 && v != 1.0) {
+        snprintf(msg, len, "must be fmi2True (1) or fmi2False (0), got %.0f", v);
+        return 0;
+    }
+    if ((d->min_open ? !(v > d->min) : !(v >= d->min)) ||
+        (d->max_open ? !(v < d->max) : !(v <= d->max))) {
+        if (d->rule != NULL)
+            snprintf(msg, len, "non-physical value, must be %s", d->rule);
+        else
+            snprintf(msg, len, "out of range, must be in [%.17g, %.17g]", d->min, d->max);
+        return 0;
+    }
+    return 1;
+}
+
+static double stored(const fmu_values *v, fmu_vtype t, size_t ix) {
+    if (t == FMU_REAL) return v->r[ix];
+    if (t == FMU_INTEGER) return (double)v->i[ix];
+    return (double)v->b[ix];
+}
+
+/* Is the kind calculated by evaluate (read through refresh)? */
+static int evaluated(unsigned kind) {
+    return kind == FMU_KIND_DERIVATIVE || kind == FMU_KIND_OUTPUT;
+}
+
+/* Evaluate derivatives and continuous outputs if inputs, states or parameters changed. */
 static fmi2Status refresh(fmu_instance *inst, const char *fn) {
     if (!inst->dirty) return fmi2OK;
-    if (fmu_model.evaluate(inst, inst->r) != 0) {
+    if (fmu_model.evaluate != NULL && fmu_model.evaluate(inst, &inst->v) != 0) {
         LOG_ERR(inst, "%s: the model evaluated to NaN or Inf at t = %g", fn, inst->time);
         inst->state = FMU_ST_ERROR;
         return fmi2Error;
@@ -186,8 +357,32 @@ static fmi2Status refresh(fmu_instance *inst, const char *fn) {
     return fmi2OK;
 }
 
+/* ------------------------------------------------------------------ values */
+
+static size_t values_bytes(void) {
+    return NVARS(FMU_REAL) * sizeof(double) + NVARS(FMU_INTEGER) * sizeof(fmi2Integer) +
+           NVARS(FMU_BOOLEAN) * sizeof(fmi2Boolean);
+}
+
+/* Point v at a block of values_bytes() (reals first: aligned for double). */
+static void bind_values(fmu_values *v, void *block) {
+    v->r = (double *)block;
+    v->i = (fmi2Integer *)(v->r + NVARS(FMU_REAL));
+    v->b = (fmi2Boolean *)(v->i + NVARS(FMU_INTEGER));
+}
+
+static void copy_values(fmu_values *dst, const fmu_values *src) {
+    memcpy(dst->r, src->r, values_bytes()); /* one contiguous block */
+}
+
 static void load_start(fmu_instance *inst) {
-    memcpy(inst->r, fmu_model.start, fmu_model.n_reals * sizeof(double));
+    size_t k;
+    const fmu_variables *V = fmu_model.vars;
+    for (k = 0; k < V->n[FMU_REAL]; ++k) inst->v.r[k] = V->var[FMU_REAL][k].start;
+    for (k = 0; k < V->n[FMU_INTEGER]; ++k)
+        inst->v.i[k] = (fmi2Integer)V->var[FMU_INTEGER][k].start;
+    for (k = 0; k < V->n[FMU_BOOLEAN]; ++k)
+        inst->v.b[k] = V->var[FMU_BOOLEAN][k].start != 0.0 ? fmi2True : fmi2False;
     inst->time = 0.0;
     inst->t_start = 0.0;
     inst->dirty = 1;
@@ -200,7 +395,7 @@ const char *fmi2GetVersion(void) { return fmi2Version; }
 
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
                                const fmi2String categories[]) {
-    fmu_instance *inst = enter(c, "fmi2SetDebugLogging", ALL_STATES, 0, 0);
+    fmu_instance *inst = enter(c, CALL_SET_DEBUG_LOGGING);
     size_t i;
     int k, found;
     if (inst == NULL) return fmi2Error;
@@ -240,13 +435,21 @@ static void early_error(const fmi2CallbackFunctions *cb, const char *name, const
     va_end(ap);
 }
 
+/* Instance memory is one block (one allocation, one free): the instance, the model work
+ * memory, the values, their backup, the Jacobian and the name, each on whole cache lines. */
+#define CACHE_LINE 64u
+static size_t whole_lines(size_t n) { return (n + CACHE_LINE - 1u) / CACHE_LINE * CACHE_LINE; }
+
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
                               fmi2String fmuGUID, fmi2String fmuResourceLocation,
                               const fmi2CallbackFunctions *functions, fmi2Boolean visible,
                               fmi2Boolean loggingOn) {
     fmu_instance *inst;
     const char *name = instanceName ? instanceName : "(null)";
-    size_t n = fmu_model.n_reals, len;
+    const fmu_variables *V = fmu_model.vars;
+    size_t len, off_work, off_val, off_bak, off_jac, off_name;
+    size_t njac = (V->n_states + V->n_outputs) * (V->n_states + V->n_inputs);
+    unsigned char *block;
     (void)fmuResourceLocation;
     (void)visible;
     if (functions == NULL || functions->logger == NULL) return NULL; /* cannot log */
@@ -262,37 +465,39 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
         early_error(functions, name, "fmi2Instantiate: unknown fmuType %d", (int)fmuType);
         return NULL;
     }
+    if (!(fmu_model.interfaces & interface_of(fmuType))) {
+        early_error(functions, name, "fmi2Instantiate: %s does not implement %s",
+                    fmu_model.model_identifier,
+                    fmuType == fmi2ModelExchange ? "Model Exchange" : "Co-Simulation");
+        return NULL;
+    }
     if (fmuGUID == NULL || strcmp(fmuGUID, fmu_model.guid) != 0) {
         early_error(functions, name,
                     "fmi2Instantiate: wrong GUID '%s', this binary of %s has GUID '%s'",
                     fmuGUID ? fmuGUID : "(null)", fmu_model.model_identifier, fmu_model.guid);
         return NULL;
     }
-    inst = (fmu_instance *)functions->allocateMemory(1, sizeof(fmu_instance));
-    if (inst == NULL) {
+    len = strlen(instanceName) + 1;
+    off_work = whole_lines(sizeof(fmu_instance));
+    off_val = off_work + whole_lines(fmu_model.work_bytes);
+    off_bak = off_val + whole_lines(values_bytes());
+    off_jac = off_bak + whole_lines(values_bytes());
+    off_name = off_jac + whole_lines(njac * sizeof(double));
+    block = (unsigned char *)functions->allocateMemory((off_name + len) / sizeof(double) + 1,
+                                                       sizeof(double));
+    if (block == NULL) {
         early_error(functions, name, "fmi2Instantiate: out of memory");
         return NULL;
     }
+    inst = (fmu_instance *)(void *)block;
     memset(inst, 0, sizeof *inst);
     inst->cb = *functions;
-    len = strlen(instanceName) + 1;
-    inst->name = (char *)functions->allocateMemory(len, 1);
-    inst->r = (double *)functions->allocateMemory(n, sizeof(double));
-    inst->r_backup = (double *)functions->allocateMemory(n, sizeof(double));
-    inst->work = fmu_model.work_bytes
-                     ? functions->allocateMemory(fmu_model.work_bytes / sizeof(double) + 1,
-                                                 sizeof(double))
-                     : NULL;
-    if (inst->name == NULL || inst->r == NULL || inst->r_backup == NULL ||
-        (fmu_model.work_bytes && inst->work == NULL)) {
-        early_error(functions, name, "fmi2Instantiate: out of memory");
-        if (inst->name) functions->freeMemory(inst->name);
-        if (inst->r) functions->freeMemory(inst->r);
-        if (inst->r_backup) functions->freeMemory(inst->r_backup);
-        if (inst->work) functions->freeMemory(inst->work);
-        functions->freeMemory(inst);
-        return NULL;
-    }
+    inst->work = fmu_model.work_bytes ? (void *)(block + off_work) : NULL;
+    bind_values(&inst->v, block + off_val);
+    bind_values(&inst->backup, block + off_bak);
+    inst->jac = fmu_model.jacobian != NULL && njac > 0 ? (double *)(void *)(block + off_jac)
+                                                        : NULL;
+    inst->name = (char *)(block + off_name);
     memcpy(inst->name, instanceName, len);
     inst->magic = FMU_MAGIC;
     inst->type = fmuType;
@@ -309,22 +514,18 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
 
 void fmi2FreeInstance(fmi2Component c) {
     fmu_instance *inst = as_instance(c);
-    fmi2CallbackFreeMemory fr;
-    if (inst == NULL) return;
+    fmi2CallbackFunctions cb;
+    if (inst == NULL) return; /* allowed in every state, fatal included */
     LOG_CALL(inst, "fmi2FreeInstance");
-    fr = inst->cb.freeMemory;
+    cb = inst->cb;
     inst->magic = 0;
-    fr(inst->name);
-    fr(inst->r);
-    fr(inst->r_backup);
-    if (inst->work) fr(inst->work);
-    fr(inst);
+    cb.freeMemory(inst); /* one block */
 }
 
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
                                fmi2Real tolerance, fmi2Real startTime,
                                fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-    fmu_instance *inst = enter(c, "fmi2SetupExperiment", FMU_ST_INSTANTIATED, 0, 0);
+    fmu_instance *inst = enter(c, CALL_SETUP_EXPERIMENT);
     (void)toleranceDefined;
     (void)tolerance;
     if (inst == NULL) return fmi2Error;
@@ -343,7 +544,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
-    fmu_instance *inst = enter(c, "fmi2EnterInitializationMode", FMU_ST_INSTANTIATED, 0, 0);
+    fmu_instance *inst = enter(c, CALL_ENTER_INIT);
     if (inst == NULL) return fmi2Error;
     inst->state = FMU_ST_INIT;
     inst->dirty = 1;
@@ -351,166 +552,197 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
-    fmu_instance *inst = enter(c, "fmi2ExitInitializationMode", FMU_ST_INIT, 0, 0);
+    const char *fn = "fmi2ExitInitializationMode";
+    fmu_instance *inst = enter(c, CALL_EXIT_INIT);
+    fmi2Status st = fmi2OK;
     if (inst == NULL) return fmi2Error;
     inst->msg[0] = '\0';
-    if (fmu_model.check_initial(inst->r, 0, inst->msg, sizeof inst->msg) != 0) {
-        LOG_ERR(inst, "fmi2ExitInitializationMode: %s", inst->msg);
+    if (fmu_model.check_initial != NULL &&
+        fmu_model.check_initial(&inst->v, 0, inst->msg, sizeof inst->msg) != 0) {
+        LOG_ERR(inst, "%s: %s", fn, inst->msg);
         return fmi2Error;
     }
     inst->dirty = 1;
-    if (refresh(inst, "fmi2ExitInitializationMode") != fmi2OK) return fmi2Error;
+    if (refresh(inst, fn) != fmi2OK) return fmi2Error; /* error state */
+    if (fmu_model.initialize != NULL) { /* refused: stay in initialisation mode */
+        st = fmu_model.initialize(inst, &inst->v, inst->time, inst->msg, sizeof inst->msg);
+        log_model(inst, st, fn);
+        if (st != fmi2OK && st != fmi2Warning) return fmi2Error;
+        inst->dirty = 1;
+    }
     inst->state = inst->type == fmi2ModelExchange ? FMU_ST_EVENT : FMU_ST_STEP_COMPLETE;
-    return fmi2OK;
+    return st;
 }
 
 fmi2Status fmi2Terminate(fmi2Component c) {
-    fmu_instance *inst =
-        enter(c, "fmi2Terminate",
-              FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_STEP_COMPLETE | FMU_ST_STEP_FAILED, 0, 0);
+    fmu_instance *inst = enter(c, CALL_TERMINATE);
     if (inst == NULL) return fmi2Error;
     inst->state = FMU_ST_TERMINATED;
     return fmi2OK;
 }
 
 fmi2Status fmi2Reset(fmi2Component c) {
-    fmu_instance *inst = enter(c, "fmi2Reset", ALL_STATES, 0, 0);
+    fmu_instance *inst = enter(c, CALL_RESET);
     if (inst == NULL) return fmi2Error;
     load_start(inst);
     inst->state = FMU_ST_INSTANTIATED;
     return fmi2OK;
 }
 
-/* ------------------------------------------------------------------ values */
+/* ------------------------------------------------------------------ get / set */
 
-fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       fmi2Real value[]) {
-    fmu_instance *inst = enter(c, "fmi2GetReal", RESULT_STATES, 0, 0);
-    size_t i;
+static fmi2Status get_values(fmi2Component c, fmu_call call, fmu_vtype t,
+                             const fmi2ValueReference vr[], size_t nvr, void *value) {
+    fmu_instance *inst = enter(c, call);
+    const char *fn = call_rules[call].name;
+    size_t i, ix = 0;
+    int need_eval = 0;
     if (inst == NULL) return fmi2Error;
-    if (!vr_ok(inst, "fmi2GetReal", vr, nvr)) return fmi2Error;
+    if (!vrs_ok(inst, fn, t, vr, nvr)) return fmi2Error;
     if (nvr > 0 && value == NULL) {
-        LOG_ERR(inst, "fmi2GetReal: value is NULL");
+        LOG_ERR(inst, "%s: value is NULL", fn);
         return fmi2Error;
     }
-    if (inst->state == FMU_ST_ERROR) { /* no values until fmi2Reset (they may be NaN) */
-        LOG_ERR(inst, "fmi2GetReal: the instance is in the error state after a failed call "
-                      "at t = %g; call fmi2Reset (or fmi2SetFMUstate) first", inst->time);
-        return fmi2Error;
+    if (t == FMU_REAL)
+        for (i = 0; i < nvr && !need_eval; ++i)
+            need_eval = evaluated(lookup(t, vr[i], &ix)->kind);
+    if (need_eval && refresh(inst, fn) != fmi2OK) return fmi2Error;
+    for (i = 0; i < nvr; ++i) {
+        lookup(t, vr[i], &ix);
+        if (t == FMU_REAL)
+            ((fmi2Real *)value)[i] = inst->v.r[ix];
+        else if (t == FMU_INTEGER)
+            ((fmi2Integer *)value)[i] = inst->v.i[ix];
+        else
+            ((fmi2Boolean *)value)[i] = inst->v.b[ix];
     }
-    if (refresh(inst, "fmi2GetReal") != fmi2OK) return fmi2Error;
-    for (i = 0; i < nvr; ++i) value[i] = inst->r[vr[i]];
     return fmi2OK;
 }
 
-/* May variable vr be set with fmi2SetReal now? Returns a reason or NULL. */
-static const char *not_settable(const fmu_instance *inst, fmi2ValueReference vr) {
-    unsigned s = inst->state;
-    switch (fmu_model.kind[vr]) {
-    case FMU_KIND_INPUT:
-        if (s & (FMU_ST_INSTANTIATED | FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT |
-                 FMU_ST_STEP_COMPLETE))
-            return NULL;
-        return "inputs cannot be set in this state";
-    case FMU_KIND_STATE: /* Model Exchange: like fmi2SetContinuousStates (CasADi uses it) */
-        if (s & (FMU_ST_INSTANTIATED | FMU_ST_INIT)) return NULL;
-        if (inst->type == fmi2ModelExchange && (s & (FMU_ST_EVENT | FMU_ST_CONT))) return NULL;
-        return "states can only be set before initialisation ends (Co-Simulation)";
-    case FMU_KIND_PARAMETER:
-        if (s & (FMU_ST_INSTANTIATED | FMU_ST_INIT)) return NULL;
-        return "fixed parameters can only be set before initialisation ends";
-    case FMU_KIND_DERIVATIVE:
-        return "derivatives are calculated and cannot be set";
-    default:
-        return "outputs are calculated and cannot be set";
-    }
+static double given(fmu_vtype t, const void *value, size_t i) {
+    if (t == FMU_REAL) return ((const fmi2Real *)value)[i];
+    if (t == FMU_INTEGER) return (double)((const fmi2Integer *)value)[i];
+    return (double)((const fmi2Boolean *)value)[i];
 }
 
-fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       const fmi2Real value[]) {
-    fmu_instance *inst =
-        enter(c, "fmi2SetReal",
-              FMU_ST_INSTANTIATED | FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT |
-                  FMU_ST_STEP_COMPLETE | FMU_ST_STEP_FAILED | FMU_ST_TERMINATED,
-              0, 0);
-    size_t i;
-    const char *why;
+static fmi2Status set_values(fmi2Component c, fmu_call call, fmu_vtype t,
+                             const fmi2ValueReference vr[], size_t nvr, const void *value) {
+    fmu_instance *inst = enter(c, call);
+    const char *fn = call_rules[call].name;
+    size_t i, ix = 0;
     if (inst == NULL) return fmi2Error;
-    if (!vr_ok(inst, "fmi2SetReal", vr, nvr)) return fmi2Error;
+    if (!vrs_ok(inst, fn, t, vr, nvr)) return fmi2Error;
     if (nvr > 0 && value == NULL) {
-        LOG_ERR(inst, "fmi2SetReal: value is NULL");
+        LOG_ERR(inst, "%s: value is NULL", fn);
         return fmi2Error;
     }
     for (i = 0; i < nvr; ++i) { /* validate everything before storing anything */
-        why = not_settable(inst, vr[i]);
-        if (why != NULL) {
-            LOG_ERR(inst, "fmi2SetReal: cannot set '%s' (vr %lu) in state %s: %s",
-                    fmu_model.names[vr[i]], (unsigned long)vr[i], state_name(inst->state), why);
-            return fmi2Error;
-        }
-        if (!isfinite(value[i])) {
-            LOG_ERR(inst, "fmi2SetReal: '%s' (vr %lu) must be finite, got %g",
-                    fmu_model.names[vr[i]], (unsigned long)vr[i], value[i]);
+        const fmu_var *d = lookup(t, vr[i], &ix);
+        const set_rule *rule = &set_rules[d->kind < FMU_KIND_N ? d->kind : 0];
+        double x = given(t, value, i);
+        if (!(inst->state & (inst->type == fmi2ModelExchange ? rule->me : rule->cs))) {
+            LOG_ERR(inst, "%s: cannot set '%s' (vr %lu) in state %s: %s", fn, d->name,
+                    (unsigned long)vr[i], state_name(inst->state), rule->why);
             return fmi2Error;
         }
         inst->msg[0] = '\0';
-        if (fmu_model.check_value(vr[i], value[i], inst->msg, sizeof inst->msg) != 0) {
-            LOG_ERR(inst, "fmi2SetReal: '%s' = %g refused: %s", fmu_model.names[vr[i]],
-                    value[i], inst->msg);
+        if (!value_ok(t, d, x, inst->msg, sizeof inst->msg)) {
+            if (t == FMU_REAL && !isfinite(x))
+                LOG_ERR(inst, "%s: '%s' (vr %lu) %s", fn, d->name, (unsigned long)vr[i],
+                        inst->msg);
+            else
+                LOG_ERR(inst, "%s: '%s' = %.17g refused: %s", fn, d->name, x, inst->msg);
             return fmi2Error;
         }
     }
-    for (i = 0; i < nvr; ++i) inst->r[vr[i]] = value[i];
+    for (i = 0; i < nvr; ++i) {
+        lookup(t, vr[i], &ix);
+        if (t == FMU_REAL)
+            inst->v.r[ix] = ((const fmi2Real *)value)[i];
+        else if (t == FMU_INTEGER)
+            inst->v.i[ix] = ((const fmi2Integer *)value)[i];
+        else
+            inst->v.b[ix] = ((const fmi2Boolean *)value)[i];
+    }
     if (nvr > 0) inst->dirty = 1;
     return fmi2OK;
 }
 
-static fmi2Status no_such_type(fmi2Component c, const char *fn, const fmi2ValueReference vr[],
-                               size_t nvr) {
-    fmu_instance *inst = enter(c, fn, ALL_STATES, 0, 0);
-    if (inst == NULL) return fmi2Error;
-    if (nvr == 0) return fmi2OK;
-    LOG_ERR(inst, "%s: unknown value reference %lu (the model has no variables of this type)",
-            fn, vr ? (unsigned long)vr[0] : 0ul);
-    return fmi2Error;
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       fmi2Real value[]) {
+    return get_values(c, CALL_GET_REAL, FMU_REAL, vr, nvr, value);
 }
-
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Integer value[]) {
-    (void)value;
-    return no_such_type(c, "fmi2GetInteger", vr, nvr);
+    return get_values(c, CALL_GET_INTEGER, FMU_INTEGER, vr, nvr, value);
 }
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Boolean value[]) {
-    (void)value;
-    return no_such_type(c, "fmi2GetBoolean", vr, nvr);
+    return get_values(c, CALL_GET_BOOLEAN, FMU_BOOLEAN, vr, nvr, value);
+}
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       const fmi2Real value[]) {
+    return set_values(c, CALL_SET_REAL, FMU_REAL, vr, nvr, value);
+}
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Integer value[]) {
+    return set_values(c, CALL_SET_INTEGER, FMU_INTEGER, vr, nvr, value);
+}
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Boolean value[]) {
+    return set_values(c, CALL_SET_BOOLEAN, FMU_BOOLEAN, vr, nvr, value);
+}
+
+/* No String variables: any value reference is unknown. */
+static fmi2Status no_strings(fmi2Component c, fmu_call call, const fmi2ValueReference vr[],
+                             size_t nvr) {
+    fmu_instance *inst = enter(c, call);
+    if (inst == NULL) return fmi2Error;
+    if (!vrs_ok(inst, call_rules[call].name, FMU_NTYPES, vr, nvr)) return fmi2Error;
+    return fmi2OK; /* nvr == 0 */
 }
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          fmi2String value[]) {
     (void)value;
-    return no_such_type(c, "fmi2GetString", vr, nvr);
-}
-fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Integer value[]) {
-    (void)value;
-    return no_such_type(c, "fmi2SetInteger", vr, nvr);
-}
-fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Boolean value[]) {
-    (void)value;
-    return no_such_type(c, "fmi2SetBoolean", vr, nvr);
+    return no_strings(c, CALL_GET_STRING, vr, nvr);
 }
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          const fmi2String value[]) {
     (void)value;
-    return no_such_type(c, "fmi2SetString", vr, nvr);
+    return no_strings(c, CALL_SET_STRING, vr, nvr);
 }
 
 /* ------------------------------------------------------------------ FMU state */
 
+/* Snapshot created by fmi2GetFMUstate: the mode, the times and every value. */
+typedef struct {
+    unsigned magic;
+    fmi2Type type;
+    fmu_state state;
+    double time;
+    double t_start;
+    double data[1]; /* values_bytes(): reals, integers, booleans */
+} fmu_snapshot;
+
+static size_t snapshot_bytes(void) { return offsetof(fmu_snapshot, data) + values_bytes(); }
+
+static fmu_values snapshot_values(fmu_snapshot *s) {
+    fmu_values v;
+    bind_values(&v, s->data);
+    return v;
+}
+
+static fmu_snapshot *new_snapshot(fmu_instance *inst, const char *fn) {
+    fmu_snapshot *s = (fmu_snapshot *)inst->cb.allocateMemory(
+        snapshot_bytes() / sizeof(double) + 1, sizeof(double));
+    if (s == NULL) LOG_ERR(inst, "%s: out of memory", fn);
+    return s;
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
-    fmu_instance *inst = enter(c, "fmi2GetFMUstate", ALL_STATES, 0, 0);
+    fmu_instance *inst = enter(c, CALL_GET_FMU_STATE);
     fmu_snapshot *s;
+    fmu_values v;
     if (inst == NULL) return fmi2Error;
     if (FMUstate == NULL) {
         LOG_ERR(inst, "fmi2GetFMUstate: FMUstate is NULL");
@@ -521,26 +753,24 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
         LOG_ERR(inst, "fmi2GetFMUstate: *FMUstate is neither NULL nor a state of this FMU");
         return fmi2Error;
     }
-    if (s == NULL) {
-        s = (fmu_snapshot *)inst->cb.allocateMemory(1, snapshot_bytes());
-        if (s == NULL) {
-            LOG_ERR(inst, "fmi2GetFMUstate: out of memory");
-            return fmi2Error;
-        }
-    }
+    if (s == NULL && (s = new_snapshot(inst, "fmi2GetFMUstate")) == NULL) return fmi2Error;
     s->magic = SNAP_MAGIC;
     s->type = inst->type;
     s->state = inst->state;
     s->time = inst->time;
     s->t_start = inst->t_start;
-    memcpy(s->r, inst->r, fmu_model.n_reals * sizeof(double));
+    v = snapshot_values(s);
+    copy_values(&v, &inst->v);
     *FMUstate = (fmi2FMUstate)s;
     return fmi2OK;
 }
 
-/* Is a snapshot consistent (type, state, finite values, valid parameters)? */
-static int snapshot_valid(fmu_instance *inst, const fmu_snapshot *s, const char *fn) {
-    size_t i;
+/* Is a snapshot consistent (type, mode, finite times, every stored value in range, the
+ * model's start-value checks)?  Logs the reason if not. */
+static int snapshot_valid(fmu_instance *inst, fmu_snapshot *s, const char *fn) {
+    fmu_values v;
+    size_t k;
+    int t;
     if (s->magic != SNAP_MAGIC) {
         LOG_ERR(inst, "%s: not an FMU state of this FMU", fn);
         return 0;
@@ -566,19 +796,23 @@ static int snapshot_valid(fmu_instance *inst, const fmu_snapshot *s, const char 
         LOG_ERR(inst, "%s: the FMU state has a non-finite time", fn);
         return 0;
     }
-    for (i = 0; i < fmu_model.n_reals; ++i) {
-        if (fmu_model.kind[i] == FMU_KIND_DERIVATIVE || fmu_model.kind[i] == FMU_KIND_OUTPUT)
-            continue;
-        inst->msg[0] = '\0';
-        if (!isfinite(s->r[i]) || fmu_model.check_value(i, s->r[i], inst->msg,
-                                                        sizeof inst->msg) != 0) {
-            LOG_ERR(inst, "%s: the FMU state has an invalid value of '%s' (%g)%s%s", fn,
-                    fmu_model.names[i], s->r[i], inst->msg[0] ? ": " : "", inst->msg);
-            return 0;
+    v = snapshot_values(s);
+    for (t = 0; t < FMU_NTYPES; ++t) {
+        for (k = 0; k < NVARS(t); ++k) {
+            const fmu_var *d = &fmu_model.vars->var[t][k];
+            double x = stored(&v, (fmu_vtype)t, k);
+            if (evaluated(d->kind)) continue; /* recomputed */
+            inst->msg[0] = '\0';
+            if (!value_ok((fmu_vtype)t, d, x, inst->msg, sizeof inst->msg)) {
+                LOG_ERR(inst, "%s: the FMU state has an invalid value of '%s' (%g): %s", fn,
+                        d->name, x, inst->msg);
+                return 0;
+            }
         }
     }
     inst->msg[0] = '\0'; /* the start-value checks of fmi2ExitInitializationMode */
-    if (fmu_model.check_initial(s->r, 1, inst->msg, sizeof inst->msg) != 0) {
+    if (fmu_model.check_initial != NULL &&
+        fmu_model.check_initial(&v, 1, inst->msg, sizeof inst->msg) != 0) {
         LOG_ERR(inst, "%s: the FMU state is inconsistent: %s", fn, inst->msg);
         return 0;
     }
@@ -586,8 +820,9 @@ static int snapshot_valid(fmu_instance *inst, const fmu_snapshot *s, const char 
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
-    fmu_instance *inst = enter(c, "fmi2SetFMUstate", ALL_STATES, 0, 0);
-    const fmu_snapshot *s = (const fmu_snapshot *)FMUstate;
+    fmu_instance *inst = enter(c, CALL_SET_FMU_STATE);
+    fmu_snapshot *s = (fmu_snapshot *)FMUstate;
+    fmu_values v;
     if (inst == NULL) return fmi2Error;
     if (s == NULL) {
         LOG_ERR(inst, "fmi2SetFMUstate: FMUstate is NULL");
@@ -597,13 +832,14 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     inst->state = s->state;
     inst->time = s->time;
     inst->t_start = s->t_start;
-    memcpy(inst->r, s->r, fmu_model.n_reals * sizeof(double));
+    v = snapshot_values(s);
+    copy_values(&inst->v, &v);
     inst->dirty = 1;
     return fmi2OK;
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
-    fmu_instance *inst = enter(c, "fmi2FreeFMUstate", ALL_STATES, 0, 0);
+    fmu_instance *inst = enter(c, CALL_FREE_FMU_STATE);
     fmu_snapshot *s;
     if (inst == NULL) return fmi2Error;
     if (FMUstate == NULL) {
@@ -622,8 +858,11 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     return fmi2OK;
 }
 
-/* Serialised layout: magic[8] | guid hash u64 | n_reals u64 | type i32 | state u32 |
- * time f64 | t_start f64 | r[n_reals] f64 | FNV-1a 64 checksum of everything before. */
+/* Serialised layout (host byte order):
+ *   magic[8] "FMU2SNP\x02" | GUID hash u64 | n_reals u64 | n_integers u64 | n_booleans u64 |
+ *   type i32 | mode u32 | time f64 | t_start f64 | reals f64[n_reals] |
+ *   integers i32[n_integers] | booleans i32[n_booleans] | FNV-1a 64 of everything before. */
+#define SER_HEADER 64
 static uint64_t fnv1a(const unsigned char *p, size_t n, uint64_t h) {
     size_t i;
     for (i = 0; i < n; ++i) {
@@ -636,11 +875,15 @@ static uint64_t fnv1a(const unsigned char *p, size_t n, uint64_t h) {
 #define FNV_OFFSET 1469598103934665603ull
 
 static size_t serialized_size(void) {
-    return 8 + 8 + 8 + 4 + 4 + 8 + 8 + fmu_model.n_reals * 8 + 8;
+    return SER_HEADER + NVARS(FMU_REAL) * 8 + (NVARS(FMU_INTEGER) + NVARS(FMU_BOOLEAN)) * 4 + 8;
+}
+
+static uint64_t guid_hash(void) {
+    return fnv1a((const unsigned char *)fmu_model.guid, strlen(fmu_model.guid), FNV_OFFSET);
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
-    fmu_instance *inst = enter(c, "fmi2SerializedFMUstateSize", ALL_STATES, 0, 0);
+    fmu_instance *inst = enter(c, CALL_SERIALIZED_SIZE);
     if (inst == NULL) return fmi2Error;
     if (FMUstate == NULL || size == NULL ||
         ((const fmu_snapshot *)FMUstate)->magic != SNAP_MAGIC) {
@@ -651,14 +894,22 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, si
     return fmi2OK;
 }
 
+static unsigned char *put(unsigned char *p, const void *x, size_t n) {
+    memcpy(p, x, n);
+    return p + n;
+}
+
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte data[],
                                  size_t size) {
-    fmu_instance *inst = enter(c, "fmi2SerializeFMUstate", ALL_STATES, 0, 0);
-    const fmu_snapshot *s = (const fmu_snapshot *)FMUstate;
+    fmu_instance *inst = enter(c, CALL_SERIALIZE);
+    fmu_snapshot *s = (fmu_snapshot *)FMUstate;
     unsigned char *p = (unsigned char *)data;
+    fmu_values v;
     uint64_t u, h;
-    int32_t ty;
+    int32_t i32;
     uint32_t st;
+    size_t k;
+    int t;
     if (inst == NULL) return fmi2Error;
     if (s == NULL || s->magic != SNAP_MAGIC || data == NULL) {
         LOG_ERR(inst, "fmi2SerializeFMUstate: invalid FMUstate or NULL buffer");
@@ -669,26 +920,29 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
                 (unsigned long)size, (unsigned long)serialized_size());
         return fmi2Error;
     }
-    memcpy(p, SER_MAGIC, 8);
-    p += 8;
-    u = fnv1a((const unsigned char *)fmu_model.guid, strlen(fmu_model.guid), FNV_OFFSET);
-    memcpy(p, &u, 8);
-    p += 8;
-    u = (uint64_t)fmu_model.n_reals;
-    memcpy(p, &u, 8);
-    p += 8;
-    ty = (int32_t)s->type;
-    memcpy(p, &ty, 4);
-    p += 4;
+    p = put(p, SER_MAGIC, 8);
+    u = guid_hash();
+    p = put(p, &u, 8);
+    for (t = 0; t < FMU_NTYPES; ++t) {
+        u = (uint64_t)NVARS(t);
+        p = put(p, &u, 8);
+    }
+    i32 = (int32_t)s->type;
+    p = put(p, &i32, 4);
     st = (uint32_t)s->state;
-    memcpy(p, &st, 4);
-    p += 4;
-    memcpy(p, &s->time, 8);
-    p += 8;
-    memcpy(p, &s->t_start, 8);
-    p += 8;
-    memcpy(p, s->r, fmu_model.n_reals * 8);
-    p += fmu_model.n_reals * 8;
+    p = put(p, &st, 4);
+    p = put(p, &s->time, 8);
+    p = put(p, &s->t_start, 8);
+    v = snapshot_values(s);
+    p = put(p, v.r, NVARS(FMU_REAL) * 8);
+    for (k = 0; k < NVARS(FMU_INTEGER); ++k) {
+        i32 = (int32_t)v.i[k];
+        p = put(p, &i32, 4);
+    }
+    for (k = 0; k < NVARS(FMU_BOOLEAN); ++k) {
+        i32 = (int32_t)v.b[k];
+        p = put(p, &i32, 4);
+    }
     h = fnv1a((const unsigned char *)data, (size_t)(p - (unsigned char *)data), FNV_OFFSET);
     memcpy(p, &h, 8);
     return fmi2OK;
@@ -696,14 +950,16 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[],
                                    size_t size, fmi2FMUstate *FMUstate) {
-    fmu_instance *inst = enter(c, "fmi2DeSerializeFMUstate", ALL_STATES, 0, 0);
+    const char *fn = "fmi2DeSerializeFMUstate";
+    fmu_instance *inst = enter(c, CALL_DESERIALIZE);
     const unsigned char *p = (const unsigned char *)serializedState;
     uint64_t u, h;
-    int32_t ty;
+    int32_t i32;
     uint32_t st;
     fmu_snapshot *s;
-    size_t need = serialized_size();
-    const char *fn = "fmi2DeSerializeFMUstate";
+    fmu_values v;
+    size_t need = serialized_size(), k, off;
+    int t;
     if (inst == NULL) return fmi2Error;
     if (p == NULL || FMUstate == NULL) {
         LOG_ERR(inst, "%s: NULL argument", fn);
@@ -728,32 +984,41 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
         return fmi2Error;
     }
     memcpy(&u, p + 8, 8);
-    if (u != fnv1a((const unsigned char *)fmu_model.guid, strlen(fmu_model.guid), FNV_OFFSET)) {
+    if (u != guid_hash()) {
         LOG_ERR(inst, "%s: the state was serialised by an FMU with a different GUID", fn);
         return fmi2Error;
     }
-    memcpy(&u, p + 16, 8);
-    if (u != (uint64_t)fmu_model.n_reals) {
-        LOG_ERR(inst, "%s: corrupt state: wrong number of variables", fn);
-        return fmi2Error;
+    for (t = 0; t < FMU_NTYPES; ++t) {
+        memcpy(&u, p + 16 + 8 * (size_t)t, 8);
+        if (u != (uint64_t)NVARS(t)) {
+            LOG_ERR(inst, "%s: corrupt state: wrong number of %s variables", fn, type_names[t]);
+            return fmi2Error;
+        }
     }
     s = (fmu_snapshot *)*FMUstate;
     if (s == NULL) {
-        s = (fmu_snapshot *)inst->cb.allocateMemory(1, snapshot_bytes());
-        if (s == NULL) {
-            LOG_ERR(inst, "%s: out of memory", fn);
-            return fmi2Error;
-        }
+        if ((s = new_snapshot(inst, fn)) == NULL) return fmi2Error;
         *FMUstate = (fmi2FMUstate)s;
     }
     s->magic = SNAP_MAGIC;
-    memcpy(&ty, p + 24, 4);
-    memcpy(&st, p + 28, 4);
-    s->type = (fmi2Type)ty;
+    memcpy(&i32, p + 40, 4);
+    memcpy(&st, p + 44, 4);
+    s->type = (fmi2Type)i32;
     s->state = (fmu_state)st;
-    memcpy(&s->time, p + 32, 8);
-    memcpy(&s->t_start, p + 40, 8);
-    memcpy(s->r, p + 48, fmu_model.n_reals * 8);
+    memcpy(&s->time, p + 48, 8);
+    memcpy(&s->t_start, p + 56, 8);
+    v = snapshot_values(s);
+    off = SER_HEADER;
+    memcpy(v.r, p + off, NVARS(FMU_REAL) * 8);
+    off += NVARS(FMU_REAL) * 8;
+    for (k = 0; k < NVARS(FMU_INTEGER); ++k, off += 4) {
+        memcpy(&i32, p + off, 4);
+        v.i[k] = (fmi2Integer)i32;
+    }
+    for (k = 0; k < NVARS(FMU_BOOLEAN); ++k, off += 4) {
+        memcpy(&i32, p + off, 4);
+        v.b[k] = (fmi2Boolean)i32;
+    }
     if (!snapshot_valid(inst, s, fn)) {
         s->magic = 0;
         inst->cb.freeMemory(s);
@@ -771,30 +1036,70 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c,
                                         size_t nKnown, const fmi2Real dvKnown[],
                                         fmi2Real dvUnknown[]) {
     const char *fn = "fmi2GetDirectionalDerivative";
-    fmu_instance *inst = enter(c, fn,
-                               FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_STEP_COMPLETE |
-                                   FMU_ST_STEP_FAILED | FMU_ST_TERMINATED,
-                               0, 0);
-    size_t i;
+    fmu_instance *inst = enter(c, CALL_DIRECTIONAL_DERIVATIVE);
+    const fmu_variables *V = fmu_model.vars;
+    size_t i, j, ix = 0, nrow = V->n_states + V->n_outputs;
+    const fmu_var *d;
+    int need_jac = 0;
     if (inst == NULL) return fmi2Error;
-    if (!vr_ok(inst, fn, vUnknown_ref, nUnknown) || !vr_ok(inst, fn, vKnown_ref, nKnown))
+    if (fmu_model.jacobian == NULL) {
+        LOG_ERR(inst, "%s: %s does not provide directional derivatives", fn,
+                fmu_model.model_identifier);
+        return fmi2Error;
+    }
+    if (!vrs_ok(inst, fn, FMU_REAL, vUnknown_ref, nUnknown) ||
+        !vrs_ok(inst, fn, FMU_REAL, vKnown_ref, nKnown))
         return fmi2Error;
     if ((nKnown > 0 && dvKnown == NULL) || (nUnknown > 0 && dvUnknown == NULL)) {
         LOG_ERR(inst, "%s: NULL value array", fn);
         return fmi2Error;
     }
-    for (i = 0; i < nKnown; ++i) {
-        if (!isfinite(dvKnown[i])) {
-            LOG_ERR(inst, "%s: dvKnown[%lu] is not finite", fn, (unsigned long)i);
+    for (j = 0; j < nKnown; ++j) {
+        d = lookup(FMU_REAL, vKnown_ref[j], &ix);
+        if (d->kind != FMU_KIND_STATE && d->kind != FMU_KIND_INPUT) {
+            LOG_ERR(inst, "%s: known '%s' (vr %lu) is not a state or a continuous input", fn,
+                    d->name, (unsigned long)vKnown_ref[j]);
+            return fmi2Error;
+        }
+        if (!isfinite(dvKnown[j])) {
+            LOG_ERR(inst, "%s: dvKnown[%lu] is not finite", fn, (unsigned long)j);
             return fmi2Error;
         }
     }
+    for (i = 0; i < nUnknown; ++i) {
+        d = lookup(FMU_REAL, vUnknown_ref[i], &ix);
+        if (d->kind != FMU_KIND_STATE && !evaluated(d->kind)) {
+            LOG_ERR(inst, "%s: unknown '%s' (vr %lu) is not a derivative, state or continuous "
+                    "output", fn, d->name, (unsigned long)vUnknown_ref[i]);
+            return fmi2Error;
+        }
+        need_jac |= d->kind != FMU_KIND_STATE;
+    }
     inst->msg[0] = '\0';
-    if (fmu_model.directional_derivative(inst, inst->r, vUnknown_ref, nUnknown, vKnown_ref,
-                                         nKnown, dvKnown, dvUnknown, inst->msg,
-                                         sizeof inst->msg) != 0) {
+    if (need_jac && fmu_model.jacobian(inst, &inst->v, inst->jac, inst->msg,
+                                       sizeof inst->msg) != 0) {
         LOG_ERR(inst, "%s: %s", fn, inst->msg);
         return fmi2Error;
+    }
+    for (i = 0; i < nUnknown; ++i) {
+        const fmu_var *du = lookup(FMU_REAL, vUnknown_ref[i], &ix);
+        size_t row = du->kind == FMU_KIND_DERIVATIVE ? du->index : V->n_states + du->index;
+        double acc = 0.0;
+        for (j = 0; j < nKnown; ++j) {
+            const fmu_var *dk = lookup(FMU_REAL, vKnown_ref[j], &ix);
+            size_t col = dk->kind == FMU_KIND_STATE ? dk->index : V->n_states + dk->index;
+            if (du->kind == FMU_KIND_STATE) /* a state as an unknown: identity */
+                acc += vUnknown_ref[i] == vKnown_ref[j] ? dvKnown[j] : 0.0;
+            else
+                acc += inst->jac[col * nrow + row] * dvKnown[j];
+        }
+        dvUnknown[i] = acc;
+    }
+    for (i = 0; i < nUnknown; ++i) {
+        if (!isfinite(dvUnknown[i])) {
+            LOG_ERR(inst, "%s: the directional derivative is not finite", fn);
+            return fmi2Error;
+        }
     }
     return fmi2OK;
 }
@@ -802,17 +1107,21 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c,
 /* ------------------------------------------------------------------ Model Exchange */
 
 fmi2Status fmi2EnterEventMode(fmi2Component c) {
-    fmu_instance *inst = enter(c, "fmi2EnterEventMode", FMU_ST_EVENT | FMU_ST_CONT, 1, 0);
+    fmu_instance *inst = enter(c, CALL_ENTER_EVENT_MODE);
     if (inst == NULL) return fmi2Error;
+    if (inst->state == FMU_ST_CONT && fmu_model.event_entered != NULL)
+        fmu_model.event_entered(inst, &inst->v, inst->time);
     inst->state = FMU_ST_EVENT;
     return fmi2OK;
 }
 
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
-    fmu_instance *inst = enter(c, "fmi2NewDiscreteStates", FMU_ST_EVENT, 1, 0);
+    const char *fn = "fmi2NewDiscreteStates";
+    fmu_instance *inst = enter(c, CALL_NEW_DISCRETE_STATES);
+    fmi2Status st = fmi2OK;
     if (inst == NULL) return fmi2Error;
     if (eventInfo == NULL) {
-        LOG_ERR(inst, "fmi2NewDiscreteStates: eventInfo is NULL");
+        LOG_ERR(inst, "%s: eventInfo is NULL", fn);
         return fmi2Error;
     }
     eventInfo->newDiscreteStatesNeeded = fmi2False;
@@ -821,11 +1130,22 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
     eventInfo->valuesOfContinuousStatesChanged = fmi2False;
     eventInfo->nextEventTimeDefined = fmi2False;
     eventInfo->nextEventTime = 0.0;
-    return fmi2OK;
+    if (fmu_model.event_update != NULL) {
+        inst->msg[0] = '\0';
+        st = fmu_model.event_update(inst, &inst->v, inst->time, eventInfo, inst->msg,
+                                    sizeof inst->msg);
+        inst->dirty = 1;
+        log_model(inst, st, fn);
+        if (st != fmi2OK && st != fmi2Warning) {
+            inst->state = FMU_ST_ERROR;
+            return fmi2Error;
+        }
+    }
+    return st;
 }
 
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
-    fmu_instance *inst = enter(c, "fmi2EnterContinuousTimeMode", FMU_ST_EVENT, 1, 0);
+    fmu_instance *inst = enter(c, CALL_ENTER_CONT_MODE);
     if (inst == NULL) return fmi2Error;
     inst->state = FMU_ST_CONT;
     return fmi2OK;
@@ -834,7 +1154,7 @@ fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi2Boolean *enterEventMode,
                                        fmi2Boolean *terminateSimulation) {
-    fmu_instance *inst = enter(c, "fmi2CompletedIntegratorStep", FMU_ST_CONT, 1, 0);
+    fmu_instance *inst = enter(c, CALL_COMPLETED_INTEGRATOR_STEP);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (inst == NULL) return fmi2Error;
     if (enterEventMode == NULL || terminateSimulation == NULL) {
@@ -847,7 +1167,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStat
 }
 
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
-    fmu_instance *inst = enter(c, "fmi2SetTime", FMU_ST_EVENT | FMU_ST_CONT, 1, 0);
+    fmu_instance *inst = enter(c, CALL_SET_TIME);
     if (inst == NULL) return fmi2Error;
     if (!isfinite(time)) {
         LOG_ERR(inst, "fmi2SetTime: time must be finite, got %g", time);
@@ -872,36 +1192,37 @@ static int n_ok(fmu_instance *inst, const char *fn, const void *p, size_t n, siz
 
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
     const char *fn = "fmi2SetContinuousStates";
-    fmu_instance *inst = enter(c, fn, FMU_ST_CONT, 1, 0);
+    fmu_instance *inst = enter(c, CALL_SET_CONT_STATES);
+    const fmu_variables *V = fmu_model.vars;
     size_t i;
     if (inst == NULL) return fmi2Error;
-    if (!n_ok(inst, fn, x, nx, fmu_model.n_states)) return fmi2Error;
+    if (!n_ok(inst, fn, x, nx, V->n_states)) return fmi2Error;
     for (i = 0; i < nx; ++i) {
         if (!isfinite(x[i])) {
             LOG_ERR(inst, "%s: state '%s' must be finite, got %g", fn,
-                    fmu_model.names[fmu_model.state_vr0 + i], x[i]);
+                    V->var[FMU_REAL][V->state[i]].name, x[i]);
             return fmi2Error;
         }
     }
-    memcpy(inst->r + fmu_model.state_vr0, x, nx * sizeof(double));
+    for (i = 0; i < nx; ++i) inst->v.r[V->state[i]] = x[i];
     inst->dirty = 1;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
     const char *fn = "fmi2GetDerivatives";
-    fmu_instance *inst = enter(c, fn, FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT |
-                                          FMU_ST_TERMINATED, 1, 0);
+    fmu_instance *inst = enter(c, CALL_GET_DERIVATIVES);
+    const fmu_variables *V = fmu_model.vars;
+    size_t i;
     if (inst == NULL) return fmi2Error;
-    if (!n_ok(inst, fn, derivatives, nx, fmu_model.n_states)) return fmi2Error;
+    if (!n_ok(inst, fn, derivatives, nx, V->n_states)) return fmi2Error;
     if (refresh(inst, fn) != fmi2OK) return fmi2Error;
-    memcpy(derivatives, inst->r + fmu_model.der_vr0, nx * sizeof(double));
+    for (i = 0; i < nx; ++i) derivatives[i] = inst->v.r[V->der[i]];
     return fmi2OK;
 }
 
 fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {
-    fmu_instance *inst = enter(c, "fmi2GetEventIndicators",
-                               FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_TERMINATED, 1, 0);
+    fmu_instance *inst = enter(c, CALL_GET_EVENT_INDICATORS);
     (void)eventIndicators;
     if (inst == NULL) return fmi2Error;
     if (ni != 0) {
@@ -914,23 +1235,21 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
 
 fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
     const char *fn = "fmi2GetContinuousStates";
-    fmu_instance *inst =
-        enter(c, fn, FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT | FMU_ST_TERMINATED, 1, 0);
+    fmu_instance *inst = enter(c, CALL_GET_CONT_STATES);
+    const fmu_variables *V = fmu_model.vars;
+    size_t i;
     if (inst == NULL) return fmi2Error;
-    if (!n_ok(inst, fn, x, nx, fmu_model.n_states)) return fmi2Error;
-    memcpy(x, inst->r + fmu_model.state_vr0, nx * sizeof(double));
+    if (!n_ok(inst, fn, x, nx, V->n_states)) return fmi2Error;
+    for (i = 0; i < nx; ++i) x[i] = inst->v.r[V->state[i]];
     return fmi2OK;
 }
 
 fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx) {
     const char *fn = "fmi2GetNominalsOfContinuousStates";
-    fmu_instance *inst = enter(c, fn,
-                               FMU_ST_INSTANTIATED | FMU_ST_INIT | FMU_ST_EVENT | FMU_ST_CONT |
-                                   FMU_ST_TERMINATED,
-                               1, 0);
+    fmu_instance *inst = enter(c, CALL_GET_NOMINALS);
     size_t i;
     if (inst == NULL) return fmi2Error;
-    if (!n_ok(inst, fn, x_nominal, nx, fmu_model.n_states)) return fmi2Error;
+    if (!n_ok(inst, fn, x_nominal, nx, fmu_model.vars->n_states)) return fmi2Error;
     for (i = 0; i < nx; ++i) x_nominal[i] = 1.0;
     return fmi2OK;
 }
@@ -939,7 +1258,7 @@ fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal
 
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[]) {
-    fmu_instance *inst = enter(c, "fmi2SetRealInputDerivatives", ALL_STATES, 0, 1);
+    fmu_instance *inst = enter(c, CALL_SET_REAL_INPUT_DERIVATIVES);
     (void)vr;
     (void)order;
     (void)value;
@@ -951,7 +1270,7 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                         const fmi2Integer order[], fmi2Real value[]) {
-    fmu_instance *inst = enter(c, "fmi2GetRealOutputDerivatives", ALL_STATES, 0, 1);
+    fmu_instance *inst = enter(c, CALL_GET_REAL_OUTPUT_DERIVATIVES);
     (void)vr;
     (void)order;
     (void)value;
@@ -964,7 +1283,8 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
     const char *fn = "fmi2DoStep";
-    fmu_instance *inst = enter(c, fn, FMU_ST_STEP_COMPLETE, 0, 1);
+    fmu_instance *inst = enter(c, CALL_DO_STEP);
+    fmi2Status st;
     double tol;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (inst == NULL) return fmi2Error;
@@ -980,33 +1300,40 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                 currentCommunicationPoint, inst->time);
         return fmi2Error;
     }
-    memcpy(inst->r_backup, inst->r, fmu_model.n_reals * sizeof(double));
+    if (fmu_model.do_step == NULL) {
+        LOG_ERR(inst, "%s: %s has no co-simulation step", fn, fmu_model.model_identifier);
+        return fmi2Error;
+    }
+    copy_values(&inst->backup, &inst->v);
     inst->msg[0] = '\0';
-    if (fmu_model.do_step(inst, inst->r, communicationStepSize, inst->msg, sizeof inst->msg) !=
-        0) {
-        memcpy(inst->r, inst->r_backup, fmu_model.n_reals * sizeof(double));
-        inst->dirty = 1;
+    st = fmu_model.do_step(inst, &inst->v, currentCommunicationPoint, communicationStepSize,
+                           inst->msg, sizeof inst->msg);
+    inst->dirty = 1;
+    if (st == fmi2OK || st == fmi2Warning) {
+        log_model(inst, st, fn);
+        inst->time = currentCommunicationPoint + communicationStepSize;
+        return st;
+    }
+    copy_values(&inst->v, &inst->backup); /* nothing of a failed or refused step remains */
+    if (st == fmi2Discard) {
         fmu_log(inst, fmi2Discard, FMU_LOG_WARNING, "%s: step from t = %g discarded: %s", fn,
                 inst->time, inst->msg);
         inst->state = FMU_ST_STEP_FAILED;
         return fmi2Discard;
     }
-    inst->time = currentCommunicationPoint + communicationStepSize;
-    inst->dirty = 1;
-    return fmi2OK;
+    LOG_ERR(inst, "%s: step from t = %g refused: %s", fn, inst->time, inst->msg);
+    return fmi2Error;
 }
 
 fmi2Status fmi2CancelStep(fmi2Component c) {
-    fmu_instance *inst = enter(c, "fmi2CancelStep", ALL_STATES, 0, 1);
+    fmu_instance *inst = enter(c, CALL_CANCEL_STEP);
     if (inst == NULL) return fmi2Error;
     LOG_ERR(inst, "fmi2CancelStep: not supported (fmi2DoStep is synchronous)");
     return fmi2Error;
 }
 
-#define STATUS_STATES (FMU_ST_STEP_COMPLETE | FMU_ST_STEP_FAILED | FMU_ST_TERMINATED)
-
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    fmu_instance *inst = enter(c, "fmi2GetStatus", STATUS_STATES, 0, 1);
+    fmu_instance *inst = enter(c, CALL_GET_STATUS);
     if (inst == NULL) return fmi2Error;
     if (value == NULL || s != fmi2DoStepStatus) {
         LOG_ERR(inst, "fmi2GetStatus: only fmi2DoStepStatus is provided (non-NULL value)");
@@ -1017,7 +1344,7 @@ fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *va
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    fmu_instance *inst = enter(c, "fmi2GetRealStatus", STATUS_STATES, 0, 1);
+    fmu_instance *inst = enter(c, CALL_GET_REAL_STATUS);
     if (inst == NULL) return fmi2Error;
     if (value == NULL || s != fmi2LastSuccessfulTime) {
         LOG_ERR(inst, "fmi2GetRealStatus: only fmi2LastSuccessfulTime is provided");
@@ -1028,7 +1355,7 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
 }
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    fmu_instance *inst = enter(c, "fmi2GetIntegerStatus", STATUS_STATES, 0, 1);
+    fmu_instance *inst = enter(c, CALL_GET_INTEGER_STATUS);
     (void)s;
     (void)value;
     if (inst == NULL) return fmi2Error;
@@ -1037,7 +1364,7 @@ fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Int
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    fmu_instance *inst = enter(c, "fmi2GetBooleanStatus", STATUS_STATES, 0, 1);
+    fmu_instance *inst = enter(c, CALL_GET_BOOLEAN_STATUS);
     if (inst == NULL) return fmi2Error;
     if (value == NULL || s != fmi2Terminated) {
         LOG_ERR(inst, "fmi2GetBooleanStatus: only fmi2Terminated is provided");
@@ -1048,7 +1375,7 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
 }
 
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    fmu_instance *inst = enter(c, "fmi2GetStringStatus", STATUS_STATES, 0, 1);
+    fmu_instance *inst = enter(c, CALL_GET_STRING_STATUS);
     (void)s;
     (void)value;
     if (inst == NULL) return fmi2Error;

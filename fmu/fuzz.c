@@ -1,12 +1,16 @@
 /*
- * fuzz.c - random FMI 2.0 API calls against the plant binary (no Python).
+ * fuzz.c - random FMI 2.0 API calls against an FMU binary of the package (no Python).
  *
- * usage: fuzz <BallbotPlant.so> <guid> <n_calls> <seed>
+ * usage: fuzz <model.so> <guid> <n_calls> <seed>
  *
- * Keeps up to four instances (Model Exchange and Co-Simulation) and a few FMU states,
- * and calls random fmi2* functions with random, often invalid arguments: unknown value
- * references, NaN/Inf/huge values, wrong sizes, NULL pointers, wrong call order, wrong
- * GUID, negative/zero step sizes, corrupt serialised states.  Every call that returns
+ * Generic: compiled against the FMU's generated fmu_model_info.h (numbers of Real,
+ * Integer and Boolean variables, states, Real inputs), so it fuzzes any FMU built on
+ * fmi2_common.c.  Keeps up to four instances (Model Exchange and Co-Simulation; an
+ * interface the FMU lacks is refused with a message) and a few FMU states, and calls
+ * random fmi2* functions with random, often invalid arguments: unknown value references
+ * (also of the wrong type), NaN/Inf/huge Reals, out-of-range Integers, Booleans other
+ * than 0/1, wrong sizes, NULL pointers, wrong call order, wrong GUID, negative/zero step
+ * sizes, corrupt serialised states.  Every call that returns
  * something other than fmi2OK on a live instance must have logged a message; such calls
  * without a message are counted as "silent".  A crash fails the test that runs this.
  * Prints a JSON summary.
@@ -20,10 +24,14 @@
 #include <string.h>
 
 #include "fmi2FunctionTypes.h"
-#include "plant_vr.h"
+#include <limits.h>
+
+#include "fmu_model_info.h"
 
 #define NINST 4
 #define NSNAP 4
+#define NX FMU_INFO_N_STATES
+#define NVAL (NX + 8)
 
 static long n_log = 0;
 
@@ -55,11 +63,21 @@ static double rand_real(void) {
     return (urand() * 2.0 - 1.0) * pow(10.0, urand() * 4.0 - 3.0);
 }
 
-static fmi2ValueReference rand_vr(void) {
+/* A value reference, mostly of a variable of the type with first VR vr0 and n variables. */
+static fmi2ValueReference rand_vr_of(int vr0, int n) {
     int k = irand(10);
-    if (k < 8) return (fmi2ValueReference)irand(PLANT_N_REALS);
-    if (k == 8) return (fmi2ValueReference)(PLANT_N_REALS + irand(5));
+    if (k < 7 && n > 0) return (fmi2ValueReference)(vr0 + irand(n));
+    if (k < 9) return (fmi2ValueReference)irand(FMU_INFO_N_VARS + 5);
     return (fmi2ValueReference)0xFFFFFFFFu;
+}
+static fmi2ValueReference rand_vr(void) {
+    return rand_vr_of(FMU_INFO_VR0_REALS, FMU_INFO_N_REALS);
+}
+static fmi2Integer rand_int(void) {
+    static const fmi2Integer special[] = {0, 1, -1, 2, 7, INT_MAX, INT_MIN, 123456789};
+    int k = irand(10);
+    if (k < 8) return special[k];
+    return (fmi2Integer)(rnd() & 0xFFFFFFFFu);
 }
 
 #define F(name) name##TYPE *name
@@ -99,6 +117,7 @@ int main(int argc, char **argv) {
     int snap_owner[NSNAP];
     long n, i, n_calls = 0, n_ok = 0, n_err = 0, n_discard = 0, n_other = 0, n_silent = 0;
     long n_null_inst = 0, n_bad_guid = 0, n_steps_ok = 0, n_init_ok = 0;
+    long n_int_ok = 0, n_bool_ok = 0, n_int_err = 0, n_bool_err = 0;
     const char *guid;
     static fmi2Byte buf[65536];
     if (argc < 5) {
@@ -138,19 +157,19 @@ int main(int argc, char **argv) {
     for (i = 0; i < NSNAP; ++i) snap_owner[i] = -1;
 
     for (i = 0; i < n; ++i) {
-        int s = irand(NINST), op = irand(40), k, j;
+        int s = irand(NINST), op = irand(41), k, j;
         fmi2Component c = inst[s];
         fmi2Status st = fmi2OK;
         long before = n_log;
         fmi2ValueReference vr[8], vr2[8];
-        double val[PLANT_NX + 8], val2[PLANT_NX + 8];
+        double val[NVAL], val2[NVAL];
         size_t nvr = (size_t)irand(6), nvr2 = (size_t)irand(4), sz = 0;
         int counted = 1;
         for (k = 0; k < 8; ++k) {
             vr[k] = rand_vr();
             vr2[k] = rand_vr();
         }
-        for (k = 0; k < PLANT_NX + 8; ++k) {
+        for (k = 0; k < NVAL; ++k) {
             val[k] = rand_real();
             val2[k] = rand_real();
         }
@@ -201,20 +220,37 @@ int main(int argc, char **argv) {
         case 6: st = f.fmi2Reset(c); break;
         case 7: case 8: st = f.fmi2GetReal(c, vr, nvr, irand(30) ? val : NULL); break;
         case 9: case 10: case 11: st = f.fmi2SetReal(c, vr, nvr, irand(30) ? val : NULL); break;
-        case 12: {
+        case 12: { /* Integers: get, or set random (often out-of-range) values */
             fmi2Integer iv[8];
-            st = f.fmi2GetInteger(c, vr, nvr, iv);
+            for (k = 0; k < 8; ++k) {
+                vr[k] = rand_vr_of(FMU_INFO_VR0_INTEGERS, FMU_INFO_N_INTEGERS);
+                iv[k] = rand_int();
+            }
+            st = irand(2) ? f.fmi2GetInteger(c, vr, nvr, irand(30) ? iv : NULL)
+                          : f.fmi2SetInteger(c, vr, nvr, irand(30) ? iv : NULL);
+            if (c != NULL && nvr > 0) {
+                if (st == fmi2OK) ++n_int_ok;
+                else ++n_int_err;
+            }
             break;
         }
-        case 13: {
-            fmi2Boolean bv[8] = {0};
-            st = irand(2) ? f.fmi2GetBoolean(c, vr, nvr, bv) : f.fmi2SetBoolean(c, vr, nvr, bv);
+        case 13: { /* Booleans: get, or set 0/1 and invalid values */
+            fmi2Boolean bv[8];
+            for (k = 0; k < 8; ++k) {
+                vr[k] = rand_vr_of(FMU_INFO_VR0_BOOLEANS, FMU_INFO_N_BOOLEANS);
+                bv[k] = irand(4) ? irand(2) : rand_int();
+            }
+            st = irand(2) ? f.fmi2GetBoolean(c, vr, nvr, irand(30) ? bv : NULL)
+                          : f.fmi2SetBoolean(c, vr, nvr, irand(30) ? bv : NULL);
+            if (c != NULL && nvr > 0) {
+                if (st == fmi2OK) ++n_bool_ok;
+                else ++n_bool_err;
+            }
             break;
         }
         case 14: {
             fmi2String sv[8] = {"a", "b", "c", "d", "e", "f", "g", "h"};
-            fmi2Integer iv[8] = {0};
-            st = irand(2) ? f.fmi2SetString(c, vr, nvr, sv) : f.fmi2SetInteger(c, vr, nvr, iv);
+            st = f.fmi2SetString(c, vr, nvr, sv);
             if (st == fmi2OK && irand(2)) st = f.fmi2GetString(c, vr, nvr, sv);
             break;
         }
@@ -276,18 +312,18 @@ int main(int argc, char **argv) {
         }
         case 25: st = f.fmi2SetTime(c, irand(3) ? urand() : rand_real()); break;
         case 26: { /* continuous states: mostly the current ones, slightly perturbed */
-            size_t nx = irand(8) ? PLANT_NX : (size_t)irand(PLANT_NX + 2);
-            if (f.fmi2GetContinuousStates(c, val2, PLANT_NX) == fmi2OK && irand(4)) {
-                for (k = 0; k < PLANT_NX; ++k) val2[k] += 1e-3 * (urand() - 0.5);
+            size_t nx = irand(8) ? NX : (size_t)irand(NX + 2);
+            if (f.fmi2GetContinuousStates(c, val2, NX) == fmi2OK && irand(4)) {
+                for (k = 0; k < NX; ++k) val2[k] += 1e-3 * (urand() - 0.5);
                 before = n_log;
             }
             st = f.fmi2SetContinuousStates(c, val2, nx);
             break;
         }
-        case 27: st = f.fmi2GetDerivatives(c, val, irand(8) ? PLANT_NX : (size_t)irand(PLANT_NX + 2)); break;
+        case 27: st = f.fmi2GetDerivatives(c, val, irand(8) ? NX : (size_t)irand(NX + 2)); break;
         case 28: st = f.fmi2GetEventIndicators(c, val, (size_t)irand(2)); break;
-        case 29: st = f.fmi2GetContinuousStates(c, val, irand(8) ? PLANT_NX : (size_t)irand(20)); break;
-        case 30: st = f.fmi2GetNominalsOfContinuousStates(c, val, irand(8) ? PLANT_NX : 3); break;
+        case 29: st = f.fmi2GetContinuousStates(c, val, irand(8) ? NX : (size_t)irand(NX + 6)); break;
+        case 30: st = f.fmi2GetNominalsOfContinuousStates(c, val, irand(8) ? NX : 3); break;
         case 31: case 32: case 33: { /* do step: mostly at the right time, random sizes */
             double t = 0.0, h;
             fmi2Status ts = f.fmi2GetRealStatus(c, fmi2LastSuccessfulTime, &t);
@@ -332,18 +368,36 @@ int main(int argc, char **argv) {
             f.fmi2SetDebugLogging(c, fmi2False, 0, NULL);
             break;
         }
-        case 38: { /* inputs within range then a valid step: drive the model forward */
-            fmi2ValueReference tv[3] = {PLANT_VR_INPUT0, PLANT_VR_INPUT0 + 1, PLANT_VR_INPUT0 + 2};
-            double tau[3] = {urand() - 0.5, urand() - 0.5, urand() - 0.5};
-            st = f.fmi2SetReal(c, tv, 3, tau);
+        case 38: { /* Real inputs, small values (drive the model forward) */
+            fmi2ValueReference tv[] = FMU_INFO_REAL_INPUT_VRS;
+            double u[sizeof tv / sizeof tv[0]];
+            for (k = 0; k < (int)(sizeof tv / sizeof tv[0]); ++k) u[k] = urand() - 0.5;
+            st = f.fmi2SetReal(c, tv, (size_t)FMU_INFO_N_REAL_INPUTS, u);
+            break;
+        }
+        case 39: { /* Integer / Boolean values that are often valid (e.g. noise on) */
+            fmi2ValueReference one[1];
+            fmi2Integer iv[1];
+            fmi2Boolean bv[1];
+            st = fmi2OK;
+            if (FMU_INFO_N_BOOLEANS > 0) {
+                one[0] = (fmi2ValueReference)(FMU_INFO_VR0_BOOLEANS + irand(FMU_INFO_N_BOOLEANS));
+                bv[0] = irand(2);
+                st = f.fmi2SetBoolean(c, one, 1, bv);
+            }
+            if (st == fmi2OK && FMU_INFO_N_INTEGERS > 0) {
+                one[0] = (fmi2ValueReference)(FMU_INFO_VR0_INTEGERS + irand(FMU_INFO_N_INTEGERS));
+                iv[0] = irand(1000);
+                st = f.fmi2SetInteger(c, one, 1, iv);
+            }
             break;
         }
         default: { /* NULL instance: must fail without crashing */
-            fmi2Real dummy[PLANT_NX];
+            fmi2Real dummy[NVAL];
             fmi2ValueReference v0 = 0;
             if (f.fmi2GetReal(NULL, &v0, 1, dummy) == fmi2OK ||
                 f.fmi2DoStep(NULL, 0.0, 1e-3, fmi2True) == fmi2OK ||
-                f.fmi2GetDerivatives(NULL, dummy, PLANT_NX) == fmi2OK) {
+                f.fmi2GetDerivatives(NULL, dummy, NX) == fmi2OK) {
                 fprintf(stderr, "a call on a NULL instance returned fmi2OK\n");
                 return 12;
             }
@@ -379,9 +433,10 @@ int main(int argc, char **argv) {
     }
     printf("{\"calls\": %ld, \"ok\": %ld, \"error\": %ld, \"discard\": %ld, \"other\": %ld, "
            "\"silent\": %ld, \"null_instance\": %ld, \"bad_guid\": %ld, \"steps_ok\": %ld, "
-           "\"init_ok\": %ld, \"log_messages\": %ld}\n",
+           "\"init_ok\": %ld, \"log_messages\": %ld, \"integer_ok\": %ld, "
+           "\"integer_error\": %ld, \"boolean_ok\": %ld, \"boolean_error\": %ld}\n",
            n_calls, n_ok, n_err, n_discard, n_other, n_silent, n_null_inst, n_bad_guid,
-           n_steps_ok, n_init_ok, n_log);
+           n_steps_ok, n_init_ok, n_log, n_int_ok, n_int_err, n_bool_ok, n_bool_err);
     dlclose(lib);
     return 0;
 }

@@ -4,9 +4,9 @@
  *
  * usage: host <BallbotPlant.so> <guid> <n_steps> <step> <tau0> <tau1> <tau2> <roll0> [bench_reps]
  *
- * Prints one JSON object: the final time, the final 12 states and outputs, and, with
- * bench_reps > 0, "step_us", the best-of-reps mean wall time of one fmi2DoStep + reading
- * the 12 states (micro-seconds).  Exit status 0 on success.
+ * Prints one JSON object: the final time, the final 12 model states and the continuous
+ * outputs, and, with bench_reps > 0, "step_us", the best-of-reps mean wall time of one
+ * fmi2DoStep + reading the 12 states (micro-seconds).  Exit status 0 on success.
  */
 #define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
@@ -19,8 +19,8 @@
 #include "fmi2FunctionTypes.h"
 #include "plant_vr.h" /* generated: value references */
 
-#define NX PLANT_NX
-#define NOUT PLANT_NY
+#define NX PLANT_NX   /* the 12 model states (the wheel angles follow them) */
+#define NOUT PLANT_NY /* continuous outputs */
 
 static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                    fmi2String category, fmi2String message, ...) {
@@ -74,10 +74,10 @@ int main(int argc, char **argv) {
     for (k = 0; k < 3; ++k) tau[k] = atof(argv[5 + k]);
     roll0 = atof(argv[8]);
     if (argc > 9) reps = atol(argv[9]);
-    for (k = 0; k < NX; ++k) vr_x[k] = (fmi2ValueReference)(PLANT_VR_STATE0 + k);
-    for (k = 0; k < NOUT; ++k) vr_y[k] = (fmi2ValueReference)(PLANT_VR_OUTPUT0 + k);
-    for (k = 0; k < 3; ++k) vr_tau[k] = (fmi2ValueReference)(PLANT_VR_INPUT0 + k);
-    for (k = 0; k < 4; ++k) vr_q[k] = (fmi2ValueReference)(VR_q0 + k);
+    for (k = 0; k < NX; ++k) vr_x[k] = (fmi2ValueReference)(PLANT_VR_x + k);
+    for (k = 0; k < NOUT; ++k) vr_y[k] = (fmi2ValueReference)(PLANT_VR_roll + k);
+    for (k = 0; k < 3; ++k) vr_tau[k] = (fmi2ValueReference)(PLANT_VR_tau0 + k);
+    for (k = 0; k < 4; ++k) vr_q[k] = (fmi2ValueReference)(PLANT_VR_q0 + k);
     lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
     if (lib == NULL) {
         fprintf(stderr, "dlopen failed: %s\n", dlerror());

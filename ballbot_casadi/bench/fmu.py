@@ -1,8 +1,9 @@
 """Benchmarks of the native plant FMU (group ``fmu`` of ``make bench``).
 
 * ``fmu_plant_step_us``: one 5 ms co-simulation step (fmi2SetReal of the torques,
-  fmi2DoStep with five 1 ms RK4 sub-steps, fmi2GetReal of the 12 states) in the C host
-  ``fmu/host.c``; best of several repetitions of 2000 steps.
+  fmi2DoStep with five 1 ms RK4 sub-steps of the 15 states and the sensor sample at its
+  end, fmi2GetReal of the 12 model states) in the C host ``fmu/host.c``; best of several
+  repetitions of 2000 steps.
 * ``fmu_vs_pythonfmu_ratio``: wall time of the same fmpy co-simulation (2 s at 5 ms,
   constant torques, states recorded) of a PythonFMU export of the same CasADi model
   (RK4 Function called from Python, same 1 ms sub-steps) divided by that of the native

@@ -10,6 +10,11 @@ import numpy as np
 from ballbot_casadi.fmi.build import FmuBuild, build_fmu, plant_variables
 
 STATES = ("x", "y", "q0", "q1", "q2", "q3", "dx", "dy", "dq0", "dq1", "dq2", "dq3")
+#: All continuous states of the FMU: the model states, then the wheel angles.
+ALL_STATES = (*STATES, "phi0", "phi1", "phi2")
+NXW = len(ALL_STATES)
+SENSORS = ("sensor_acc_x", "sensor_acc_y", "sensor_acc_z", "sensor_gyro_x", "sensor_gyro_y",
+           "sensor_gyro_z", "sensor_enc0", "sensor_enc1", "sensor_enc2")
 
 
 @functools.lru_cache(maxsize=None)
@@ -21,6 +26,11 @@ def plant_build() -> FmuBuild:
 @functools.lru_cache(maxsize=None)
 def vr_table() -> dict[str, int]:
     return {v.name: v.vr for v in plant_variables()}
+
+
+def vrs_of_type(kind: str) -> list[int]:
+    """Value references of every Real, Integer or Boolean variable."""
+    return [v.vr for v in plant_variables() if v.type == kind]
 
 
 def vrs(*names: str) -> list[int]:
@@ -72,13 +82,36 @@ class Plant:
     def state(self) -> np.ndarray:
         return self.get(*STATES)
 
-    def init(self, **values: float) -> None:
-        self.fmu.setupExperiment(startTime=0.0)
+    def set_int(self, **values: int) -> None:
+        self.fmu.setInteger(vrs(*values), [int(v) for v in values.values()])
+
+    def set_bool(self, **values: bool) -> None:
+        self.fmu.setBoolean(vrs(*values), [bool(v) for v in values.values()])
+
+    def get_int(self, *names: str) -> list[int]:
+        return list(self.fmu.getInteger(vrs(*names)))
+
+    def get_bool(self, *names: str) -> list[bool]:
+        return [bool(b) for b in self.fmu.getBoolean(vrs(*names))]
+
+    def snapshot(self) -> tuple[list[float], list[int], list[bool]]:
+        """Every Real, Integer and Boolean value."""
+        return (list(self.fmu.getReal(vrs_of_type("Real"))),
+                list(self.fmu.getInteger(vrs_of_type("Integer"))),
+                list(self.fmu.getBoolean(vrs_of_type("Boolean"))))
+
+    def init(self, start_time: float = 0.0, **values: float) -> None:
+        """Initialise: Reals by keyword; ``noise_on`` (bool) and ``seed`` (int) as such."""
+        self.fmu.setupExperiment(startTime=start_time)
         self.fmu.enterInitializationMode()
+        if "noise_on" in values:
+            self.set_bool(noise_on=values.pop("noise_on"))
+        if "seed" in values:
+            self.set_int(seed=values.pop("seed"))
         if values:
             self.set(**values)
         self.fmu.exitInitializationMode()
-        self.t = 0.0
+        self.t = start_time
         if self.kind == "me":
             self.fmu.enterContinuousTimeMode()
 

@@ -9,7 +9,16 @@ from ctypes import c_double, c_int, c_uint
 
 import numpy as np
 import pytest
-from _fmu_support import STATES, Plant, plant_build, python_rk4, vrs
+from _fmu_support import (
+    ALL_STATES,
+    NXW,
+    SENSORS,
+    STATES,
+    Plant,
+    plant_build,
+    python_rk4,
+    vrs,
+)
 from fmpy.fmi1 import FMICallException
 
 from ballbot_casadi import load_params
@@ -35,11 +44,15 @@ def _start(p: Plant, x=X_TILT, tau=TAU, **extra):
 
 def test_start_values_equal_values_after_initialisation():
     rows = [r for r in plant_variables() if r.start is not None]
+    assert {r.type for r in rows} == {"Real", "Integer", "Boolean"}
     for kind in ("cs", "me"):
         p = Plant(kind)
         p.init()
-        got = p.fmu.getReal([r.vr for r in rows])
-        assert got == [r.start for r in rows]
+        for t, get in (("Real", p.fmu.getReal), ("Integer", p.fmu.getInteger),
+                       ("Boolean", p.fmu.getBoolean)):
+            sel = [r for r in rows if r.type == t]
+            assert list(get([r.vr for r in sel])) == [r.start for r in sel], t
+        assert p.get_bool("noise_on") == [False] and p.get_int("seed", "sensor_sample") == [0, 0]
         assert p.logs == []  # quiet by default
         p.free()
 
@@ -107,11 +120,13 @@ def test_internal_step_parameter_sub_steps_rk4():
 
 
 def _run(p: Plant, n: int = 40):
+    """Steps with changing torques; every Real, Integer and Boolean value after each."""
     out = []
     for k in range(n):
         p.set(tau0=0.1 * np.sin(k / 5), tau1=-0.05, tau2=0.02 * k / n)
         p.step(0.005)
-        out.append(p.fmu.getReal(list(range(len(plant_variables())))))
+        r, i, b = p.snapshot()
+        out.append(r + i + b)
     return np.array(out)
 
 
@@ -141,7 +156,8 @@ def test_get_set_fmu_state_rolls_back_bit_exactly():
         if kind == "cs":
             a = _run(p, 20)
         else:
-            p.fmu.setContinuousStates((c_double * 12)(*(x0 + 0.01)), 12)
+            xw = p.get(*ALL_STATES) + 0.01
+            p.fmu.setContinuousStates((c_double * NXW)(*xw), NXW)
             p.fmu.setTime(1.0)
         p.fmu.setFMUstate(s)
         p.t = t0
@@ -212,13 +228,40 @@ def test_directional_derivatives_equal_analytic_jacobian_and_finite_differences(
                 x[j] += sgn * eps
             else:
                 u[j - 12] += sgn * eps
-            p.fmu.setContinuousStates((c_double * 12)(*x), 12)
+            p.fmu.setContinuousStates((c_double * NXW)(*x, 0.0, 0.0, 0.0), NXW)
             p.set(tau0=u[0], tau1=u[1], tau2=u[2])
             vals.append(np.array(p.fmu.getReal(outs)))
         fd[:, j] = (vals[0] - vals[1]) / (2 * eps)
     np.testing.assert_allclose(Jy, fd, rtol=1e-6, atol=1e-6)
     # states as outputs: identity
     assert p.fmu.getDirectionalDerivative(vrs("q1"), vrs("q1", "q2"), [2.0, 5.0]) == [2.0]
+    p.free()
+
+
+def test_directional_derivatives_of_the_wheel_angle_states(fns):
+    import casadi as ca
+
+    p = Plant("me")
+    _start(p)
+    xs = ca.SX.sym("x", 12)
+    W = np.asarray(ca.Function("W", [xs], [ca.jacobian(fns["wheel_speeds"](xs, PV), xs)])(X_TILT))
+    der_phi = vrs("der(phi0)", "der(phi1)", "der(phi2)")
+    known = vrs(*ALL_STATES, "tau0", "tau1", "tau2", "tau_dist0")
+    J = np.array([p.fmu.getDirectionalDerivative(der_phi, [k], [1.0]) for k in known]).T
+    # d dphi/dx is the inverse kinematics' Jacobian; nothing depends on phi or on torques
+    np.testing.assert_allclose(J, np.hstack([W, np.zeros((3, 7))]), rtol=0, atol=1e-12)
+    assert np.abs(W).max() > 1.0  # a non-trivial Jacobian
+    outs = vrs(*[f"der({n})" for n in ALL_STATES], "roll", "dphi0", "acc_x", "gyro_z", "enc1")
+    for phi in ("phi0", "phi1", "phi2"):
+        assert p.fmu.getDirectionalDerivative(outs, vrs(phi), [1.0]) == [0.0] * len(outs)
+    assert p.fmu.getDirectionalDerivative(vrs("phi2"), vrs("phi2"), [3.0]) == [3.0]
+    # discrete outputs, locals and parameters are no unknowns / knowns
+    for unknown, known_, text in ((SENSORS[0], "q1", "is not a derivative, state or continuous"),
+                                  ("sensor_gyro_bias_x", "q1", "is not a derivative"),
+                                  ("der(q1)", "Mb", "is not a state or a continuous input")):
+        st = p.raw("fmi2GetDirectionalDerivative", (c_uint * 1)(*vrs(unknown)), 1,
+                   (c_uint * 1)(*vrs(known_)), 1, (c_double * 1)(1.0), (c_double * 1)())
+        _expect_error(p, st, text)
     p.free()
 
 
@@ -354,7 +397,7 @@ def test_wrong_call_order_is_an_error():
     st = m.raw("fmi2DoStep", c_double(0.0), c_double(0.005), 1)
     _expect_error(m, st, "only available for Co-Simulation")
     st = m.raw("fmi2SetContinuousStates", (c_double * 11)(), 11)
-    _expect_error(m, st, "size 11, the model has 12")
+    _expect_error(m, st, "size 11, the model has 15")
     m.free()
 
 
@@ -415,6 +458,9 @@ def test_fuzz_1e5_random_api_calls_from_c():
         assert s["calls"] + s["null_instance"] >= 100000
         assert s["error"] > 10000 and s["ok"] > 10000 and s["steps_ok"] > 100, s
         assert s["bad_guid"] > 0 and s["init_ok"] > 100
+        # Integer and Boolean calls (seed, noise_on, sensor_sample; bad values too)
+        assert min(s["integer_ok"], s["boolean_ok"]) > 150, s
+        assert min(s["integer_error"], s["boolean_error"]) > 1000, s
 
 
 def test_logging_categories():

@@ -11,11 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _fmu_support import STATES, plant_build
+from _fmu_support import ALL_STATES, SENSORS, STATES, plant_build
 
 from ballbot_casadi import PARAM_NAMES, load_params
 from ballbot_casadi.cli import main as cli_main
 from ballbot_casadi.core.params import PARAM_INFO
+from ballbot_casadi.core.sensor_params import SENSOR_VECTOR_NAMES, load_sensor_params
 from ballbot_casadi.fmi.build import fmu_source_dir, plant_variables
 
 
@@ -42,11 +43,15 @@ def test_model_description_matches_the_table(plant):
     by_name = {v.name: v for v in md.modelVariables}
     rows = plant_variables()
     assert len(md.modelVariables) == len(rows)
+    conv = {"Real": float, "Integer": int, "Boolean": lambda s: {"true": True, "false": False}[s]}
     for row in rows:
         v = by_name[row.name]
-        assert v.valueReference == row.vr
+        assert v.valueReference == row.vr and v.type == row.type
+        assert (v.causality, v.variability) == (row.causality, row.variability)
         if row.start is not None:
-            assert float(v.start) == row.start
+            assert conv[row.type](v.start) == row.start
+        else:
+            assert v.start is None and v.initial == "calculated"
     params = load_params()
     for name in PARAM_NAMES:  # every parameter under its load_params name
         v = by_name[name]
@@ -55,24 +60,55 @@ def test_model_description_matches_the_table(plant):
         assert v.unit == unit and v.description == desc
         assert float(v.start) == getattr(params, name)
     assert by_name["h_internal"].causality == "parameter"
+    sensors = load_sensor_params().to_vector()
+    for j, name in enumerate(SENSOR_VECTOR_NAMES):  # sensor parameters under their names
+        v = by_name[name]
+        assert (v.causality, v.variability, v.type) == ("parameter", "fixed", "Real")
+        assert float(v.start) == sensors[j]
+    assert (by_name["Ts_sensor"].causality, float(by_name["Ts_sensor"].start)) == (
+        "parameter", 0.005)
+    assert (by_name["noise_on"].type, by_name["noise_on"].start) == ("Boolean", "false")
+    seed = by_name["seed"]
+    assert (seed.type, seed.start, seed.min, seed.max) == ("Integer", "0", "0", str(2**31 - 1))
     # states are outputs with settable start values, derivatives point at them
-    assert [s.variable.name for s in md.derivatives] == [f"der({n})" for n in STATES]
-    assert [d.variable.derivative.name for d in md.derivatives] == list(STATES)
-    assert all(by_name[n].initial == "exact" for n in STATES)
+    assert [s.variable.name for s in md.derivatives] == [f"der({n})" for n in ALL_STATES]
+    assert [d.variable.derivative.name for d in md.derivatives] == list(ALL_STATES)
+    assert all(by_name[n].initial == "exact" for n in ALL_STATES)
     outs = {u.variable.name for u in md.outputs}
-    assert set(STATES) <= outs
-    assert {"roll", "pitch", "yaw", "dphi0", "acc_z", "gyro_x", "enc2"} <= outs
+    assert set(ALL_STATES) <= outs
+    assert {"roll", "pitch", "yaw", "dphi0", "acc_z", "gyro_x", "enc2", *SENSORS} <= outs
+    # the robot's readings are discrete (sampled and held); their state is local
+    assert all(by_name[n].variability == "discrete" for n in SENSORS)
+    assert all(by_name[n].variability == "continuous" for n in ("acc_z", "enc0", "roll"))
+    locals_ = {v.name for v in md.modelVariables if v.causality == "local"
+               and v.variability == "discrete"}
+    assert locals_ == {"sensor_gyro_bias_x", "sensor_gyro_bias_y", "sensor_gyro_bias_z",
+                       "sensor_tau_prev0", "sensor_tau_prev1", "sensor_tau_prev2",
+                       "sensor_phi_prev0", "sensor_phi_prev1", "sensor_phi_prev2",
+                       "sensor_sample"}
+    assert by_name["sensor_sample"].type == "Integer"
+    unknowns = {u.variable.name for u in md.initialUnknowns}
+    assert set(SENSORS) <= unknowns and not unknowns & locals_
     assert [v.name for v in md.modelVariables if v.causality == "input"] == [
         "tau0", "tau1", "tau2", "tau_dist0", "tau_dist1", "tau_dist2"]
 
 
 def test_generated_header_uses_the_same_value_references(plant):
     text = (plant.unzipped / "sources" / "plant_vr.h").read_text()
-    defs = dict(re.findall(r"#define VR_(\w+) (\d+)", text))
-    for row in plant_variables():
+    defs = dict(re.findall(r"#define PLANT_VR_(\w+) (\d+)", text))
+    index = dict(re.findall(r"#define PLANT_IX_(\w+) (\d+)", text))
+    rows = plant_variables()
+    first = {t: min(v.vr for v in rows if v.type == t) for t in ("Real", "Integer", "Boolean")}
+    for row in rows:
         key = row.name.replace("(", "_").replace(")", "")
         assert int(defs[key]) == row.vr
+        assert int(index[key]) == row.vr - first[row.type]
+    assert len(defs) == len(index) == len(rows)
     assert f'#define PLANT_GUID "{plant.guid}"' in text
+    # the descriptor table of the shared layer lists every variable in VR order
+    table = (plant.unzipped / "sources" / "plant_vars.h").read_text()
+    names = re.findall(r'^    \{"([^"]+)", FMU_KIND_', table, re.M)
+    assert names == [v.name for v in rows]
 
 
 def test_binary_exports_only_fmi2_and_needs_only_libc_libm(plant):
@@ -96,7 +132,8 @@ def test_fmu_carries_sources_and_fmpy_compile_rebuilds_it(plant, tmp_path):
     with zipfile.ZipFile(plant.fmu) as zf:
         names = set(zf.namelist())
     for f in ("fmi2_common.c", "fmi2_common.h", "plant_model.c", "plant_vars.h", "plant_vr.h",
-              "ballbot_plant_cg.c", "ballbot_plant_cg.h"):
+              "fmu_model_info.h", "ballbot_plant_cg.c", "ballbot_plant_cg.h", "ballbot_rng.c",
+              "ballbot_rng.h"):
         assert f"sources/{f}" in names
     assert "binaries/linux64/BallbotPlant.so" in names
     if shutil.which("cmake") is None and not (Path(sys.executable).parent / "cmake").exists():
@@ -130,18 +167,12 @@ def test_sources_are_installed_package_data():
 
 
 def test_generation_is_deterministic(plant):
-    from ballbot_casadi.fmi.build import (
-        model_description_xml,
-        plant_functions,
-        vars_header,
-    )
+    from ballbot_casadi.fmi.package import generated_files
+    from ballbot_casadi.fmi.plant import plant_spec
 
-    rows = plant_variables()
-    a = model_description_xml(rows, plant.guid, ["a.c"])
-    b = model_description_xml(plant_variables(), plant.guid, ["a.c"])
+    a = generated_files(plant_spec(), plant.guid)
+    b = generated_files(plant_spec(), plant.guid)
     assert a == b
-    f = plant_functions()
-    assert vars_header(rows, plant.guid, f) == vars_header(rows, plant.guid, f)
     again = plant_build.__wrapped__()  # same content hash -> same cached archive
     assert again.digest == plant.digest
     assert again.fmu.read_bytes() == plant.fmu.read_bytes()

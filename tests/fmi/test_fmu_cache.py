@@ -82,7 +82,7 @@ def test_concurrent_builds_compile_once_and_both_succeed(fmu_out):
     assert codes == [0, 0]
     assert statuses == ["built", "cached"]  # the second waited for the first and reused it
     b = fb.build_fmu(out)
-    assert b.status == "cached" and fb._verify_cache(b.unzipped.parent) is None
+    assert b.status == "cached" and fb.verify_cache(b.unzipped.parent) is None
     assert _sha(b.fmu) == _sha(b.unzipped.parent / b.fmu.name)
     cache_root = out / "cache"
     assert [p.name for p in cache_root.iterdir() if not p.name.startswith(".")] == [b.digest]
@@ -113,9 +113,9 @@ def test_every_kind_of_damage_is_detected(fmu_out, tmp_path, what, how):
     target = {"archive": cache / b.fmu.name,
               "binary": cache / "unzipped" / fb.binary_member(),
               "xml": cache / "unzipped" / "modelDescription.xml"}[what]
-    assert fb._verify_cache(cache) is None
+    assert fb.verify_cache(cache) is None
     _damage(target, how)
-    assert fb._verify_cache(cache) is not None
+    assert fb.verify_cache(cache) is not None
 
 
 def test_deleted_cached_archive_with_its_folder_left_is_rebuilt(fmu_out):
@@ -124,7 +124,7 @@ def test_deleted_cached_archive_with_its_folder_left_is_rebuilt(fmu_out):
     (b.unzipped.parent / b.fmu.name).unlink()  # folder remains: once "Directory not empty"
     b2 = fb.build_fmu(out)
     assert b2.status.startswith("rebuilt:") and "missing" in b2.status
-    assert b2.digest == b.digest and fb._verify_cache(b2.unzipped.parent) is None
+    assert b2.digest == b.digest and fb.verify_cache(b2.unzipped.parent) is None
     fb.validate_fmu_archive(b2.fmu, _sha(b2.binary))
 
 
@@ -168,7 +168,14 @@ def test_validate_fmu_archive_checks_crc_members_and_binary_hash(fmu_out, tmp_pa
         fb.validate_fmu_archive(trunc)
     nobin = tmp_path / "nobin.fmu"
     with zipfile.ZipFile(nobin, "w") as zf:
-        zf.writestr("modelDescription.xml", "<fmiModelDescription/>")
-    with pytest.raises(BuildError, match="lacks binaries/"):
-        fb.validate_fmu_archive(nobin)
+        zf.writestr("modelDescription.xml",
+                    '<fmiModelDescription><CoSimulation modelIdentifier="Other"/>'
+                    '</fmiModelDescription>')
+    with pytest.raises(BuildError, match="lacks binaries/.*/Other.so"):
+        fb.validate_fmu_archive(nobin)  # the binary named by the archive's own XML
     fb.validate_fmu_archive(nobin, require_binary=False)
+    noid = tmp_path / "noid.fmu"
+    with zipfile.ZipFile(noid, "w") as zf:
+        zf.writestr("modelDescription.xml", "<fmiModelDescription/>")
+    with pytest.raises(BuildError, match="names no modelIdentifier"):
+        fb.validate_fmu_archive(noid)

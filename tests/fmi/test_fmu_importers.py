@@ -15,7 +15,7 @@ import subprocess
 import casadi as ca
 import numpy as np
 import pytest
-from _fmu_support import STATES, plant_build, python_rk4
+from _fmu_support import ALL_STATES, SENSORS, STATES, plant_build, python_rk4
 from scipy.integrate import solve_ivp
 
 from ballbot_casadi import load_params
@@ -68,13 +68,16 @@ def test_fmpy_model_exchange_cvode_matches_python(plant, reference):
     from fmpy import simulate_fmu
 
     t, X = reference
+    # The sensor sample instants are time events (every 5 ms): CVode restarts at each, so
+    # it needs a tighter tolerance than without them (1e-12: 9.5e-7, 1e-13: 1.2e-7).
     r = simulate_fmu(str(plant.fmu), fmi_type="ModelExchange", solver="CVode",
-                     relative_tolerance=1e-12, stop_time=T_END, output_interval=DT,
-                     start_values=dict(zip(STATES, X0.tolist())), output=list(STATES))
+                     relative_tolerance=1e-13, stop_time=T_END, output_interval=DT,
+                     start_values=dict(zip(STATES, X0.tolist())), output=list(STATES),
+                     record_events=False)
     Xm = np.column_stack([r[n] for n in STATES])
     np.testing.assert_allclose(r["time"], t, rtol=0, atol=1e-9)
     err = np.max(np.abs(Xm - X))
-    print(f"fmpy ME (CVode, rtol 1e-12) vs Python DOP853: max state error {err:.3e}")
+    print(f"fmpy ME (CVode, rtol 1e-13) vs Python DOP853: max state error {err:.3e}")
     assert err <= TOL
 
 
@@ -102,40 +105,64 @@ def test_libcosim_matches_fmpy(plant, fmpy_cs):
     ref = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
     for name, value in zip(STATES, X0):
         assert ex.real_initial_value(idx, ref[name], float(value))
+    assert ex.boolean_initial_value(idx, ref["noise_on"], True)  # Integer/Boolean values too
+    assert ex.integer_initial_value(idx, ref["seed"], 21)
     obs = CosimObserver.create_last_value()
     ex.add_observer(obs)
     vr = [ref[n] for n in STATES]
-    out = []
+    sensors = [ref[n] for n in SENSORS]
+    out, readings, samples = [], [], []
     for _ in range(N):
         assert ex.step()
         out.append(obs.last_real_values(idx, vr))
+        readings.append(obs.last_real_values(idx, sensors))
+        samples.append(obs.last_integer_values(idx, [ref["sensor_sample"]])[0])
     Xl = np.array(out)
     _, Xc = fmpy_cs
     err = np.max(np.abs(Xl - Xc[1:]))
     print(f"libcosim vs fmpy CS: max state difference {err:.3e}")
     np.testing.assert_allclose(Xl, Xc[1:], rtol=0, atol=1e-12)
+    # the sensor readings with noise (seed 21) equal those of an fmpy run, up to the state
+    # difference above amplified by the model (accelerations of the falling robot)
+    from fmpy import simulate_fmu
+
+    r = simulate_fmu(str(plant.fmu), fmi_type="CoSimulation", stop_time=T_END,
+                     output_interval=DT, output=[*SENSORS, "sensor_sample"],
+                     start_values={**dict(zip(STATES, X0.tolist())), "noise_on": True,
+                                   "seed": 21})
+    assert samples == r["sensor_sample"][1:].tolist() == list(range(1, N + 1))
+    np.testing.assert_allclose(np.array(readings), np.column_stack([r[n] for n in SENSORS])[1:],
+                               rtol=1e-10, atol=1e-10)
 
 
 def test_casadi_daebuilder_reproduces_ode_and_jacobian(plant):
     f = make_model_functions()
     dae = ca.DaeBuilder("plant", str(plant.unzipped), {})
-    assert dae.x() == list(STATES)
+    assert dae.x() == list(ALL_STATES)
     assert dae.u() == ["tau0", "tau1", "tau2", "tau_dist0", "tau_dist1", "tau_dist2"]
     assert dae.provides_directional_derivatives()
     fmu_ode = dae.create("fmu_ode", ["x", "u"], ["ode"])
     fmu_jac = fmu_ode.factory("fmu_jac", ["x", "u"], ["jac:ode:x", "jac:ode:u"])
+    xs = ca.SX.sym("x", 12)
+    W = ca.Function("W", [xs], [ca.jacobian(f["wheel_speeds"](xs, PV), xs)])
     rng = np.random.default_rng(11)
     for _ in range(3):
         x = make_state(roll=rng.normal() * 0.2, pitch=rng.normal() * 0.2, yaw=rng.normal(),
                        dx=rng.normal(), dy=rng.normal(), omega_body=rng.normal(size=3))
+        xw = np.r_[x, rng.normal(size=3) * 10]  # wheel angles: no influence on the dynamics
         u, d = rng.normal(size=3) * 0.5, rng.normal(size=3) * 0.5
         # the disturbance torque adds to the (unsaturated) motor torque
-        np.testing.assert_allclose(np.asarray(fmu_ode(x, np.r_[u, d])).ravel(),
-                                   np.asarray(f["ode"](x, u + d, PV)).ravel(), rtol=0, atol=1e-12)
-        A, B = (np.asarray(m) for m in fmu_jac(x, np.r_[u, d]))
+        np.testing.assert_allclose(np.asarray(fmu_ode(xw, np.r_[u, d])).ravel(),
+                                   np.r_[np.asarray(f["ode"](x, u + d, PV)).ravel(),
+                                         np.asarray(f["wheel_speeds"](x, PV)).ravel()],
+                                   rtol=0, atol=1e-12)
+        A, B = (np.asarray(m) for m in fmu_jac(xw, np.r_[u, d]))
         A0, B0 = (np.asarray(m) for m in f["jac"](x, u + d, PV))
-        np.testing.assert_allclose(A, A0, rtol=0, atol=1e-11)
-        np.testing.assert_allclose(B, np.hstack([B0, B0]), rtol=0, atol=1e-11)
+        np.testing.assert_allclose(A, np.block([[A0, np.zeros((12, 3))],
+                                                [np.asarray(W(x)), np.zeros((3, 3))]]),
+                                   rtol=0, atol=1e-11)
+        np.testing.assert_allclose(B, np.vstack([np.hstack([B0, B0]), np.zeros((3, 6))]),
+                                   rtol=0, atol=1e-11)
 
 
 def test_c_host_runs_the_binary_without_python(plant):

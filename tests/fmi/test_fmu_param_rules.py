@@ -1,9 +1,10 @@
-"""The FMU refuses exactly the parameter values that core.params refuses (boundaries too)."""
+"""The FMU refuses exactly the parameter values that core.params refuses (boundaries too);
+Integer parameters exactly outside their bounds, Booleans other than 0 and 1."""
 
 from __future__ import annotations
 
 import math
-from ctypes import c_double, c_uint
+from ctypes import c_double, c_int, c_uint
 
 import pytest
 from _fmu_support import Plant
@@ -26,7 +27,7 @@ def test_fmu_parameter_checks_equal_the_python_rules():
     p = Plant("cs", name="rules")
     checked = 0
     for v in plant_variables():
-        if v.kind != "parameter":
+        if v.kind != "parameter" or v.type != "Real":
             continue
         rule = PARAM_RULES[v.rule]
         for value in _probes(rule.lo, rule.hi):
@@ -38,4 +39,26 @@ def test_fmu_parameter_checks_equal_the_python_rules():
     assert checked > 100
     refused = [m for m in p.errors() if "'alpha'" in m]
     assert refused and "radians" in refused[-1]
+    p.free()
+
+
+def test_integer_and_boolean_parameters_are_range_checked():
+    p = Plant("cs", name="int_rules")
+    ints = [v for v in plant_variables() if v.kind == "parameter" and v.type == "Integer"]
+    bools = [v for v in plant_variables() if v.kind == "parameter" and v.type == "Boolean"]
+    assert [v.name for v in ints] == ["seed"] and [v.name for v in bools] == ["noise_on"]
+    for v in ints:
+        lo, hi = v.bounds
+        for value, ok in ((lo, True), (lo - 1, False), (hi, True), (7, True), (-2**31, False)):
+            st = p.raw("fmi2SetInteger", (c_uint * 1)(v.vr), 1, (c_int * 1)(value))
+            assert (st == 0) == ok, (v.name, value, p.errors()[-1:])
+            if not ok:
+                assert "an integer in [0, 2147483647]" in p.errors()[-1]
+    for v in bools:
+        for value, ok in ((0, True), (1, True), (2, False), (-1, False)):
+            st = p.raw("fmi2SetBoolean", (c_uint * 1)(v.vr), 1, (c_int * 1)(value))
+            assert (st == 0) == ok, (v.name, value)
+        assert "must be fmi2True (1) or fmi2False (0), got -1" in p.errors()[-1]
+    p.init()
+    assert p.get_int("seed") == [7] and p.get_bool("noise_on") == [True]
     p.free()

@@ -2,8 +2,9 @@
 
 The serialised layout (fmu/fmi2_common.c) is public, and so is its FNV-1a checksum, so
 a crafted state passes the checksum: the restore itself must validate the content.
-Layout: magic[8] | GUID hash u64 | n_reals u64 | type i32 | mode u32 | time f64 |
-t_start f64 | r[n_reals] f64 | FNV-1a-64 of everything before.
+Layout: magic[8] | GUID hash u64 | n_reals u64 | n_integers u64 | n_booleans u64 |
+type i32 | mode u32 | time f64 | t_start f64 | reals f64[] | integers i32[] |
+booleans i32[] | FNV-1a-64 of everything before.
 """
 
 from __future__ import annotations
@@ -13,14 +14,14 @@ from ctypes import c_double, c_uint
 
 import numpy as np
 import pytest
-from _fmu_support import STATES, Plant, vrs
+from _fmu_support import NXW, STATES, Plant, vr_table, vrs, vrs_of_type
 from fmpy.fmi1 import FMICallException
 
 from ballbot_casadi.model.numeric import make_state
 
 pytestmark = pytest.mark.needs_cc
 
-MODE_OFFSET, R_OFFSET = 28, 48
+MODE_OFFSET, R_OFFSET = 44, 64
 ST_EVENT, ST_STEP_COMPLETE, ST_STEP_FAILED = 1 << 2, 1 << 4, 1 << 5
 
 
@@ -36,13 +37,25 @@ def _reseal(body: bytes) -> bytes:
     return body + struct.pack("<Q", _fnv1a(body))
 
 
+def _offset(name: str) -> tuple[int, str]:
+    """Byte offset and struct format of a variable's value in a serialised state."""
+    vr = vr_table()[name]
+    reals, ints, bools = vrs_of_type("Real"), vrs_of_type("Integer"), vrs_of_type("Boolean")
+    if vr in reals:
+        return R_OFFSET + 8 * reals.index(vr), "<d"
+    base = R_OFFSET + 8 * len(reals)
+    if vr in ints:
+        return base + 4 * ints.index(vr), "<i"
+    return base + 4 * len(ints) + 4 * bools.index(vr), "<i"
+
+
 def _craft(blob: bytes, mode: int | None = None, **values: float) -> bytes:
     body = bytearray(blob[:-8])
     if mode is not None:
         body[MODE_OFFSET:MODE_OFFSET + 4] = struct.pack("<I", mode)
     for name, v in values.items():
-        off = R_OFFSET + 8 * vrs(name)[0]
-        body[off:off + 8] = struct.pack("<d", v)
+        off, fmt = _offset(name)
+        body[off:off + struct.calcsize(fmt)] = struct.pack(fmt, v)
     return _reseal(bytes(body))
 
 
@@ -57,6 +70,7 @@ def cs_blob():
     p.fmu.freeFMUstate(s)
     p.free()
     assert struct.unpack_from("<I", blob, MODE_OFFSET)[0] == ST_STEP_COMPLETE
+    assert struct.unpack_from("<i", blob, _offset("sensor_sample")[0])[0] == 4
     return blob
 
 
@@ -99,6 +113,11 @@ def test_crafted_mode_is_refused(cs_blob, mode, message):
     ({"q0": 0.0, "q1": 0.0, "q2": 0.0, "q3": 0.0}, "quaternion"),
     ({"Mb": -1.0}, "Mb"),
     ({"dq1": float("nan")}, "dq1"),
+    ({"sensor_acc_x": float("inf")}, "sensor_acc_x"),
+    ({"sensor_sample": -1}, "sensor_sample"),
+    ({"seed": -5}, "an integer in [0, 2147483647]"),
+    ({"noise_on": 2}, "must be fmi2True (1) or fmi2False (0)"),
+    ({"Ts_sensor": 0.0}, "Ts_sensor"),
 ])
 def test_crafted_values_are_refused_by_the_start_value_checks(cs_blob, values, message):
     q, ok = _restore(_craft(cs_blob, **values))
@@ -128,9 +147,9 @@ def _raw_get(p: Plant, names: list[str]) -> tuple[int, list[float]]:
 def test_get_real_keeps_failing_after_an_error_until_reset():
     p = Plant("me")
     p.init()
-    x = make_state().tolist()
+    x = make_state().tolist() + [0.0, 0.0, 0.0]
     x[STATES.index("dq1")] = 1e200  # the derivatives overflow
-    p.fmu.setContinuousStates((c_double * 12)(*x), 12)
+    p.fmu.setContinuousStates((c_double * NXW)(*x), NXW)
     st, _ = _raw_get(p, ["der(dq1)"])
     assert st == 3  # fmi2Error: the model evaluated to Inf/NaN
     assert "NaN or Inf" in p.errors()[-1]

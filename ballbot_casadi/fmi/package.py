@@ -1,0 +1,368 @@
+"""Build any FMU of the package from its :class:`~ballbot_casadi.fmi.spec.FmuSpec`.
+
+:func:`build_fmu_from_spec` generates ``modelDescription.xml``
+(:mod:`~ballbot_casadi.fmi.model_description`), the C headers
+(:mod:`~ballbot_casadi.fmi.cheaders`) and the CasADi C of the spec's Functions, and
+compiles them with the hand-written C in ``fmu/`` (the shared FMI 2.0 layer
+``fmi2_common.c`` and the spec's per-model file) and the spec's extra sources into
+``binaries/<platform>/<model_identifier>.so``, zipped with all sources (so
+``fmpy compile`` can rebuild the binary elsewhere).
+
+The binary exports only ``fmi2*`` symbols (``-fvisibility=hidden``; the FMI headers mark
+the API) and links only libc and libm.  Builds are cached under
+``<out>/cache/<hash>/`` keyed by the SHA-256 of every source, the compiler and its
+flags, with a ``MANIFEST.json`` (size and SHA-256 of every file) that is verified on every
+use: a damaged cache is rebuilt, and an archive is checked (zip CRCs, binary hash) before
+it is published.  The FMI 2.0 headers are the ones shipped with fmpy (``fmpy/c-code``).
+The GUID is a hash of everything that defines the binary's behaviour.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import shutil
+import tempfile
+import uuid
+import zipfile
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from xml.etree import ElementTree
+
+import fmpy
+
+from ballbot_casadi.core.files import check_manifest, sha256_file, write_manifest
+from ballbot_casadi.core.toolchain import (
+    MANIFEST,
+    build_lock,
+    build_root,
+    cached_file,
+    compiler_command,
+    generate_sources,
+    run_tool,
+)
+from ballbot_casadi.errors import BuildError
+from ballbot_casadi.fmi.cheaders import info_header, vars_header, vr_header
+from ballbot_casadi.fmi.model_description import model_description_xml
+from ballbot_casadi.fmi.spec import FmuSpec
+
+__all__ = [
+    "FmuBuild",
+    "CFLAGS",
+    "LDFLAGS",
+    "COMMON_SOURCES",
+    "build_fmu_from_spec",
+    "build_tool",
+    "fmi_headers_dir",
+    "fmu_source_dir",
+    "platform_dir",
+    "binary_member",
+    "validate_fmu_archive",
+    "verify_cache",
+    "generated_files",
+    "casadi_sources",
+]
+
+#: Hand-written C of the shared FMI layer (in ``fmu/``), part of every FMU.
+COMMON_SOURCES = ("fmi2_common.c", "fmi2_common.h")
+CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-fPIC",
+          "-fvisibility=hidden")
+LDFLAGS = ("-shared", "-static-libgcc", "-Wl,--no-undefined", "-Wl,--as-needed")
+
+
+@dataclass(frozen=True)
+class FmuBuild:
+    """Result of :func:`build_fmu_from_spec`."""
+
+    fmu: Path  #: the .fmu archive
+    unzipped: Path  #: directory with the unpacked FMU (modelDescription.xml, binaries, sources)
+    binary: Path  #: the shared library inside ``unzipped``
+    guid: str
+    digest: str
+    model_identifier: str
+    status: str = field(default="cached", compare=False)  #: cached, built or rebuilt: <why>
+
+
+def fmi_headers_dir() -> Path:
+    """Directory of the FMI 2.0 headers shipped with fmpy (``fmpy/c-code``)."""
+    d = Path(fmpy.__file__).resolve().parent / "c-code"
+    if not (d / "fmi2Functions.h").is_file():
+        raise BuildError(f"the FMI 2.0 headers are missing from the fmpy installation ({d})")
+    return d
+
+
+def fmu_source_dir() -> Path:
+    """Directory of the hand-written FMU C sources.
+
+    The installed package data ``ballbot_casadi.fmu_src`` if present, else ``fmu/`` of the
+    source checkout.
+    """
+    try:
+        d = Path(str(resources.files("ballbot_casadi.fmu_src")))
+        if (d / "fmi2_common.c").is_file():
+            return d
+    except (ModuleNotFoundError, TypeError):
+        pass
+    d = Path(__file__).resolve().parents[2] / "fmu"
+    if (d / "fmi2_common.c").is_file():
+        return d
+    raise BuildError("the FMU C sources (fmu/fmi2_common.c, ...) were not found; "
+                     "reinstall the package or run from the source checkout")
+
+
+def platform_dir() -> str:
+    """FMI 2.0 platform directory name of this machine (e.g. ``linux64``)."""
+    return fmpy.platform
+
+
+def binary_member(model_identifier: str) -> str:
+    """Archive path of an FMU binary, ``binaries/<platform>/<model_identifier>.so``."""
+    return f"binaries/{platform_dir()}/{model_identifier}.so"
+
+
+def _model_identifier(xml: bytes, path: Path) -> str:
+    try:
+        root = ElementTree.fromstring(xml)
+    except ElementTree.ParseError as exc:
+        raise BuildError(f"{path}: modelDescription.xml is not valid XML ({exc})") from None
+    for tag in ("CoSimulation", "ModelExchange"):
+        el = root.find(tag)
+        if el is not None and el.get("modelIdentifier"):
+            return el.get("modelIdentifier")
+    raise BuildError(f"{path}: modelDescription.xml names no modelIdentifier")
+
+
+def validate_fmu_archive(path: str | Path, binary_sha256: str | None = None,
+                         require_binary: bool = True) -> None:
+    """Check an FMU archive before it is published or used.
+
+    The zip must be readable with every member's CRC intact, hold
+    ``modelDescription.xml`` and (``require_binary``) the binary of this platform named
+    by the model identifier in that XML, and (when ``binary_sha256`` is given) the
+    binary must have that SHA-256.
+
+    Raises
+    ------
+    BuildError
+        Saying what is wrong with the archive.
+    """
+    path = Path(path)
+    try:
+        with zipfile.ZipFile(path) as zf:
+            bad = zf.testzip()
+            if bad is not None:
+                raise BuildError(f"{path} is corrupt: member {bad} fails its CRC check")
+            names = set(zf.namelist())
+            if "modelDescription.xml" not in names:
+                raise BuildError(f"{path} lacks modelDescription.xml")
+            if not require_binary and binary_sha256 is None:
+                return
+            member = binary_member(_model_identifier(zf.read("modelDescription.xml"), path))
+            if member not in names:
+                raise BuildError(f"{path} lacks {member}")
+            if binary_sha256 is not None:
+                if hashlib.sha256(zf.read(member)).hexdigest() != binary_sha256:
+                    raise BuildError(f"{path}: {member} differs from the built binary "
+                                     "(SHA-256 mismatch)")
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, OSError, ValueError) as exc:
+        raise BuildError(f"{path} is not a valid FMU archive ({exc})") from None
+
+
+def _write_zip(root: Path, target: Path) -> None:
+    """Deterministic zip of ``root`` (sorted names, fixed timestamps and modes)."""
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+        for path in sorted(p for p in root.rglob("*") if p.is_file()):
+            info = zipfile.ZipInfo(path.relative_to(root).as_posix(), (1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = (0o755 if path.suffix == ".so" else 0o644) << 16
+            zf.writestr(info, path.read_bytes())
+    os.replace(tmp, target)
+
+
+def verify_cache(cache: Path, model_identifier: str) -> str | None:
+    """``None`` if the cached build in ``cache`` matches its manifest (and the archive is
+    sound), else the reason it cannot be used."""
+    member = binary_member(model_identifier)
+    problem = check_manifest(cache, [f"{model_identifier}.fmu", f"unzipped/{member}",
+                                     "unzipped/modelDescription.xml"], MANIFEST)
+    if problem is not None:
+        return problem
+    try:
+        validate_fmu_archive(cache / f"{model_identifier}.fmu",
+                             sha256_file(cache / "unzipped" / member))
+    except BuildError as exc:
+        return str(exc)
+    return None
+
+
+def _build_into(tmp: Path, spec: FmuSpec, xml: str, files: dict[str, str], c_sources: list[str],
+                ccmd: list[str]) -> None:
+    """Write, compile and zip one FMU into the empty folder ``tmp``; manifest last."""
+    troot = tmp / "unzipped"
+    member = binary_member(spec.model_identifier)
+    (troot / "sources").mkdir(parents=True)
+    (troot / member).parent.mkdir(parents=True)
+    (troot / "modelDescription.xml").write_text(xml)
+    for name, text in files.items():
+        (troot / "sources" / name).write_text(text)
+    cmd = [*ccmd, *CFLAGS, "-I", str(troot / "sources"), "-I", str(fmi_headers_dir()),
+           *[str(troot / "sources" / s) for s in c_sources], *LDFLAGS, "-o",
+           str(troot / member), "-lm"]
+    run_tool(cmd, f"compiling {spec.model_identifier}")
+    fmu_name = f"{spec.model_identifier}.fmu"
+    _write_zip(troot, tmp / fmu_name)
+    names = sorted(p.relative_to(tmp).as_posix() for p in troot.rglob("*") if p.is_file())
+    write_manifest(tmp, [*names, fmu_name], MANIFEST)
+
+
+def _publish(cached: Path, final: Path) -> None:
+    """Copy the verified cached archive to ``final`` (atomically) unless it is already there."""
+    want = sha256_file(cached)
+    if final.is_file() and final.stat().st_size == cached.stat().st_size:
+        with contextlib.suppress(OSError):
+            if sha256_file(final) == want:
+                return
+    tmp = final.with_name(f".{final.name}.{os.getpid()}.tmp")
+    try:
+        shutil.copyfile(cached, tmp)
+        if sha256_file(tmp) != want:
+            raise BuildError(f"copying {cached} to {final} produced a different file")
+        validate_fmu_archive(tmp)
+        os.replace(tmp, final)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def casadi_sources(spec: FmuSpec) -> tuple[str, str]:
+    """The CasADi C source and header of the spec's Functions (``<cg_name>.c|.h``)."""
+    cg_c, cg_h = generate_sources(spec.cg_name, spec.functions)
+    # Keep the CasADi entry points out of the dynamic symbol table (-fvisibility=hidden).
+    return "#define CASADI_SYMBOL_EXPORT\n" + cg_c, cg_h
+
+
+def generated_files(spec: FmuSpec, guid: str, cg: tuple[str, str] | None = None
+                    ) -> tuple[str, dict[str, str], list[str]]:
+    """``(modelDescription.xml, {source name: text}, C files to compile)`` of ``spec``.
+
+    The sources are the shared layer, the per-model C file, the spec's extra sources,
+    the generated headers and the CasADi C ``cg`` (default :func:`casadi_sources`).
+    """
+    cg_c, cg_h = casadi_sources(spec) if cg is None else cg
+    src_dir = fmu_source_dir()
+    model = (Path(spec.model_source) if isinstance(spec.model_source, Path)
+             else src_dir / spec.model_source)
+    files = {name: (src_dir / name).read_text() for name in COMMON_SOURCES}
+    for path in (model, *spec.extra_sources):
+        if not Path(path).is_file():
+            raise BuildError(f"C source {path} of {spec.model_identifier} does not exist")
+    if model.name in files:
+        raise BuildError(f"the per-model C file {model} clashes with a shared-layer file")
+    files[model.name] = model.read_text()
+    for path in spec.extra_sources:
+        if path.name in files:
+            raise BuildError(f"extra source {path} clashes with a source of the same name")
+        files[path.name] = Path(path).read_text()
+    files.update({
+        f"{spec.prefix}_vr.h": vr_header(spec, guid),
+        f"{spec.prefix}_vars.h": vars_header(spec),
+        "fmu_model_info.h": info_header(spec),
+        f"{spec.cg_name}.c": cg_c,
+        f"{spec.cg_name}.h": cg_h,
+    })
+    c_sources = ["fmi2_common.c", model.name, f"{spec.cg_name}.c",
+                 *[p.name for p in spec.extra_sources if p.suffix == ".c"]]
+    return model_description_xml(spec, guid, c_sources), files, c_sources
+
+
+def build_fmu_from_spec(spec: FmuSpec, out: str | Path | None = None,
+                        cc: str | None = None) -> FmuBuild:
+    """Generate, compile and zip ``<model_identifier>.fmu`` (cached by content hash, verified).
+
+    The build lives in ``<out>/cache/<digest>/`` (the archive, the unpacked tree and a
+    ``MANIFEST.json`` with the size and SHA-256 of every file).  Every call verifies the
+    manifest and the archive (zip CRCs, binary hash) and rebuilds a damaged or partial
+    cache: a new build is made in a private folder and renamed into place as a whole
+    (the damaged folder is moved aside first), under a lock shared by concurrent
+    builders.  The archive is then published as ``<out>/<model_identifier>.fmu``
+    (copied, checked, renamed into place) unless an identical file is already there.
+
+    Parameters
+    ----------
+    spec
+        The FMU (:class:`~ballbot_casadi.fmi.spec.FmuSpec`).
+    out
+        Directory that receives the FMU (default ``<build>/fmu``).
+    cc
+        C compiler command, default ``$CC`` or ``gcc`` (``"ccache gcc"`` allowed).
+
+    Raises
+    ------
+    BuildError
+        Missing compiler, headers or sources, or a compile error.
+    """
+    out = Path(out) if out is not None else build_root() / "fmu"
+    ccmd = compiler_command(cc)
+    cg = casadi_sources(spec)
+    probe_xml, probe_files, _ = generated_files(spec, "{GUID}", cg)
+    seed = hashlib.sha256("\0".join(
+        [probe_xml, *[f"{k}\n{v}" for k, v in sorted(probe_files.items())]]).encode()).digest()
+    guid = "{" + str(uuid.UUID(bytes=seed[:16])) + "}"
+    xml, files, c_sources = generated_files(spec, guid, cg)
+    digest = hashlib.sha256(
+        "\0".join([xml, *[f"{k}\n{v}" for k, v in sorted(files.items())], *ccmd, *CFLAGS,
+                   *LDFLAGS, platform_dir()]).encode()
+    ).hexdigest()[:16]
+    cache_root = out / "cache"
+    cache = cache_root / digest
+    fmu_path = cache / f"{spec.model_identifier}.fmu"
+    unz = cache / "unzipped"
+    status = "cached"
+    problem = verify_cache(cache, spec.model_identifier)
+    if problem is not None:
+        with build_lock(cache_root / f".{digest}.lock"):
+            problem = verify_cache(cache, spec.model_identifier)  # maybe built meanwhile
+            if problem is not None:
+                status = f"rebuilt: {problem}" if cache.exists() else "built"
+                tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=cache_root))
+                try:
+                    _build_into(tmp, spec, xml, files, c_sources, ccmd)
+                    if cache.exists():  # damaged: move aside, then delete
+                        trash = Path(tempfile.mkdtemp(prefix=".trash-", dir=cache_root))
+                        os.replace(cache, trash / "old")
+                        shutil.rmtree(trash, ignore_errors=True)
+                    os.replace(tmp, cache)
+                finally:
+                    shutil.rmtree(tmp, ignore_errors=True)
+    out.mkdir(parents=True, exist_ok=True)
+    final = out / fmu_path.name
+    _publish(fmu_path, final)
+    return FmuBuild(final, unz, unz / binary_member(spec.model_identifier), guid, digest,
+                    spec.model_identifier, status)
+
+
+def build_tool(build: FmuBuild, name: str, cc: str | None = None) -> Path:
+    """Compile the C host program ``fmu/<name>.c`` against ``build``.
+
+    The program includes the generated headers of the FMU (``<prefix>_vr.h``, or the
+    neutral ``fmu_model_info.h``) and the fmpy FMI headers, and loads the FMU binary with
+    ``dlopen`` at run time; it is cached (verified, see
+    :func:`~ballbot_casadi.core.toolchain.cached_file`) next to the FMU build.
+    """
+    ccmd = compiler_command(cc)
+    src = fmu_source_dir() / f"{name}.c"
+    if not src.is_file():
+        raise BuildError(f"no C host program {src}")
+    text = src.read_text()
+    tag = hashlib.sha256("\0".join([text, *ccmd, *CFLAGS]).encode()).hexdigest()[:12]
+    exe = build.unzipped.parent / f"{name}-{tag}"
+
+    def make(tmp: Path) -> None:
+        run_tool([*ccmd, *CFLAGS, "-I", str(build.unzipped / "sources"), "-I",
+                  str(fmi_headers_dir()), "-o", str(tmp), str(src), "-ldl", "-lm"],
+                 f"compiling {name}.c")
+
+    return cached_file(exe, make)
