@@ -94,7 +94,7 @@ def _study_section(out: Path, name: str, title: str, keys: list[str]) -> list[st
     exceeded = m.get("limits_exceeded") or []
     if exceeded:
         lines += ["", "Thesis §7.1 limits exceeded (reported): " + ", ".join(f"`{k}`" for k in exceeded)]
-    plot = "chirp_bode.png" if name == "chirp" else "plot.png"
+    plot = {"chirp": "chirp_bode.png", "full": "estimates_velocity.png"}.get(name, "plot.png")
     lines += ["", f"![{name}](study_{name}/{plot})", ""]
     return lines
 
@@ -150,6 +150,11 @@ def write_report(out: Path, bench: Path | None = None) -> Path:
     lines += _study_section(out, "chirp", "Chirp bandwidth test (thesis §9.1)",
                             ["bandwidth_hz", "bandwidth_criterion", "first_saturation_hz",
                              "first_saturation_s", "fell_at_s", "linear_bandwidth_hz"])
+    lines += _study_section(out, "full", "The complete system: noisy sensors, QUKF + VUKF, thesis mode "
+                            "(thesis §9.3, §9.4)",
+                            ["tilt_error_max_deg", "heading_error_max_deg", "estimator_roll_rms_deg",
+                             "estimator_pitch_rms_deg", "estimator_velocity_rms_mps", "position_drift_m",
+                             "quat_norm_max_dev", "covariance_repairs"])
     lines += _montecarlo_section(out)
     lines += _fmu_section(out)
     lines += _bench_section(bench)

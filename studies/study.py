@@ -54,7 +54,7 @@ from ballbot_casadi.studies.registry import (
     rebase_on_params,
 )
 
-__all__ = ["run_study", "run_file", "run_all", "demo_sine", "demo_com", "demo_chirp", "CONTROLLERS",
+__all__ = ["run_study", "run_file", "run_all", "demo_sine", "demo_com", "demo_chirp", "demo_full", "CONTROLLERS",
            "OWNED_OUTPUTS", "format_summary", "plot_run", "jsonable"]
 
 CONTROLLERS = ("flc", "smc")
@@ -355,6 +355,11 @@ def demo_sine(out: Path) -> int:
 def demo_com(out: Path) -> int:
     """``make demo`` step: the COM-offset study (thesis §8.4.2, §9.2) into ``out/study_com``."""
     return _demo("com", out)
+
+
+def demo_full(out: Path) -> int:
+    """``make demo`` step: the complete system with noise and estimators (thesis §9.3, §9.4)."""
+    return _demo("full", out)
 
 
 def demo_chirp(out: Path) -> int:
