@@ -67,6 +67,8 @@ DEMO_STEPS: tuple[tuple[str, Callable[[Path], int]], ...] = (
 def _cmd_demo(args: argparse.Namespace) -> int:
     out = check_output_dir(args.out, "--out")
     out.mkdir(parents=True, exist_ok=True)
+    # the report is written last: a demo that stops midway leaves no stale report behind
+    (out / "report.md").unlink(missing_ok=True)
     status = 0
     for title, step in DEMO_STEPS:
         print(f"\n=== {title} ===", flush=True)

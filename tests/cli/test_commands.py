@@ -4,8 +4,8 @@ import json
 
 import numpy as np
 
-from ballbot_casadi.cli import main
 from ballbot_casadi import load_params
+from ballbot_casadi.cli import main
 from ballbot_casadi.model.linearization import model_summary
 
 
@@ -44,3 +44,18 @@ def test_bench_model_runs(tmp_path):
     assert res["ode_ns"] > 0 and res["jac_ns"] > 0 and res["python_call_ns"] > 0
     assert np.isfinite(res["python_over_c_ratio"])
     json.dumps(res)
+
+
+def test_demo_removes_the_previous_report_before_its_steps(tmp_path, monkeypatch):
+    from ballbot_casadi.cli import commands
+
+    (tmp_path / "report.md").write_text("old report\n")
+    seen = []
+
+    def failing_step(out):
+        seen.append((out / "report.md").exists())
+        raise RuntimeError("step broke")
+
+    monkeypatch.setattr(commands, "DEMO_STEPS", (("broken", failing_step),))
+    assert main(["demo", "--out", str(tmp_path)]) == 3
+    assert seen == [False] and not (tmp_path / "report.md").exists()
