@@ -20,6 +20,8 @@ import scipy.linalg as sla
 from ballbot_casadi import control as C
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import TS_CONTROL
+from ballbot_casadi.core.layout import REDUCED_STATE, REDUCED_TILT, STATE
+from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
 from ballbot_casadi.core.params import Params
 from ballbot_casadi.errors import ParameterError
 from ballbot_casadi.model.dynamics import NX, make_model_functions
@@ -149,40 +151,48 @@ def _analyze(params: Params, lin: LinearModel, funcs: dict[str, ca.Function], p:
     x0 = lin.op.x
     kb = np.asarray(C.default_balance_gains("flc"), dtype=float)
     z0 = np.asarray(C.velocity_initial_state(x0), dtype=float)
-    v0 = np.array([x0[6] + _VREF_EPS, x0[7], 0.0])
+    v0 = np.array([x0[STATE.index("dx")] + _VREF_EPS, x0[STATE.index("dy")], 0.0])
     nz = int(C.VELOCITY_NZ)
 
     # symbolic cascade around the operating point
     x, z, v = ca.MX.sym("x", NX), ca.MX.sym("z", nz), ca.MX.sym("v", 3)
     r = ca.MX.sym("r", 3)  # tilt-reference perturbation (vector part, {K} frame)
-    q0 = x0[2:6]
+    q0 = x0[STATE["q"]]
     q_ref = ca.mtimes(ca.DM(Q.Gamma(q0)), ca.vertcat(ca.sqrt(1 - ca.sumsqr(r)), r))
     zero4 = ca.DM.zeros(4)
     tau_in = cf["flc"](x, q_ref, zero4, zero4, p, kb)[0]
     qv, dqv, ddqv, z_next = cf["vel"](x, v, z, p, kv, Ts)
     tau_out = cf["flc"](x, qv, dqv, ddqv, p, kb)[0]
+    outs = ("ti", "Kx", "Kr", "to", "Lx", "Lz", "Lv", "zn", "Zx", "Zz", "Zv")
     J = ca.Function(
         "cl_jac", [x, z, v, r],
         [tau_in, ca.jacobian(tau_in, x), ca.jacobian(tau_in, r),
          tau_out, ca.jacobian(tau_out, x), ca.jacobian(tau_out, z), ca.jacobian(tau_out, v),
          z_next, ca.jacobian(z_next, x), ca.jacobian(z_next, z), ca.jacobian(z_next, v)],
+        ["x", "z", "v", "r"], list(outs),
     )
-    vals = [np.asarray(m, dtype=float) for m in J(x0, z0, v0, np.zeros(3))]
+
+    def jac_at(xx: np.ndarray, zz: np.ndarray, vv: Any) -> dict[str, np.ndarray]:
+        res = J(x=xx, z=zz, v=vv, r=np.zeros(3))
+        return {k: np.asarray(res[k], dtype=float) for k in outs}
+
+    vals = jac_at(x0, z0, v0)
     # integrator state that holds the operating point (COM offset, rolling): a = 0.  The
     # reference acceleration may start saturated, so the slope d(Ts a)/d p_e is taken at
     # the upright state at rest, where the controller is linear (fixed-point iteration).
     x_up = np.zeros(NX)
-    x_up[2:6] = Q.from_rpy(0.0, 0.0, float(Q.to_rpy(x0[2:6])[2]))
-    J_pe = np.asarray(J(x_up, C.velocity_initial_state(x_up), [_VREF_EPS, 0, 0], np.zeros(3))[9])[2:4, 4:6]
+    x_up[STATE["q"]] = Q.from_rpy(0.0, 0.0, float(Q.to_rpy(x0[STATE["q"]])[2]))
+    # d(tilt-reference rate) / d(position error): the tilt-reference rate must stay 0
+    J_pe = jac_at(x_up, C.velocity_initial_state(x_up), [_VREF_EPS, 0, 0])["Zz"][Z["dtheta_r"], Z["p_e"]]
     for _ in range(50):
-        step = vals[7].ravel()[2:4] - z0[2:4]
+        step = vals["zn"].ravel()[Z["dtheta_r"]] - z0[Z["dtheta_r"]]
         if np.max(np.abs(step)) < 1e-14 or not np.all(np.isfinite(J_pe)):
             break
         z0 = z0.copy()
-        z0[4:6] -= np.linalg.lstsq(J_pe, step, rcond=None)[0]
-        vals = [np.asarray(m, dtype=float) for m in J(x0, z0, v0, np.zeros(3))]
-    ti, Kx, Kr, to, Lx, Lz, Lv, zn, Zx, Zz, Zv = vals
-    if not all(np.all(np.isfinite(m)) for m in vals):
+        z0[Z["p_e"]] -= np.linalg.lstsq(J_pe, step, rcond=None)[0]
+        vals = jac_at(x0, z0, v0)
+    ti, Kx, Kr, to, Lx, Lz, Lv, zn, Zx, Zz, Zv = (vals[k] for k in outs)
+    if not all(np.all(np.isfinite(m)) for m in vals.values()):
         return {**none, "closed_loop": {"status": "failed",
                                         "message": "non-finite controller Jacobian"}}
     res = {"balance torque": float(np.max(np.abs(ti.ravel() - lin.op.tau))),
@@ -200,14 +210,14 @@ def _analyze(params: Params, lin: LinearModel, funcs: dict[str, ca.Function], p:
 
     # inner loop on the reduced state (the tangent space stays invariant)
     Ai = T.T @ (Phi + Gam @ Kx) @ T
-    Bi = T.T @ Gam @ Kr[:, :2]
+    Bi = T.T @ Gam @ Kr[:, :2]  # tilt-reference perturbation about {K} x and y
     Ci = np.zeros((2, NR))
-    Ci[0, 2] = Ci[1, 3] = 1.0
+    Ci[[0, 1], [REDUCED_TILT.start, REDUCED_TILT.start + 1]] = 1.0  # tilt about {K} x and y
     # outer loop: reduced plant state + controller state
     Ao = np.block([[T.T @ (Phi + Gam @ Lx) @ T, T.T @ Gam @ Lz], [Zx @ T, Zz]])
-    Bo = np.vstack([T.T @ Gam @ Lv[:, :2], Zv[:, :2]])
+    Bo = np.vstack([T.T @ Gam @ Lv[:, :2], Zv[:, :2]])  # velocity reference vx, vy
     Co = np.zeros((2, NR + nz))
-    Co[0, 5] = Co[1, 6] = 1.0
+    Co[[0, 1], [REDUCED_STATE.index("dx"), REDUCED_STATE.index("dy")]] = 1.0  # ball velocity
 
     out: dict[str, Any] = {"status": "ok", "Ts": Ts}
     bw: dict[str, float | None] = {}
