@@ -6,7 +6,8 @@
  *    one table (`call_rules` below: FMI 2.0 sections 3.2.3 and 4.2.4); a call in the
  *    wrong state returns fmi2Error with a message and leaves the instance unchanged.
  *    Which variable kind may be set in which state is a second table (`set_rules`).
- *  - Invalid arguments (unknown value reference, variable not settable now, NaN/Inf,
+ *  - Invalid arguments (unknown value reference, variable not settable now, NaN/Inf
+ *    (NaN is accepted by Real inputs declared nan_missing: "no value"),
  *    value outside the variable's range, Boolean other than 0/1, NULL pointers, bad
  *    sizes) return fmi2Error with a message and change nothing: setters validate all
  *    values before storing any.
@@ -55,6 +56,7 @@ struct fmu_instance {
     double time;
     double t_start;
     int dirty;             /* derivatives/continuous outputs must be re-evaluated */
+    int init_dirty;        /* initialization mode: held outputs must be re-computed */
     fmu_values v;          /* all values (one block) */
     fmu_values backup;     /* values at the start of a co-simulation step */
     double *jac;           /* Jacobian buffer (models with directional derivatives) */
@@ -315,6 +317,7 @@ static int vrs_ok(fmu_instance *inst, const char *fn, fmu_vtype t, const fmi2Val
 
 /* Is v an allowed stored value of variable d of type t?  1, or 0 with a reason in msg. */
 static int value_ok(fmu_vtype t, const fmu_var *d, double v, char *msg, size_t len) {
+    if (t == FMU_REAL && isnan(v) && d->nan_missing) return 1; /* "no value" */
     if (t == FMU_REAL && !isfinite(v)) {
         snprintf(msg, len, "must be finite, got %g", v);
         return 0;
@@ -375,6 +378,24 @@ static void copy_values(fmu_values *dst, const fmu_values *src) {
     memcpy(dst->r, src->r, values_bytes()); /* one contiguous block */
 }
 
+/* Initialization mode: the held outputs (and the model's discrete states) computed by the
+ * model's initialize callback from the values set so far, so that an importer reading
+ * the initial unknowns before fmi2ExitInitializationMode gets them (FMI 2.0 section
+ * 3.2.3).  If the values are not consistent yet (check_initial) or initialize fails, the
+ * stored values are kept and nothing is logged: fmi2ExitInitializationMode reports it. */
+static void preview_initial(fmu_instance *inst) {
+    fmi2Status st;
+    if (!inst->init_dirty || fmu_model.initialize == NULL) return;
+    inst->msg[0] = '\0';
+    if (fmu_model.check_initial != NULL &&
+        fmu_model.check_initial(&inst->v, 0, inst->msg, sizeof inst->msg) != 0)
+        return;
+    copy_values(&inst->backup, &inst->v);
+    st = fmu_model.initialize(inst, &inst->v, inst->time, inst->msg, sizeof inst->msg);
+    if (st != fmi2OK && st != fmi2Warning) copy_values(&inst->v, &inst->backup);
+    inst->init_dirty = 0;
+}
+
 static void load_start(fmu_instance *inst) {
     size_t k;
     const fmu_variables *V = fmu_model.vars;
@@ -385,7 +406,7 @@ static void load_start(fmu_instance *inst) {
         inst->v.b[k] = V->var[FMU_BOOLEAN][k].start != 0.0 ? fmi2True : fmi2False;
     inst->time = 0.0;
     inst->t_start = 0.0;
-    inst->dirty = 1;
+    inst->dirty = inst->init_dirty = 1;
 }
 
 /* ------------------------------------------------------------------ common API */
@@ -547,7 +568,7 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     fmu_instance *inst = enter(c, CALL_ENTER_INIT);
     if (inst == NULL) return fmi2Error;
     inst->state = FMU_ST_INIT;
-    inst->dirty = 1;
+    inst->dirty = inst->init_dirty = 1;
     return fmi2OK;
 }
 
@@ -562,13 +583,13 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
         LOG_ERR(inst, "%s: %s", fn, inst->msg);
         return fmi2Error;
     }
-    inst->dirty = 1;
+    inst->dirty = inst->init_dirty = 1;
     if (refresh(inst, fn) != fmi2OK) return fmi2Error; /* error state */
     if (fmu_model.initialize != NULL) { /* refused: stay in initialisation mode */
         st = fmu_model.initialize(inst, &inst->v, inst->time, inst->msg, sizeof inst->msg);
         log_model(inst, st, fn);
         if (st != fmi2OK && st != fmi2Warning) return fmi2Error;
-        inst->dirty = 1;
+        inst->dirty = inst->init_dirty = 1;
     }
     inst->state = inst->type == fmi2ModelExchange ? FMU_ST_EVENT : FMU_ST_STEP_COMPLETE;
     return st;
@@ -607,6 +628,7 @@ static fmi2Status get_values(fmi2Component c, fmu_call call, fmu_vtype t,
         for (i = 0; i < nvr && !need_eval; ++i)
             need_eval = evaluated(lookup(t, vr[i], &ix)->kind);
     if (need_eval && refresh(inst, fn) != fmi2OK) return fmi2Error;
+    if (inst->state == FMU_ST_INIT) preview_initial(inst);
     for (i = 0; i < nvr; ++i) {
         lookup(t, vr[i], &ix);
         if (t == FMU_REAL)
@@ -664,7 +686,7 @@ static fmi2Status set_values(fmi2Component c, fmu_call call, fmu_vtype t,
         else
             inst->v.b[ix] = ((const fmi2Boolean *)value)[i];
     }
-    if (nvr > 0) inst->dirty = 1;
+    if (nvr > 0) inst->dirty = inst->init_dirty = 1;
     return fmi2OK;
 }
 
@@ -834,7 +856,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     inst->t_start = s->t_start;
     v = snapshot_values(s);
     copy_values(&inst->v, &v);
-    inst->dirty = 1;
+    inst->dirty = inst->init_dirty = 1;
     return fmi2OK;
 }
 
@@ -1134,7 +1156,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
         inst->msg[0] = '\0';
         st = fmu_model.event_update(inst, &inst->v, inst->time, eventInfo, inst->msg,
                                     sizeof inst->msg);
-        inst->dirty = 1;
+        inst->dirty = inst->init_dirty = 1;
         log_model(inst, st, fn);
         if (st != fmi2OK && st != fmi2Warning) {
             inst->state = FMU_ST_ERROR;
@@ -1205,7 +1227,7 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n
         }
     }
     for (i = 0; i < nx; ++i) inst->v.r[V->state[i]] = x[i];
-    inst->dirty = 1;
+    inst->dirty = inst->init_dirty = 1;
     return fmi2OK;
 }
 
@@ -1308,7 +1330,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
     inst->msg[0] = '\0';
     st = fmu_model.do_step(inst, &inst->v, currentCommunicationPoint, communicationStepSize,
                            inst->msg, sizeof inst->msg);
-    inst->dirty = 1;
+    inst->dirty = inst->init_dirty = 1;
     if (st == fmi2OK || st == fmi2Warning) {
         log_model(inst, st, fn);
         inst->time = currentCommunicationPoint + communicationStepSize;

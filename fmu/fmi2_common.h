@@ -81,6 +81,8 @@ typedef struct {
     double min, max;      /* allowed range of a stored value (+-HUGE_VAL: none) */
     unsigned char min_open, max_open; /* strict bounds */
     const char *rule;     /* text of the range, for messages (NULL: only finiteness) */
+    unsigned char nan_missing; /* Real inputs: NaN is accepted and means "no value" (a
+                                * missing sensor reading); Inf is still refused */
 } fmu_var;
 
 /* The variable table of a model (generated). */

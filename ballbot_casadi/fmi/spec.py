@@ -84,7 +84,9 @@ class FmuVar:
 
     ``rule`` (Real parameters) is a key of
     :data:`~ballbot_casadi.core.params.PARAM_RULES`; ``bounds`` is a closed range
-    ``(lo, hi)`` (Integer variables; default the 32-bit range).  ``derivative_of`` is the
+    ``(lo, hi)`` (Integer variables; default the 32-bit range).  ``missing`` (Real inputs)
+    makes NaN an accepted value meaning "no value" (a missing sensor reading); Inf is
+    still refused.  ``derivative_of`` is the
     VR of the state of a derivative.  ``index`` is set by :class:`VarTable`: a state's
     number, a derivative's state number, the Jacobian row of a continuous output or the
     column of a continuous input among its kind, else the position among its kind and
@@ -102,6 +104,7 @@ class FmuVar:
     type: str = "Real"
     bounds: tuple[float, float] | None = None
     index: int = 0
+    missing: bool = False
 
     @property
     def variability(self) -> str:
@@ -177,11 +180,11 @@ class VarTable:
     def add(self, name: str, kind: str, description: str, *, type: str = "Real",
             start: float | int | bool | None = None, unit: str | None = None,
             rule: str | None = None, bounds: tuple[float, float] | None = None,
-            derivative_of: str | None = None) -> None:
+            derivative_of: str | None = None, missing: bool = False) -> None:
         """Append one variable (see :class:`FmuVar`; ``derivative_of`` is a state's name)."""
         self._rows.append(dict(name=name, kind=kind, description=description, type=type,
                                start=start, unit=unit, rule=rule, bounds=bounds,
-                               derivative_of=derivative_of))
+                               derivative_of=derivative_of, missing=missing))
 
     def rows(self) -> tuple[FmuVar, ...]:
         """The table ordered by value reference (Reals, Integers, Booleans).
@@ -223,7 +226,8 @@ class VarTable:
                     raise BuildError(f"{r['name']!r}: add the state before its derivative")
             v = FmuVar(name=r["name"], vr=vr, kind=r["kind"], start=r["start"], unit=r["unit"],
                        description=r["description"], rule=r["rule"], derivative_of=der,
-                       type=r["type"], bounds=r["bounds"], index=index)
+                       type=r["type"], bounds=r["bounds"], index=index,
+                       missing=bool(r["missing"]))
             _check_var(v)
             out.append(v)
         ders = sorted(v.derivative_of for v in out if v.kind == "derivative")
@@ -239,6 +243,8 @@ def _check_var(v: FmuVar) -> None:
         raise BuildError(f"{v.name!r}: rule {v.rule!r} must be a PARAM_RULES key of a Real")
     if v.bounds is not None and v.type != "Integer":
         raise BuildError(f"{v.name!r}: bounds are for Integer variables")
+    if v.missing and (v.type != "Real" or v.kind not in ("input", "discrete_input")):
+        raise BuildError(f"{v.name!r}: only Real inputs may accept NaN as a missing value")
     if (v.start is None) == (v.kind in _WITH_START):
         need = "needs" if v.kind in _WITH_START else "must not have"
         raise BuildError(f"{v.name!r}: a variable of kind {v.kind!r} {need} a start value")
