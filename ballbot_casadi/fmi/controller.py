@@ -1,0 +1,468 @@
+"""The robot's embedded software as an FMU: ``BallbotController.fmu`` (FMI 2.0 Co-Simulation).
+
+The FMU runs the embedded software's period, the CasADi Function
+``ballbot_embedded_<ctrl>_<est>`` of :func:`~ballbot_casadi.sim.embedded.make_embedded_step`
+(attitude and velocity filters, velocity controller, balance controller, torque limit),
+taken from the Functions the compiled mission exports
+(:func:`~ballbot_casadi.sim.closed_loop.closed_loop_functions`): the FMU's C and the
+mission's C are generated from the same Function, so there is one implementation.  The
+per-model C file is ``fmu/controller_model.c``; the FMI layer is the plant's
+(``fmu/fmi2_common.c``), the table below generates ``modelDescription.xml`` and the C
+headers.
+
+Variants: :func:`controller_spec` builds any balance controller with any estimator;
+``("flc", "ukf")`` (the thesis's system: QUKF + VUKF, FLC) is ``BallbotController``, the
+others are separate FMUs ``BallbotController_<ctrl>_<est>`` (e.g. the predecessor's SMC
+with the EKFs, ``BallbotController_smc_ekf``) built from the same table and C file: the
+filters' state and covariance sizes differ, so a run-time switch would need both
+layouts in one FMU for no gain.
+
+Timing (thesis §7.1, 200 Hz).  Period ``k`` runs at ``t_k = startTime + k Ts``.  At a
+communication point ``t_k`` the inputs (readings, references, mode) are latched;
+``fmi2DoStep(t_k, n Ts)`` runs the ``n`` periods ``k .. k+n-1``: the first on the
+latched readings, the others predict only (their readings are missing: a held reading
+is not a new sample), all with the latched references.  The outputs after the step are
+those of the last period; the wheel torques ``tau0..2`` are the command the embedded
+software sends at the end of its period.  A communication step that is not a whole
+number of periods (within ``STEP_TOL Ts``) is refused (``fmi2Error``, logged, nothing
+changed).  The encoder reading of period 0 is missing (there is no previous count to
+difference), as in the compiled mission.  A NaN reading (Real inputs accept NaN as
+"missing") makes its filter predict only for that sensor; the torque stays finite.
+
+What this means for a master: stepping the controller first and the plant after it at
+each ``t_k`` (Gauss-Seidel) gives the loop of the compiled mission exactly (torque of
+period ``k`` computed from sample ``k`` and acting on ``[t_k, t_k+1)``); a master that
+steps both at once and exchanges values afterwards (Jacobi, libcosim's fixed-step
+algorithm, fmpy's containers) applies it one period later, on ``[t_k+1, t_k+2)``
+(:mod:`ballbot_casadi.fmi.sil`).
+
+Variable names (see :func:`controller_variables`):
+
+* inputs: the readings as the plant FMU outputs them (``sensor_acc_x .. sensor_enc2``,
+  NaN = missing), the attitude reference of the balance-only mode ``q_ref0..3``,
+  ``dq_ref0..3``, ``ddq_ref0..3``, the velocity reference ``v_ref_x, v_ref_y`` and the
+  heading-rate reference ``yaw_rate_ref``, and the Boolean ``balance_only`` (the
+  attitude reference drives the balance controller alone, thesis Fig. 8.1; otherwise
+  the velocity cascade, Fig. 7.1);
+* outputs: ``tau0..2`` (limited command), ``tau_cmd0..2``, the estimate ``pos_hat_x/y,
+  q_hat0..3, v_hat_x/y, dq_hat0..3``, ``roll_hat, pitch_hat, yaw_hat``, the body rate
+  ``omega_hat_x/y/z``, the references used, ``diag_<name>``, ``nis_attitude``,
+  ``nis_velocity``, ``repairs`` (and ``com_hat_x/y`` with the COM observer);
+* parameters: ``Ts``; the controllers' internal model ``ctrl_<name>`` and the filters'
+  internal model ``est_<name>`` under the :data:`~ballbot_casadi.core.params.PARAM_NAMES`
+  of ``load_params`` (both exist, hence the prefixes); the gains ``k_bal_<gain name>``
+  and ``k_vel_K_<row>_<col>`` / ``k_vel_<limit name>``; ``feedforward``; the filter
+  covariances ``Qa_<r>_<c>``, ``Ra_..``, ``Qv_..``, ``Rv_..``; the embedded software's
+  state at power-on ``c0_<field>_<i>`` (:func:`controller_state_layout`; the filters
+  aligned with the initial state as after the start-up calibration at rest); with the
+  COM observer ``com_observer`` and ``k_obs_<gain name>``;
+* locals: the embedded software's state ``c_<field>_<i>`` and the period counter
+  ``period`` (so FMU states, serialisation and reset need no model code).
+
+:func:`controller_values` gives every parameter's value for a
+:class:`~ballbot_casadi.sim.scenarios.Scenario` (the start values are those of a default
+scenario); the SSP writes them into its parameter set.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import casadi as ca
+import numpy as np
+
+from ballbot_casadi.control import BALANCE_DIAG_NAMES, BALANCE_GAIN_NAMES
+from ballbot_casadi.control.velocity import (
+    VELOCITY_LIMIT_NAMES,
+    VELOCITY_NKV,
+    VELOCITY_NZ,
+)
+from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
+from ballbot_casadi.core.layout import Layout
+from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
+from ballbot_casadi.core.validation import QUAT_TOL
+from ballbot_casadi.errors import BuildError, ScenarioError
+from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.spec import INT32_MAX, FmuSpec, FmuVar, VarTable, block_start
+from ballbot_casadi.sim.closed_loop import closed_loop_functions
+from ballbot_casadi.sim.embedded import (
+    EMBEDDED_INPUTS,
+    EMBEDDED_OUTPUTS,
+    controller_layout,
+)
+from ballbot_casadi.sim.scenarios import Scenario
+
+try:  # the embedded software's optional COM observer (estimation.com_observer)
+    from ballbot_casadi.estimation.com_observer import (
+        COM_OBSERVER_GAIN_NAMES,
+        com_observer_initial_state,
+    )
+except ImportError:  # pragma: no cover - a tree without the observer has no such input
+    COM_OBSERVER_GAIN_NAMES, com_observer_initial_state = (), None
+
+__all__ = [
+    "MODEL_IDENTIFIER",
+    "STEP_TOL",
+    "MAX_PERIODS",
+    "READING_NAMES",
+    "REFERENCE_NAMES",
+    "XHAT_NAMES",
+    "model_identifier",
+    "embedded_function",
+    "controller_state_layout",
+    "initial_controller_state",
+    "controller_variables",
+    "controller_values",
+    "controller_spec",
+    "default_scenario",
+]
+
+MODEL_IDENTIFIER = "BallbotController"
+#: A communication step within STEP_TOL * Ts of n * Ts runs n periods.
+STEP_TOL = 1e-6
+#: Largest number of periods one fmi2DoStep may run.
+MAX_PERIODS = 1_000_000
+#: Quaternion norm tolerance of a restored FMU state (far above rounding, far below damage).
+QUAT_TOL_RESTORED = 1e-3
+#: The readings (inputs), named as the plant FMU's outputs: acc (3), gyro (3), enc (3).
+READING_NAMES = SENSOR_OUTPUT_NAMES
+#: Reference inputs in the order the per-model C reads them: q_ref, dq_ref, ddq_ref (4
+#: each, balance-only mode), then the velocity reference and the heading-rate reference.
+REFERENCE_NAMES = (*(f"q_ref{i}" for i in range(4)), *(f"dq_ref{i}" for i in range(4)),
+                   *(f"ddq_ref{i}" for i in range(4)), "v_ref_x", "v_ref_y", "yaw_rate_ref")
+#: The estimate x_hat the controllers read (output block, the order of the Function's output).
+XHAT_NAMES = ("pos_hat_x", "pos_hat_y", "q_hat0", "q_hat1", "q_hat2", "q_hat3", "v_hat_x",
+              "v_hat_y", "dq_hat0", "dq_hat1", "dq_hat2", "dq_hat3")
+_XHAT_UNITS = ("m", "m", "1", "1", "1", "1", "m/s", "m/s", "1/s", "1/s", "1/s", "1/s")
+_OBSERVER_INPUTS = ("com_observer", "k_obs")
+_OBSERVER_OUTPUTS = ("com_hat",)
+_READING_DESC = {
+    "acc": ("m/s2", "accelerometer reading along IMU axis {c} (the plant FMU's output of that "
+                    "name); NaN = missing (the filters predict only)"),
+    "gyro": ("rad/s", "gyroscope reading about IMU axis {c} (the plant FMU's output of that "
+                      "name); NaN = missing (the attitude filter predicts only)"),
+    "enc": ("1/s", "wheel {c} encoder reading in ticks per second (the plant FMU's output of "
+                   "that name); NaN = missing (the velocity filter predicts only); the reading "
+                   "of period 0 is always taken as missing"),
+}
+
+
+def model_identifier(controller: str, estimator: str) -> str:
+    """``BallbotController`` for the thesis's ``("flc", "ukf")``, else
+    ``BallbotController_<controller>_<estimator>``."""
+    if (controller, estimator) == ("flc", "ukf"):
+        return MODEL_IDENTIFIER
+    return f"{MODEL_IDENTIFIER}_{controller}_{estimator}"
+
+
+def embedded_function(controller: str = "flc", estimator: str = "ukf") -> ca.Function:
+    """The embedded software's period ``ballbot_embedded_<controller>_<estimator>``, as the
+    compiled mission exports it (:func:`~ballbot_casadi.sim.closed_loop.closed_loop_functions`).
+
+    Raises
+    ------
+    ScenarioError
+        Unknown controller or estimator (the message lists the allowed ones).
+    BuildError
+        The Function's inputs or outputs are not the ones the per-model C reads.
+    """
+    if estimator == "true":
+        raise ScenarioError("the controller FMU needs an estimator ('ukf' or 'ekf'); the true "
+                            "state is not available to the embedded software")
+    _, exported = closed_loop_functions(N_SUB, estimator)
+    name = f"ballbot_embedded_{controller}_{estimator}"
+    found = [f for f in exported if f.name() == name]
+    if not found:
+        allowed = sorted(f.name().removeprefix("ballbot_embedded_").rsplit("_", 1)[0]
+                         for f in exported if f.name().startswith("ballbot_embedded_"))
+        raise ScenarioError(f"unknown controller {controller!r}; allowed: {', '.join(allowed)}")
+    f = found[0]
+    ins, outs = tuple(f.name_in()), tuple(f.name_out())
+    if ins not in (EMBEDDED_INPUTS, (*EMBEDDED_INPUTS, *_OBSERVER_INPUTS)) or outs not in (
+            EMBEDDED_OUTPUTS, (*EMBEDDED_OUTPUTS, *_OBSERVER_OUTPUTS)):
+        raise BuildError(f"{name} has inputs {ins} and outputs {outs}; the controller FMU reads "
+                         f"{EMBEDDED_INPUTS} (+ {_OBSERVER_INPUTS}) -> {EMBEDDED_OUTPUTS} "
+                         f"(+ {_OBSERVER_OUTPUTS})")
+    return f
+
+
+def _has_observer(embedded: ca.Function) -> bool:
+    return _OBSERVER_INPUTS[0] in embedded.name_in()
+
+
+def controller_state_layout(embedded: ca.Function, estimator: str) -> Layout:
+    """Layout of the embedded software's state ``c``
+    (:func:`~ballbot_casadi.sim.embedded.controller_layout`, with the COM observer's state
+    ``obs`` last when the Function has one)."""
+    base = controller_layout(estimator, VELOCITY_NZ)
+    n_obs = embedded.size1_in(0) - base.size
+    fields = [(f, base[f].stop - base[f].start) for f in base.fields]
+    if n_obs < 0 or (n_obs > 0) != _has_observer(embedded):
+        raise BuildError(f"{embedded.name()}: state of {embedded.size1_in(0)} entries does not "
+                         f"match the layout {base}")
+    return Layout("controller state c", fields + ([("obs", n_obs)] if n_obs else []))
+
+
+def default_scenario(controller: str = "flc", estimator: str = "ukf") -> Scenario:
+    """The scenario whose values are the FMU's start values: the robot upright at rest,
+    the velocity cascade on, the package's default gains and the thesis's filter tuning."""
+    return Scenario(name="controller_fmu_default", controller=controller, estimator=estimator,
+                    cascade=True, duration=TS_CONTROL)
+
+
+def _element_names(field: str, n: int) -> list[str]:
+    return [f"{field}_{i}" for i in range(n)]
+
+
+def _matrix_names(name: str, n: int) -> list[str]:
+    """Names of an n x n matrix's entries in column-major order (how the Function reads it)."""
+    return [f"{name}_{r}_{c}" for c in range(n) for r in range(n)]
+
+
+def _kvel_names() -> list[str]:
+    """``k_vel``: the 2 x n LQR gain row by row (``K_<row>_<col>``), then the limits."""
+    n_lqr = (VELOCITY_NKV - len(VELOCITY_LIMIT_NAMES)) // 2
+    return ([f"k_vel_K_{r}_{c}" for r in range(2) for c in range(n_lqr)]
+            + [f"k_vel_{n}" for n in VELOCITY_LIMIT_NAMES])
+
+
+def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
+                      ) -> list[tuple[str, list[str]]]:
+    """``(Function input, [FMU parameter names])`` of every vector parameter, in the
+    Function's element order."""
+    nv = int(round(np.sqrt(embedded.size1_in(EMBEDDED_INPUTS.index("Qv")))))
+    groups = [
+        ("p_ctrl", [f"ctrl_{n}" for n in PARAM_NAMES]),
+        ("p_est", [f"est_{n}" for n in PARAM_NAMES]),
+        ("k_bal", [f"k_bal_{n}" for n in BALANCE_GAIN_NAMES[controller]]),
+        ("k_vel", _kvel_names()),
+        ("Qa", _matrix_names("Qa", 6)),
+        ("Ra", _matrix_names("Ra", 6)),
+        ("Qv", _matrix_names("Qv", nv)),
+        ("Rv", _matrix_names("Rv", 6)),
+    ]
+    if _has_observer(embedded):
+        groups.append(("k_obs", [f"k_obs_{n}" for n in COM_OBSERVER_GAIN_NAMES]))
+    for arg, names in groups:
+        if len(names) != embedded.size1_in(embedded.index_in(arg)):
+            raise BuildError(f"{embedded.name()}: input {arg} has "
+                             f"{embedded.size1_in(embedded.index_in(arg))} entries, the FMU "
+                             f"names {len(names)}")
+    return groups
+
+
+def initial_controller_state(inp: Mapping[str, Any], layout: Layout) -> np.ndarray:
+    """The embedded software's state at power-on, as the compiled mission starts it, from a
+    scenario's :meth:`~ballbot_casadi.sim.scenarios.Scenario.inputs` ``inp``: velocity
+    controller, filters (aligned with the initial state) and COM observer."""
+    parts = [np.asarray(inp["z0"], float).reshape(-1),
+             np.asarray(inp["estimation"]["e0"], float).reshape(-1)]
+    if "obs" in layout.fields:
+        parts.append(com_observer_initial_state(inp["x0"], inp["p_ctrl"]))
+    c0 = np.concatenate(parts)
+    if c0.size != layout.size:
+        raise BuildError(f"initial controller state has {c0.size} entries, the layout {layout.size}")
+    return c0
+
+
+def controller_values(scenario: Scenario, embedded: ca.Function | None = None
+                      ) -> dict[str, float | bool]:
+    """Values of the controller FMU's parameters for ``scenario`` (FMU name -> value).
+
+    The scenario's controller model (``ctrl_*``), filter model (``est_*``), gains,
+    feed-forward mode, filter tuning, COM observer and the state at power-on (``c0_*``:
+    velocity controller, filters and observer started as the compiled mission starts
+    them).  Booleans are Python ``bool``.
+
+    Raises
+    ------
+    ScenarioError
+        The scenario has no estimator in the loop.
+    """
+    if scenario.estimator == "true":
+        raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU needs an estimator "
+                            "(estimator = 'ukf' or 'ekf')")
+    embedded = embedded_function(scenario.controller, scenario.estimator) if embedded is None \
+        else embedded
+    inp = scenario.inputs()
+    est = inp["estimation"]
+    layout = controller_state_layout(embedded, scenario.estimator)
+    vectors = {"p_ctrl": inp["p_ctrl"], "p_est": est["p_est"], "k_bal": inp["k_bal"],
+               "k_vel": inp["k_vel"], "Qa": est["Qa"], "Ra": est["Ra"], "Qv": est["Qv"],
+               "Rv": est["Rv"], "k_obs": inp.get("k_obs")}
+    out: dict[str, float | bool] = {"Ts": float(inp["Ts"]), "feedforward": bool(inp["feedforward"])}
+    for arg, names in _parameter_groups(embedded, scenario.controller, scenario.estimator):
+        vals = np.asarray(vectors[arg], float).ravel(order="F")
+        out.update({n: float(v) for n, v in zip(names, vals, strict=True)})
+    if _has_observer(embedded):
+        out["com_observer"] = bool(inp["com_observer"])
+    c0 = initial_controller_state(inp, layout)
+    names = [n for f in layout.fields
+             for n in _element_names(f"c0_{f}", layout[f].stop - layout[f].start)]
+    out.update({n: float(v) for n, v in zip(names, c0, strict=True)})
+    return out
+
+
+def controller_variables(embedded: ca.Function, controller: str, estimator: str,
+                         start: Mapping[str, float | bool] | None = None) -> tuple[FmuVar, ...]:
+    """The variable table of the controller FMU (module docstring), ordered by VR.
+
+    ``start`` gives the parameters' start values (default :func:`controller_values` of
+    :func:`default_scenario`).
+    """
+    start = controller_values(default_scenario(controller, estimator), embedded) \
+        if start is None else start
+    layout = controller_state_layout(embedded, estimator)
+    t = VarTable()
+    for name in READING_NAMES:
+        group = name.removeprefix("sensor_").rstrip("xyz012_")
+        unit, desc = _READING_DESC[group]
+        t.add(name, "discrete_input", desc.format(c=name[-1]), start=0.0, unit=unit, missing=True)
+    for i in range(4):
+        t.add(f"q_ref{i}", "discrete_input", f"attitude reference quaternion q{i} (balance-only "
+              "mode)", start=1.0 if i == 0 else 0.0, unit="1")
+    for i in range(4):
+        t.add(f"dq_ref{i}", "discrete_input", f"rate of the attitude reference dq{i} "
+              "(balance-only mode)", start=0.0, unit="1/s")
+    for i in range(4):
+        t.add(f"ddq_ref{i}", "discrete_input", f"second derivative of the attitude reference "
+              f"ddq{i} (balance-only mode; used with feedforward)", start=0.0, unit="1/s2")
+    t.add("v_ref_x", "discrete_input", "ball velocity reference along x (velocity cascade)",
+          start=0.0, unit="m/s")
+    t.add("v_ref_y", "discrete_input", "ball velocity reference along y (velocity cascade)",
+          start=0.0, unit="m/s")
+    t.add("yaw_rate_ref", "discrete_input", "heading-rate reference (velocity cascade)",
+          start=0.0, unit="rad/s")
+    for i in range(3):
+        t.add(f"tau{i}", "discrete_output", f"wheel {i} torque command after the "
+              "direction-preserving limit at ctrl_tau_max (connect to the plant's tau{i})",
+              unit="N.m")
+    for i in range(3):
+        t.add(f"tau_cmd{i}", "discrete_output", f"wheel {i} torque of the balance controller "
+              "before the limit", unit="N.m")
+    for name, unit in zip(XHAT_NAMES, _XHAT_UNITS):
+        t.add(name, "discrete_output", f"estimate the controllers read: {name.replace('_hat', '')}",
+              unit=unit)
+    for name in ("roll", "pitch", "yaw"):
+        t.add(f"{name}_hat", "discrete_output", f"ZYX {name} angle of the estimated attitude",
+              unit="rad")
+    for c in "xyz":
+        t.add(f"omega_hat_{c}", "discrete_output", f"estimated body angular velocity about "
+              f"body {c}", unit="rad/s")
+    for what, unit in (("q", "1"), ("dq", "1/s"), ("ddq", "1/s2")):
+        for i in range(4):
+            t.add(f"{what}_ref_used{i}", "discrete_output", f"attitude reference {what}{i} the "
+                  "balance controller used (the velocity controller's in the cascade)",
+                  unit=unit)
+    for name in BALANCE_DIAG_NAMES:
+        t.add(f"diag_{name}", "discrete_output", f"balance controller diagnostic {name}")
+    t.add("nis_attitude", "discrete_output", "normalised innovation squared of the attitude "
+          "filter")
+    t.add("nis_velocity", "discrete_output", "normalised innovation squared of the velocity "
+          "filter")
+    t.add("repairs", "discrete_output", "covariance repairs of the filters in the last period")
+    if _has_observer(embedded):
+        for c in "xy":
+            t.add(f"com_hat_{c}", "discrete_output", f"COM offset estimate along body {c}",
+                  unit="m")
+    t.add("Ts", "parameter", "period of the embedded software; a communication step must be a "
+          "whole number of periods", start=float(start["Ts"]), unit="s", rule="pos")
+    for arg, names in _parameter_groups(embedded, controller, estimator):
+        for n in names:
+            unit, rule, desc = None, None, f"{arg} entry {n}"
+            if arg in ("p_ctrl", "p_est"):
+                base = n.split("_", 1)[1]
+                unit, pdesc, rule = PARAM_INFO[base]
+                who = "controllers'" if arg == "p_ctrl" else "filters'"
+                desc = f"{pdesc} (the {who} internal model, load_params name {base})"
+            t.add(n, "parameter", desc, start=float(start[n]), unit=unit, rule=rule)
+    t.add("feedforward", "parameter", "the balance controller gets the reference's second "
+          "derivative (false: zero, the thesis's mode)", type="Boolean",
+          start=bool(start["feedforward"]))
+    if _has_observer(embedded):
+        t.add("com_observer", "parameter", "the controllers use the COM observer's estimate as "
+              "their internal model", type="Boolean", start=bool(start["com_observer"]))
+    for f in layout.fields:
+        n = layout[f].stop - layout[f].start
+        for name in _element_names(f"c0_{f}", n):
+            t.add(name, "parameter", f"state of the embedded software at power-on, field {f}",
+                  start=float(start[name]))
+    for f in layout.fields:
+        n = layout[f].stop - layout[f].start
+        for name in _element_names(f"c_{f}", n):
+            t.add(name, "local", f"state of the embedded software, field {f}")
+    t.add("balance_only", "discrete_input", "mode: true = the balance controller follows the "
+          "attitude reference q_ref alone (thesis Fig. 8.1); false = the velocity cascade "
+          "(Fig. 7.1) follows v_ref_x, v_ref_y, yaw_rate_ref", type="Boolean", start=False)
+    t.add("period", "local", "index k of the next period (t_k = startTime + k Ts)",
+          type="Integer", bounds=(0, INT32_MAX))
+    return t.rows()
+
+
+def _rpy_function() -> ca.Function:
+    q = ca.SX.sym("q", 4)
+    return ca.Function("bbc_rpy", [q], [Q.to_rpy(q)], ["q"], ["rpy"])
+
+
+def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
+    """The controller FMU of ``controller`` with ``estimator`` (Co-Simulation only)."""
+    embedded = embedded_function(controller, estimator)
+    rows = controller_variables(embedded, controller, estimator)
+    layout = controller_state_layout(embedded, estimator)
+    has_obs = _has_observer(embedded)
+
+    def first(names: list[str] | tuple[str, ...]) -> int:
+        return block_start(rows, names)
+
+    def field_names(prefix: str) -> list[str]:
+        return [n for f in layout.fields for n in _element_names(f"{prefix}_{f}",
+                                                                 layout[f].stop - layout[f].start)]
+
+    groups = dict(_parameter_groups(embedded, controller, estimator))
+    defines: dict[str, Any] = {
+        "EMBEDDED": embedded.name(),
+        "NC": layout.size,
+        "C0": first(field_names("c")),
+        "C0PAR": first(field_names("c0")),
+        "C_XA": layout["xa"].start,
+        "C_XV": layout["xv"].start,
+        "C_POS": layout["pos"].start,
+        "NQV": int(round(np.sqrt(len(groups["Qv"])))),
+        "MEAS0": first(READING_NAMES),
+        "REF0": first(REFERENCE_NAMES),
+        "TAU0": first([f"tau{i}" for i in range(3)]),
+        "TAUCMD0": first([f"tau_cmd{i}" for i in range(3)]),
+        "XHAT0": first(XHAT_NAMES),
+        "RPY0": first(["roll_hat", "pitch_hat", "yaw_hat"]),
+        "OMEGA0": first([f"omega_hat_{c}" for c in "xyz"]),
+        "REFUSED0": first([f"{w}_ref_used{i}" for w in ("q", "dq", "ddq") for i in range(4)]),
+        "DIAG0": first([f"diag_{n}" for n in BALANCE_DIAG_NAMES]),
+        "NIS0": first(["nis_attitude", "nis_velocity"]),
+        **{f"{a.upper()}0": first(n) for a, n in groups.items()},
+        "HAS_OBSERVER": int(has_obs),
+        "STEP_TOL": repr(STEP_TOL),
+        "MAX_PERIODS": repr(float(MAX_PERIODS)),
+        "PERIOD_MAX": repr(float(INT32_MAX)),
+        "QUAT_TOL": repr(QUAT_TOL),
+        "QUAT_TOL_RESTORED": repr(QUAT_TOL_RESTORED),
+        **{f"ARG_{n}": i for i, n in enumerate(embedded.name_in())},
+        **{f"RES_{n}": i for i, n in enumerate(embedded.name_out())},
+    }
+    if has_obs:
+        defines["COMHAT0"] = first(["com_hat_x", "com_hat_y"])
+    title = f"{controller.upper()} with the {'QUKF + VUKF' if estimator == 'ukf' else 'QEKF + VEKF'}"
+    return FmuSpec(
+        model_identifier=model_identifier(controller, estimator),
+        description=f"ballbot embedded software at 200 Hz ({title}, velocity LQR cascade, "
+        "torque limit; Roche and Borja, AAU 2020) generated with CasADi from the compiled "
+        "mission's Function: sensor readings in, wheel torques, estimate and diagnostics out",
+        prefix="ctrl",
+        variables=rows,
+        functions=(embedded, _rpy_function()),
+        model_source="controller_model.c",
+        cg_name="ballbot_controller_cg",
+        interfaces=("cs",),
+        defines=tuple((k, str(v)) for k, v in defines.items()),
+        default_experiment=(0.0, 5.0, TS_CONTROL),
+    )
