@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all venv codegen test demo bench fmu clean distclean
+.PHONY: all venv codegen test demo bench fmu sil clean distclean
 
 all: codegen
 
@@ -34,6 +34,11 @@ bench: $(STAMP)
 ## Build the plant FMU into build/fmu/.
 fmu: $(STAMP)
 	$(PY) -m ballbot_casadi.cli fmu build --out build/fmu
+
+## Software in the loop: plant + controller FMUs of the roll sine (noise, QUKF + VUKF) as
+## build/fmu/BallbotSIL.ssp; run it with: ballbot fmu cosim build/fmu/BallbotSIL.ssp --out DIR
+sil: $(STAMP)
+	$(PY) -m ballbot_casadi.cli fmu ssp --scenario full_sine --out build/fmu/BallbotSIL.ssp
 
 clean:
 	rm -rf build

@@ -1,4 +1,5 @@
-"""``ballbot fmu build|info|validate``: build and check the native plant FMU."""
+"""``ballbot fmu build|info|validate|build-controller|ssp|cosim|container``: the plant FMU,
+the controller FMU and the software-in-the-loop system (SSP, libcosim, container FMU)."""
 
 from __future__ import annotations
 
@@ -9,9 +10,16 @@ from fmpy import dump
 from fmpy.validation import validate_fmu
 
 from ballbot_casadi.core.files import check_input_file, check_output_dir
-from ballbot_casadi.errors import PathError
 from ballbot_casadi.core.toolchain import build_root
+from ballbot_casadi.errors import PathError
 from ballbot_casadi.fmi.build import build_fmu, validate_fmu_archive
+from ballbot_casadi.fmi.container import CONTAINER_NAME, build_container
+from ballbot_casadi.fmi.controller import controller_spec
+from ballbot_casadi.fmi.package import build_fmu_from_spec
+from ballbot_casadi.fmi.sil import MASTERS, write_sil_ssp
+from ballbot_casadi.sim.scenario_file import load_scenario_file
+from ballbot_casadi.studies.registry import resolve_scenario
+from ballbot_casadi.studies.sil import SIL_OUTPUTS, run_sil
 
 __all__ = ["add_parser"]
 
@@ -56,9 +64,61 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return 1 if problems else 0
 
 
+def _default_ssp() -> Path:
+    return build_root() / "fmu" / "BallbotSIL.ssp"
+
+
+def _cmd_build_controller(args: argparse.Namespace) -> int:
+    if args.out is not None:
+        check_output_dir(args.out, "--out")
+    b = build_fmu_from_spec(controller_spec(args.controller, args.estimator), args.out)
+    print(f"{b.fmu}  (GUID {b.guid}, cache {b.digest}, {b.status})")
+    return 0
+
+
+def _cmd_ssp(args: argparse.Namespace) -> int:
+    out = Path(args.out) if args.out is not None else _default_ssp()
+    check_output_dir(out.parent, "--out")
+    plant = check_input_file(args.plant, "--plant") if args.plant else None
+    source = load_scenario_file(resolve_scenario(args.scenario))
+    sc = source.scenario if args.duration is None else source.scenario.replace(
+        duration=args.duration)
+    path = write_sil_ssp(sc, out, plant, specs=source.specs, source=str(source.path))
+    print(f"{path}  (scenario {sc.name}: {sc.controller}, estimator {sc.estimator}, seed "
+          f"{sc.seed}, {sc.duration:g} s; plant {plant or 'BallbotPlant.fmu'})")
+    return 0
+
+
+def _cmd_cosim(args: argparse.Namespace) -> int:
+    ssp = check_input_file(args.ssp, "SSP")
+    check_output_dir(args.out, "--out", owned=SIL_OUTPUTS)
+    result = run_sil(ssp, args.out, args.duration, args.master, plot=not args.no_plot,
+                     compare=not args.no_compare)
+    sil = result["sil"]
+    line = (f"{args.out}: {sil['steps']} steps ({sil['master']}) in {sil['wall_s']:.3g} s; "
+            f"specs {'passed' if result['passed'] else 'MISSED'}")
+    if "vs_mission" in sil:
+        v = sil["vs_mission"]
+        line += (f"; vs the {v['reference']}: states {v['state_max']:.3g}, torques "
+                 f"{v['tau_max']:.3g}")
+    print(line)
+    return 0 if result["passed"] else 1
+
+
+def _cmd_container(args: argparse.Namespace) -> int:
+    ssp = check_input_file(args.ssp, "SSP") if args.ssp else _default_ssp()
+    if not Path(ssp).is_file():
+        raise PathError(f"{ssp} does not exist; run 'make sil' (or 'ballbot fmu ssp') first")
+    out = Path(args.out) if args.out else build_root() / "fmu" / f"{CONTAINER_NAME}.fmu"
+    check_output_dir(out.parent, "--out")
+    print(build_container(ssp, out))
+    return 0
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``ballbot fmu build|info|validate``."""
-    p = sub.add_parser("fmu", help="build, describe and validate the native plant FMU")
+    p = sub.add_parser("fmu", help="the plant and controller FMUs and the software-in-the-loop "
+                       "system (SSP, libcosim, container FMU)")
     fsub = p.add_subparsers(dest="fmu_command", required=True, metavar="ACTION")
     b = fsub.add_parser("build", help="build BallbotPlant.fmu (gcc)")
     b.add_argument("--out", default=None, help="output directory (default build/fmu)")
@@ -69,3 +129,38 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     v = fsub.add_parser("validate", help="validate the FMU with fmpy")
     v.add_argument("fmu", nargs="?", help="FMU file (default build/fmu/BallbotPlant.fmu)")
     v.set_defaults(func=_cmd_validate)
+    c = fsub.add_parser("build-controller", help="build BallbotController.fmu (the embedded "
+                        "software; other controller/estimator pairs as separate FMUs)")
+    c.add_argument("--controller", default="flc", help="balance controller: flc (default), smc")
+    c.add_argument("--estimator", default="ukf", help="estimators: ukf (default), ekf")
+    c.add_argument("--out", default=None, help="output directory (default build/fmu)")
+    c.set_defaults(func=_cmd_build_controller)
+    s = fsub.add_parser("ssp", help="write the SIL system (plant + controller + reference FMUs, "
+                        "connections, parameter set) as an SSP 1.0 archive")
+    s.add_argument("--scenario", default="full_sine", help="scenario file or shipped name with "
+                   "an estimator (default full_sine: roll sine, noise, QUKF + VUKF)")
+    s.add_argument("--plant", default=None, help="your plant FMU with the variable names of "
+                   "BallbotPlant.fmu (default: BallbotPlant.fmu)")
+    s.add_argument("--duration", type=float, default=None, help="simulated time (s; default the "
+                   "scenario's)")
+    s.add_argument("--out", default=None, help="the .ssp file (default build/fmu/BallbotSIL.ssp)")
+    s.set_defaults(func=_cmd_ssp)
+    k = fsub.add_parser("cosim", help="run an SSP in libcosim; log every connection, write "
+                        "metrics.json, plots and report.md")
+    k.add_argument("ssp", help="the .ssp file (e.g. build/fmu/BallbotSIL.ssp)")
+    k.add_argument("--duration", type=float, default=None, help="simulated time (s; default "
+                   "the SSP's stop time)")
+    k.add_argument("--out", required=True, help="output directory")
+    k.add_argument("--master", choices=MASTERS, default="libcosim", help="libcosim (default; "
+                   "Jacobi: one period of actuation delay) or gauss-seidel (controller before "
+                   "plant: the compiled mission exactly)")
+    k.add_argument("--no-plot", action="store_true", help="skip the plots")
+    k.add_argument("--no-compare", action="store_true", help="skip the comparison with the "
+                   "compiled mission")
+    k.set_defaults(func=_cmd_cosim)
+    t = fsub.add_parser("container", help="build one container FMU of the SSP's FMUs (fmpy "
+                        "container) for tools without SSP")
+    t.add_argument("ssp", nargs="?", help="the .ssp file (default build/fmu/BallbotSIL.ssp)")
+    t.add_argument("--out", default=None, help="the .fmu file (default "
+                   "build/fmu/BallbotSILContainer.fmu)")
+    t.set_defaults(func=_cmd_container)
