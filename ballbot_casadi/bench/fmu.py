@@ -9,6 +9,15 @@
   (RK4 Function called from Python, same 1 ms sub-steps) divided by that of the native
   FMU.  The PythonFMU is built only here, under ``<build>/bench/pythonfmu``, and never
   shipped.  Target: >= 20.
+* ``fmu_controller_step_us``: one 5 ms step of ``BallbotController.fmu`` (fmi2SetReal of
+  the nine readings, fmi2DoStep running one period of the embedded software, fmi2GetReal
+  of the torques) in the C host ``fmu/controller_host.c``; best of several repetitions of
+  2000 steps.  Target: <= 15 us.
+* ``sil_100s_s``: 100 s of the velocity-profile scenario (``full_velocity``: noise, QUKF +
+  VUKF, FLC, velocity cascade) as the SSP system (plant + controller + reference FMUs)
+  in libcosim (``CosimExecution.from_ssp_file`` + ``simulate_until``, no observers), best
+  of two; ``sil_vs_mission_ratio`` divides it by the compiled mission of the same
+  scenario (``run_scenario``, best of two): the cost of going through FMI and the engine.
 """
 
 from __future__ import annotations
@@ -16,6 +25,7 @@ from __future__ import annotations
 import json
 import subprocess
 import time
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -23,12 +33,20 @@ from fmpy import extract, read_model_description, simulate_fmu
 
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.fmi.build import build_fmu, build_tool
+from ballbot_casadi.fmi.controller import controller_spec
+from ballbot_casadi.fmi.package import build_fmu_from_spec
+from ballbot_casadi.fmi.sil import write_sil_ssp
 from ballbot_casadi.model.dynamics import STATE_NAMES
 from ballbot_casadi.model.numeric import make_state
+from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.scenario_file import load_scenario_file
 
-__all__ = ["bench_fmu", "build_pythonfmu", "FMU_RATIO_TARGET"]
+__all__ = ["bench_fmu", "build_pythonfmu", "bench_controller_fmu", "bench_sil",
+           "FMU_RATIO_TARGET", "CONTROLLER_STEP_TARGET_US"]
 
 FMU_RATIO_TARGET = 20.0
+CONTROLLER_STEP_TARGET_US = 15.0
+_SIL_SCENARIO = "full_velocity.toml"
 _TAU = (0.02, -0.01, 0.005)
 _ROLL0 = 0.002
 _STOP = 2.0
@@ -99,6 +117,46 @@ def _fmpy_time(fmu: Path, start_values: dict, reps: int = 3) -> tuple[float, np.
     return best, np.column_stack([res[n] for n in STATE_NAMES])
 
 
+def bench_controller_fmu() -> dict[str, float]:
+    """``fmu_controller_step_us``: one 5 ms controller step in the C host."""
+    b = build_fmu_from_spec(controller_spec())
+    host = build_tool(b, "controller_host")
+    run = subprocess.run([str(host), str(b.binary), b.guid, "2000", "5"], capture_output=True,
+                         text=True, check=True)
+    return {"fmu_controller_step_us": float(json.loads(run.stdout)["step_us"]),
+            "fmu_controller_step_target_us": CONTROLLER_STEP_TARGET_US}
+
+
+def bench_sil(reps: int = 2) -> dict[str, float]:
+    """``sil_100s_s``: 100 s of plant + controller FMUs in libcosim, and the ratio to the
+    compiled mission of the same scenario."""
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+    path = Path(str(resources.files("ballbot_casadi.studies") / "scenarios" / _SIL_SCENARIO))
+    sc = load_scenario_file(path).scenario.replace(duration=100.0)
+    ssp = write_sil_ssp(sc, build_root() / "bench" / "sil" / "BallbotSIL_100s.ssp")
+    log_output_level(CosimLogLevel.ERROR)
+    t_sil = float("inf")
+    for _ in range(reps):
+        ex = CosimExecution.from_ssp_file(str(ssp))
+        t0 = time.perf_counter()
+        ok = ex.simulate_until(int(round(sc.duration * 1e9)))
+        t_sil = min(t_sil, time.perf_counter() - t0)
+        if not ok:
+            raise RuntimeError("libcosim stopped before the end of the 100 s SIL run")
+        del ex
+    sim = ClosedLoop()
+    run_scenario(sc.replace(duration=1.0), sim)  # build and load the library first
+    t_mission = float("inf")
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        run_scenario(sc, sim)
+        t_mission = min(t_mission, time.perf_counter() - t0)
+    return {"sil_100s_s": t_sil, "sil_mission_100s_s": t_mission,
+            "sil_vs_mission_ratio": t_sil / t_mission}
+
+
 def bench_fmu() -> dict[str, float]:
     """Run the FMU benchmarks; returns a flat dict for ``build/bench.json``."""
 
@@ -122,4 +180,6 @@ def bench_fmu() -> dict[str, float]:
         "fmu_vs_pythonfmu_ratio": t_python / t_native,
         "fmu_vs_pythonfmu_ratio_target": FMU_RATIO_TARGET,
         "fmu_vs_pythonfmu_state_diff": agree,
+        **bench_controller_fmu(),
+        **bench_sil(),
     }
