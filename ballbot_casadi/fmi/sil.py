@@ -208,11 +208,13 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
                             "which reads sensors; set estimator = 'ukf' or 'ekf'")
     out = Path(out) if out is not None else None
     plant = Path(build_fmu(out).fmu if plant_fmu is None else plant_fmu)
-    names = [v.name for v in read_model_description(str(plant)).modelVariables]
-    missing = [n for n in (*_TORQUES, *READING_NAMES) if n not in names]
+    causality = {v.name: v.causality for v in read_model_description(str(plant)).modelVariables}
+    names = list(causality)
+    missing = [n for n in _TORQUES if causality.get(n) != "input"] + [
+        n for n in READING_NAMES if causality.get(n) != "output"]
     if missing:
         raise BuildError(f"plant FMU {plant} lacks {', '.join(missing)}; a plant for the SIL needs "
-                         "the inputs tau0..2 and the outputs sensor_acc_x .. sensor_enc2")
+                         "the inputs tau0..2 and the outputs sensor_acc_x .. sensor_enc2 (Real)")
     embedded = embedded_function(scenario.controller, scenario.estimator)
     ctrl = build_fmu_from_spec(controller_spec(scenario.controller, scenario.estimator), out)
     ref_dir = (out if out is not None else Path(ctrl.fmu).parent) / "reference" / scenario.name

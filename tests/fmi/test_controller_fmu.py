@@ -1,0 +1,295 @@
+"""BallbotController.fmu: the embedded software as an FMU, against the compiled mission's
+embedded step (the same Function compiled into the mission library), its timing rules,
+missing readings, FMU states, interleaved instances and a C fuzz of its API."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from ctypes import c_double, c_uint
+
+import numpy as np
+import pytest
+from _controller_support import Controller, compiled_embedded, controller_build, default_values
+from fmpy import read_model_description
+from fmpy.validation import validate_fmu
+
+from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
+from ballbot_casadi.fmi.controller import READING_NAMES, REFERENCE_NAMES, XHAT_NAMES
+from ballbot_casadi.fmi.package import build_tool
+from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.spec import value_range
+
+pytestmark = pytest.mark.needs_cc
+
+TS = 0.005
+VREF = np.array([0.2, -0.1, 0.3])
+
+
+def _readings(rng: np.random.Generator) -> np.ndarray:
+    """Plausible readings: gravity with a wobble, small rates, encoder rates in ticks/s."""
+    return np.concatenate([[0.3, -0.2, 9.81] + 0.05 * rng.standard_normal(3),
+                           0.02 * rng.standard_normal(3), 80.0 * rng.standard_normal(3)])
+
+
+def _function_args(values: dict, cascade: float = 1.0) -> dict:
+    """The embedded Function's parameter inputs from the FMU's parameter values."""
+    def vec(prefix: str) -> np.ndarray:
+        return np.array([v for k, v in values.items() if k.startswith(prefix)], float)
+    return {"p_ctrl": vec("ctrl_"), "p_est": vec("est_"), "k_bal": vec("k_bal_"),
+            "k_vel": vec("k_vel_"), "Ts": values["Ts"], "cascade": cascade,
+            "feedforward": float(values["feedforward"]), "Qa": vec("Qa_"), "Ra": vec("Ra_"),
+            "Qv": vec("Qv_"), "Rv": vec("Rv_"),
+            **({"com_observer": float(values["com_observer"]), "k_obs": vec("k_obs_")}
+               if "com_observer" in values else {})}
+
+
+class _Reference:
+    """The compiled embedded step run period by period (the mission's controller)."""
+
+    def __init__(self, controller: str = "flc", estimator: str = "ukf"):
+        self.f = compiled_embedded(controller, estimator)
+        self.values = default_values(controller, estimator)
+        self.c = np.array([v for k, v in self.values.items() if k.startswith("c0_")])
+        self.args = _function_args(self.values)
+        self.k = 0
+
+    def period(self, meas: np.ndarray, v_ref=VREF, q_ref=(1.0, 0, 0, 0), cascade=1.0) -> dict:
+        m = np.array(meas, float)
+        if self.k == 0:
+            m[6:9] = np.nan
+        out = self.f(c=self.c, meas=m, q_ref=np.asarray(q_ref, float), dq_ref=np.zeros(4),
+                     ddq_ref=np.zeros(4), v_ref=np.asarray(v_ref, float),
+                     **{**self.args, "cascade": cascade})
+        out = {k: np.asarray(v, float).ravel() for k, v in out.items()}
+        self.c = out["c_next"]
+        self.k += 1
+        return out
+
+
+def test_both_variants_validate_and_share_the_plant_reading_names():
+    for ctrl, est in (("flc", "ukf"), ("smc", "ekf")):
+        b = controller_build(ctrl, est)
+        assert validate_fmu(str(b.fmu)) == [], (ctrl, est)
+        md = read_model_description(str(b.fmu))
+        assert md.modelExchange is None and md.coSimulation is not None
+        v = {x.name: x for x in md.modelVariables}
+        assert tuple(READING_NAMES) == tuple(SENSOR_OUTPUT_NAMES)
+        for n in READING_NAMES:
+            assert (v[n].causality, v[n].variability, v[n].type) == ("input", "discrete", "Real")
+        for n in (*REFERENCE_NAMES, "balance_only"):
+            assert v[n].causality == "input"
+        for i in range(3):
+            assert v[f"tau{i}"].causality == "output"
+        # the controllers' and the filters' models under the load_params names, with the
+        # parameter rules of the plant (the same range checks)
+        for p in PARAM_NAMES:
+            for prefix in ("ctrl_", "est_"):
+                var = v[prefix + p]
+                assert var.causality == "parameter" and var.unit == (PARAM_INFO[p][0] or None)
+    assert read_model_description(str(controller_build().fmu)).coSimulation.modelIdentifier \
+        == "BallbotController"
+    assert read_model_description(str(controller_build("smc", "ekf").fmu)) \
+        .coSimulation.modelIdentifier == "BallbotController_smc_ekf"
+
+
+def test_the_per_model_file_is_small():
+    from ballbot_casadi.fmi.package import fmu_source_dir
+
+    lines = (fmu_source_dir() / "controller_model.c").read_text().splitlines()
+    assert len(lines) < 220  # the second FMU costs a small per-model file, not a copy
+
+
+@pytest.mark.parametrize("ctrl,est", [("flc", "ukf"), ("smc", "ekf")])
+def test_fmu_equals_the_compiled_embedded_step(ctrl, est):
+    rng = np.random.default_rng(11)
+    fmu, ref = Controller(ctrl, est), _Reference(ctrl, est)
+    fmu.init()
+    fmu.set(v_ref_x=VREF[0], v_ref_y=VREF[1], yaw_rate_ref=VREF[2])
+    worst = 0.0
+    for k in range(60):
+        meas = _readings(rng)
+        if k == 30:
+            meas[3] = np.nan  # a gyroscope dropout
+        fmu.set_many(READING_NAMES, meas)
+        fmu.step()
+        out = ref.period(meas)
+        c_fmu = fmu.get(*[n for n in fmu.vars if n.startswith("c_")])
+        for got, want in ((fmu.get("tau0", "tau1", "tau2"), out["tau_lim"]),
+                          (fmu.get("tau_cmd0", "tau_cmd1", "tau_cmd2"), out["tau_cmd"]),
+                          (fmu.get(*XHAT_NAMES), out["x_hat"]), (c_fmu, out["c_next"]),
+                          (fmu.get("nis_attitude", "nis_velocity"), out["nis"])):
+            worst = max(worst, float(np.max(np.abs(got - want))))
+    assert worst <= 1e-12
+    assert np.all(np.isfinite(fmu.get("tau0", "tau1", "tau2")))
+    assert fmu.errors() == []
+    fmu.free()
+
+
+def test_a_step_of_n_periods_runs_n_periods_the_later_ones_predict_only():
+    rng = np.random.default_rng(3)
+    fmu, ref = Controller(), _Reference()
+    fmu.init()
+    fmu.set(v_ref_x=VREF[0], v_ref_y=VREF[1], yaw_rate_ref=VREF[2])
+    meas = _readings(rng)
+    fmu.set_many(READING_NAMES, meas)
+    fmu.step(3 * TS)
+    ref.period(meas)
+    ref.period(np.full(9, np.nan))
+    out = ref.period(np.full(9, np.nan))
+    np.testing.assert_allclose(fmu.get("tau0", "tau1", "tau2"), out["tau_lim"], rtol=0, atol=1e-12)
+    assert fmu.fmu.getInteger(fmu.vr("period")) == [3]
+    fmu.free()
+
+
+def test_refused_step_sizes_are_logged_and_change_nothing():
+    fmu = Controller()
+    fmu.init()
+    fmu.set_many(READING_NAMES, _readings(np.random.default_rng(0)))
+    before = fmu.get(*[n for n in fmu.vars if n.startswith("c_")])
+    for h in (0.004, 0.0075, 0.005 + 1e-5, 0.0025):
+        n = len(fmu.logs)
+        assert fmu.raw_step(h) == 3  # fmi2Error
+        assert len(fmu.logs) == n + 1
+        assert "not a whole number of controller periods" in fmu.logs[-1][1]
+        np.testing.assert_array_equal(fmu.get(*[n for n in fmu.vars if n.startswith("c_")]), before)
+        assert fmu.fmu.getInteger(fmu.vr("period")) == [0]
+    fmu.step(TS)  # the instance is still usable
+    assert fmu.fmu.getInteger(fmu.vr("period")) == [1]
+    fmu.free()
+
+
+def test_missing_readings_take_the_predict_only_path_not_a_nan_torque():
+    rng = np.random.default_rng(5)
+    seq = [_readings(rng) for _ in range(20)]
+    taus = {}
+    for label, drop in (("all", None), ("gyro", slice(3, 6)), ("everything", slice(0, 9))):
+        fmu, ref = Controller(name=label), _Reference()
+        fmu.init()
+        fmu.set(v_ref_x=VREF[0], v_ref_y=VREF[1], yaw_rate_ref=VREF[2])
+        for k, m in enumerate(seq):
+            m = m.copy()
+            if drop is not None and 5 <= k < 15:
+                m[drop] = np.nan
+            fmu.set_many(READING_NAMES, m)
+            fmu.step()
+            out = ref.period(m)
+            tau = fmu.get("tau0", "tau1", "tau2")
+            assert np.all(np.isfinite(tau))
+            np.testing.assert_allclose(tau, out["tau_lim"], rtol=0, atol=1e-12)
+        assert fmu.errors() == []
+        taus[label] = tau
+        fmu.free()
+    # the dropouts did change the estimate (the readings were not used)
+    assert not np.allclose(taus["all"], taus["gyro"], rtol=0, atol=1e-9)
+    assert not np.allclose(taus["all"], taus["everything"], rtol=0, atol=1e-9)
+
+
+def test_inf_readings_are_refused_and_the_first_encoder_reading_is_ignored():
+    fmu = Controller()
+    fmu.init()
+    vr = (c_uint * 1)(*fmu.vr("sensor_gyro_x"))
+    n = len(fmu.logs)
+    assert fmu.raw("fmi2SetReal", vr, 1, (c_double * 1)(float("inf"))) == 3
+    assert len(fmu.logs) == n + 1 and "sensor_gyro_x" in fmu.logs[-1][1]
+    # period 0: no previous count, so the encoder reading cannot matter
+    outs = []
+    for enc in (0.0, 500.0):
+        c = Controller(name=f"enc{enc}")
+        c.init()
+        m = _readings(np.random.default_rng(9))
+        m[6:9] = enc
+        c.set_many(READING_NAMES, m)
+        c.step()
+        outs.append(c.get("tau0", "tau1", "tau2", *XHAT_NAMES))
+        c.free()
+    np.testing.assert_array_equal(outs[0], outs[1])
+    fmu.free()
+
+
+def test_fmu_state_serialisation_reset_and_interleaved_instances():
+    rng = np.random.default_rng(21)
+    seq = [_readings(rng) for _ in range(30)]
+    a = Controller(name="a")
+    a.init()
+    a.set(v_ref_x=0.1)
+    for m in seq[:10]:
+        a.set_many(READING_NAMES, m)
+        a.step()
+    blob = a.fmu.serializeFMUstate(a.fmu.getFMUstate())
+    for m in seq[10:20]:
+        a.set_many(READING_NAMES, m)
+        a.step()
+    want = a.get("tau0", "tau1", "tau2", *XHAT_NAMES)
+    b = Controller(name="b")
+    state = b.fmu.deSerializeFMUstate(blob)
+    b.fmu.setFMUstate(state)
+    b.fmu.freeFMUstate(state)
+    b.t = 10 * TS
+    for m in seq[10:20]:
+        b.set_many(READING_NAMES, m)
+        b.step()
+    np.testing.assert_array_equal(b.get("tau0", "tau1", "tau2", *XHAT_NAMES), want)
+    # reset: the same run again from the start values
+    a.fmu.reset()
+    a.init()
+    a.set(v_ref_x=0.1)
+    c = Controller(name="c")
+    c.init()
+    c.set(v_ref_x=0.1)
+    for m in seq[:20]:  # interleaved: a and c alternate, each must equal a run alone
+        for x in (a, c):
+            x.set_many(READING_NAMES, m)
+            x.step()
+    np.testing.assert_array_equal(a.get("tau0", "tau1", "tau2", *XHAT_NAMES), want)
+    np.testing.assert_array_equal(c.get("tau0", "tau1", "tau2", *XHAT_NAMES), want)
+    for x in (a, b, c):
+        assert x.errors() == []
+        x.free()
+
+
+def test_parameters_are_checked_and_the_initial_estimate_is_readable_in_initialization():
+    fmu = Controller()
+    fmu.fmu.setupExperiment(startTime=0.0)
+    fmu.fmu.enterInitializationMode()
+    lo, hi, _, _, text = value_range(next(v for v in _variables() if v.name == "ctrl_Mb"))
+    vr = (c_uint * 1)(*fmu.vr("ctrl_Mb"))
+    assert fmu.raw("fmi2SetReal", vr, 1, (c_double * 1)(-1.0)) == 3
+    assert "non-physical value" in fmu.logs[-1][1] and text in fmu.logs[-1][1]
+    # the estimate before the first period is the state at power-on, already in init mode
+    vals = default_values()
+    q0 = [vals[f"c0_xa_{i}"] for i in range(4)]
+    np.testing.assert_array_equal(fmu.get("q_hat0", "q_hat1", "q_hat2", "q_hat3"), q0)
+    # a non-unit initial attitude estimate is refused at the end of initialisation
+    fmu.set(c0_xa_0=2.0)
+    assert fmu.raw("fmi2ExitInitializationMode") == 3
+    assert "unit quaternion" in fmu.logs[-1][1]
+    fmu.free()
+
+
+def _variables():
+    from ballbot_casadi.fmi.controller import controller_spec
+
+    return controller_spec().variables
+
+
+def test_c_fuzz_of_the_controller_api():
+    b = controller_build()
+    exe = build_tool(b, "fuzz")
+    res = subprocess.run([str(exe), str(b.binary), b.guid, "120000", "17"], capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    s = json.loads(res.stdout)
+    assert s["calls"] >= 100_000, s
+    assert s["silent"] == 0, s  # every error logged
+    assert s["steps_ok"] > 100 and s["init_ok"] > 100 and s["error"] > 1000, s
+
+
+def test_c_host_runs_the_controller_without_python():
+    b = controller_build()
+    host = build_tool(b, "controller_host")
+    res = subprocess.run([str(host), str(b.binary), b.guid, "400", "0"], capture_output=True,
+                         text=True, check=True)
+    out = json.loads(res.stdout)
+    assert out["t"] == pytest.approx(400 * TS, rel=1e-12)
+    assert all(np.isfinite(out["tau"])) and max(abs(t) for t in out["tau"]) > 0.0
