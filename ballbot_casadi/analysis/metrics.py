@@ -20,6 +20,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ballbot_casadi.core.layout import STATE
+from ballbot_casadi.analysis.com_observer import com_observer_metrics
 from ballbot_casadi.analysis.estimates import estimation_metrics, tracking_metrics
 from ballbot_casadi.core import quaternion as Q
 
@@ -413,7 +414,9 @@ def run_metrics(log: Any) -> dict[str, Any]:
     :func:`sine_metrics`, a push :func:`push_metrics`, a velocity profile
     :func:`velocity_metrics`, a cascade standing still :func:`standing_metrics`; every
     run gets the tilt/heading tracking errors and, with estimators in the loop, the
-    estimation errors (:mod:`ballbot_casadi.analysis.estimates`).
+    estimation errors (:mod:`ballbot_casadi.analysis.estimates`); a run with the COM
+    observer on, its estimate and position-hold metrics
+    (:mod:`ballbot_casadi.analysis.com_observer`).
     ``log`` is a :class:`~ballbot_casadi.sim.log.SimulationLog` (its scenario and plant
     parameters are used).  Chirp runs get their bandwidth metrics from
     :func:`ballbot_casadi.analysis.bandwidth.chirp_metrics`.
@@ -435,4 +438,6 @@ def run_metrics(log: Any) -> dict[str, Any]:
         out.update(tracking_metrics(log))
         if "x_hat" in log.arrays and finite:
             out.update(estimation_metrics(log))
+        if sc.get("com_observer") and "com_hat" in log.arrays and finite:
+            out.update(com_observer_metrics(log))
     return out

@@ -103,6 +103,8 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
             inputs["p_ctrl"], p, inputs["k_bal"], inputs["k_vel"], inputs["Ts"],
             1.0 if inputs["cascade"] else 0.0, 1.0 if inputs["feedforward"] else 0.0,
             est["Qa"], est["Ra"], est["Qv"], est["Rv"]]
+    if embedded.n_in() > len(e_in):  # with the COM observer: its switch and gains
+        e_in += [1.0 if inputs["com_observer"] else 0.0, inputs["k_obs"]]
     data["embedded_step_us"] = c_function_us(lib, embedded, e_in, n_calls)
     data["estimator_step_target_us"] = 10.0
     return data

@@ -30,10 +30,16 @@ reference reaches the tilt limit with zero rate (no jump in ``dq_ref``); a final
 clamp guards the limit.
 
 Feedback ``a = -K X`` with
-``X = [dx - vx_ref, dy - vy_ref, theta_x, theta_y, dtheta_x, dtheta_y, theta_r, dtheta_r, p_e]``,
-where ``theta_x = atan2(-n_y, n_z)``, ``theta_y = asin(n_x)`` are the measured inertial
-tilts from the body z axis ``n = R(q) e_z`` and their rates follow by automatic
-differentiation along ``dq``.
+``X = [dx - vx_ref, dy - vy_ref, theta - theta_eq, dtheta, theta_r - theta_eq, dtheta_r, p_e]``,
+where ``theta = (theta_x, theta_y)``, ``theta_x = atan2(-n_y, n_z)``, ``theta_y = asin(n_x)``
+are the measured inertial tilts from the body z axis ``n = R(q) e_z``, their rates
+follow by automatic differentiation along ``dq``, and ``theta_eq`` is the balance point
+of the controller model's centre of mass (:func:`equilibrium_tilt`: the tilt that puts
+``(com_x, com_y, l)`` above the ball centre at the reference heading).  With a centred
+COM ``theta_eq = +0`` exactly (the loop of thesis §7.3); with a known (or estimated,
+:mod:`ballbot_casadi.estimation.com_observer`) offset the equilibrium tilt is
+*commanded* instead of being integrated by ``p_e``, so at standstill ``p_e``, i.e. the
+position error, returns to zero (position hold).
 
 Design (:func:`design_velocity_lqr`): the model's Jacobians at the upright equilibrium
 (``jac`` Function) reduced to ``[dx, dy, theta, dtheta]`` (at zero yaw
@@ -86,6 +92,7 @@ __all__ = [
     "velocity_initial_state",
     "check_velocity_gains",
     "measured_tilt",
+    "equilibrium_tilt",
     "tilt_heading_quaternion",
 ]
 
@@ -291,6 +298,30 @@ def tilt_heading_quaternion(th_x: Any, th_y: Any, psi: Any) -> Any:
     return Q.mul(Q.mul(col(*qx), col(*qy)), col(*qz))
 
 
+def equilibrium_tilt(p: Any, psi: Any) -> Any:
+    """Inertial tilts ``(theta_x, theta_y)`` of the balance point at heading ``psi``.
+
+    The balance point puts the body COM ``p_com = (com_x, com_y, l)`` of the parameter
+    vector ``p`` straight above the ball centre (zero gravity torque, thesis C.21): with
+    ``u = R_z(psi) p_com``, ``q_x(theta_x) o q_y(theta_y) o q_z(psi)`` maps ``p_com`` to
+    the vertical iff ``theta_x = atan2(u_y, hypot(u_x, u_z))`` and
+    ``theta_y = atan2(-u_x, u_z)``.  For a centred COM both are exactly ``+0`` (so
+    subtracting them leaves every tilt bit for bit unchanged).  numpy or CasADi.
+    """
+    cas = any(isinstance(a, (ca.SX, ca.MX)) for a in (p, psi))
+    i = PARAM_NAMES.index
+    cx, cy, l = p[i("com_x")], p[i("com_y")], p[i("l")]
+    if cas:
+        c, s = ca.cos(psi), ca.sin(psi)
+        ux, uy = c * cx - s * cy, s * cx + c * cy
+        th = ca.vertcat(ca.atan2(uy, ca.sqrt(ux**2 + l**2)), ca.atan2(-ux, l))
+        return ca.if_else(ca.fabs(th) > 0, th, 0)
+    c, s = np.cos(psi), np.sin(psi)
+    ux, uy = c * cx - s * cy, s * cx + c * cy
+    th = np.array([np.arctan2(uy, np.hypot(ux, l)), np.arctan2(-ux, l)], dtype=float)
+    return np.where(np.abs(th) > 0, th, 0.0)
+
+
 def measured_tilt(q: Any) -> Any:
     """Inertial tilts ``(theta_x, theta_y)`` of the body z axis ``n = R(q) e_z``."""
     cas = isinstance(q, (ca.SX, ca.MX))
@@ -338,8 +369,9 @@ def make_velocity_controller() -> ca.Function:
     casadi.Function
         ``ballbot_velocity(x[12], v_ref[3], z[8], p[NP], k[32], Ts) ->
         (q_ref[4], dq_ref[4], ddq_ref[4], z_next[8])``.  ``v_ref = [vx, vy, yaw_rate]``
-        (inertial, m/s and rad/s); ``p`` is accepted for interface uniformity (the
-        model enters through the gain ``k``).
+        (inertial, m/s and rad/s); ``p`` is the controller's internal model: its
+        centre of mass sets the balance point ``theta_eq`` (:func:`equilibrium_tilt`),
+        the rest of the model enters through the gain ``k``.
     """
 
     x = ca.SX.sym("x", 12)
@@ -366,7 +398,9 @@ def make_velocity_controller() -> ca.Function:
     th_r, dth_r, pe = z[Z["theta_r"]], z[Z["dtheta_r"]], z[Z["p_e"]]
     psi_r, r_r = z[Z.index("psi_r")], z[Z.index("r_r")]
     verr = x[STATE_DXY] - vr
-    X = ca.vertcat(verr, th, dth, th_r, dth_r, pe)
+    # tilts about the balance point of the model's COM (exactly +0 for a centred COM)
+    th_eq = equilibrium_tilt(p, psi_r)
+    X = ca.vertcat(verr, th - th_eq, dth, th_r - th_eq, dth_r, pe)
     a = -ca.mtimes(K, X)
     a = ca.fmin(ca.fmax(a, -acc_max), acc_max)
     # braking bound: the next rate v_n must allow stopping at +-tilt_max with acc_max:

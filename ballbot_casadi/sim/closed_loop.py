@@ -38,6 +38,12 @@ from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.core.toolchain import Library, build_library, load_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
+from ballbot_casadi.estimation.com_observer import (
+    COM_OBSERVER_DEFAULT_GAINS,
+    check_com_observer_gains,
+    com_observer_initial_state,
+    make_com_observer,
+)
 from ballbot_casadi.model.dynamics import (
     NP,
     NX,
@@ -54,6 +60,7 @@ from ballbot_casadi.sim.embedded import (
     ESTIMATOR_FILTERS,
     N_WHEEL,
     NOISE,
+    OBSERVER_INPUTS,
     SENSOR_STATE,
     VALID,
     EstimatorBlocks,
@@ -63,12 +70,12 @@ from ballbot_casadi.sim.embedded import (
 )
 from ballbot_casadi.sim.log import SimulationLog, load_log, save_log
 from ballbot_casadi.sim.period import (
-    CONSTANT_INPUTS,
     PERIOD_OUTPUTS,
     SEQUENCE_INPUTS,
     PeriodBlocks,
     check_blocks,
     control_period,
+    controller_part,
     rk4_plant,
 )
 from ballbot_casadi.sim.scenarios import Scenario
@@ -95,6 +102,8 @@ ESTIMATION_SEQUENCES = ("noise", "valid")
 ESTIMATION_CONSTANTS = ("s", "p_est", "Qa", "Ra", "Qv", "Rv")
 #: Outputs of the steps with sensors and estimators (besides the PERIOD_OUTPUTS).
 ESTIMATION_OUTPUTS = ("x_hat", "meas", "nis", "repairs")
+#: Outputs of the steps with the COM observer (last).
+OBSERVER_OUTPUTS = ("com_hat",)
 
 
 def seq_inputs(step: ca.Function) -> tuple[int, ...]:
@@ -108,6 +117,7 @@ def make_closed_loop_step(
     velocity: ca.Function,
     ode: ca.Function,
     n_sub: int = N_SUB,
+    observer: ca.Function | None = None,
 ) -> ca.Function:
     """One control period of the closed loop as a Function, ``ballbot_cl_step_<ctrl>``.
 
@@ -124,6 +134,12 @@ def make_closed_loop_step(
         Plant ``ballbot_ode(x, tau, p)``.
     n_sub
         RK4 sub-steps per control period (plant step ``Ts / n_sub``).
+    observer
+        Optional COM observer ``ballbot_com_observer``
+        (:mod:`ballbot_casadi.estimation.com_observer`): the step then carries its state
+        after ``z``, takes the constants ``com_observer`` (switch) and ``k_obs`` (gains)
+        last and outputs ``com_hat`` last (see
+        :func:`~ballbot_casadi.sim.period.controller_part`).
 
     Returns
     -------
@@ -138,21 +154,31 @@ def make_closed_loop_step(
     """
     blocks = PeriodBlocks(balance, velocity)
     s = check_blocks(blocks, NP)
+    n_obs = observer.numel_in(2) if observer is not None else 0
     MX = ca.MX.sym
-    xz = MX("xz", NX + s["nz"])
+    xz = MX("xz", NX + s["nz"] + n_obs)
     seq = {"q_ref": MX("q_ref", 4), "dq_ref": MX("dq_ref", 4), "ddq_ref": MX("ddq_ref", 4),
            "v_ref": MX("v_ref", 3), "w": MX("w", DISTURBANCE.size)}
     const = {"p_plant": MX("p_plant", NP), "p_ctrl": MX("p_ctrl", NP), "k_bal": MX("k_bal", s["nk"]),
              "k_vel": MX("k_vel", s["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade"),
              "feedforward": MX("feedforward")}
+    outputs = list(PERIOD_OUTPUTS)
+    controller = None
+    if observer is not None:
+        const.update({"com_observer": MX("com_observer"), "k_obs": MX("k_obs", observer.numel_in(4))})
+        outputs += OBSERVER_OUTPUTS
+
+        def controller(xk: ca.MX, z: ca.MX, sq: Mapping[str, Any], cn: Mapping[str, Any]) -> dict[str, Any]:
+            return controller_part(blocks, xk, z, sq, cn, observer)
+
     plant = rk4_plant(ode, n_sub, const["p_plant"], const["Ts"])
-    out = control_period(blocks, xz[:NX], xz[NX:], seq, const, plant)
+    out = control_period(blocks, xz[:NX], xz[NX:], seq, const, plant, controller)
     return ca.Function(
         f"ballbot_cl_step_{blocks.name}",
         [xz, *seq.values(), *const.values()],
-        [ca.vertcat(out["x_next"], out["z_next"]), *(out[k] for k in PERIOD_OUTPUTS)],
-        ["xz", *SEQUENCE_INPUTS, *CONSTANT_INPUTS],
-        ["xz_next", *PERIOD_OUTPUTS],
+        [ca.vertcat(out["x_next"], out["z_next"]), *(out[k] for k in outputs)],
+        ["xz", *SEQUENCE_INPUTS, *const],
+        ["xz_next", *outputs],
     )
 
 
@@ -164,6 +190,7 @@ def make_estimating_step(
     estimator: EstimatorBlocks,
     n_sub: int = N_SUB,
     embedded: ca.Function | None = None,
+    observer: ca.Function | None = None,
 ) -> ca.Function:
     """One control period with sensors and the embedded software, ``ballbot_cl_step_<ctrl>_<est>``.
 
@@ -185,12 +212,15 @@ def make_estimating_step(
         (sensor parameters), ``p_est`` (the filters' model parameters) and the filter
         covariances ``Qa, Ra, Qv, Rv`` (column-major).  Outputs those of
         :func:`make_closed_loop_step` (``x`` the true 12-state) plus ``x_hat`` (what the
-        controllers read), ``meas`` (the readings), ``nis`` and ``repairs``.
+        controllers read), ``meas`` (the readings), ``nis`` and ``repairs``.  With the
+        COM ``observer`` (inside the embedded software, its state last in ``c``) the
+        constants end with ``com_observer, k_obs`` and the outputs with ``com_hat``.
     """
     blocks = PeriodBlocks(balance, velocity)
     sz = check_blocks(blocks, NP)
     if embedded is None:
-        embedded = make_embedded_step(balance, velocity, estimator)
+        embedded = make_embedded_step(balance, velocity, estimator, observer)
+    with_obs = OBSERVER_INPUTS[0] in embedded.name_in()
     nc = embedded.size1_in(0)
     nxw = NX + N_WHEEL
     ode_w = make_wheel_angle_ode(ode, wheel_speeds)
@@ -205,13 +235,18 @@ def make_estimating_step(
              "p_est": MX("p_est", NP), "Qa": MX("Qa", embedded.size1_in(13)),
              "Ra": MX("Ra", embedded.size1_in(14)), "Qv": MX("Qv", embedded.size1_in(15)),
              "Rv": MX("Rv", embedded.size1_in(16))}
+    outputs = [*PERIOD_OUTPUTS, *ESTIMATION_OUTPUTS]
+    if with_obs:
+        const.update({k: MX(k, embedded.size1_in(embedded.index_in(k))) for k in OBSERVER_INPUTS})
+        outputs += OBSERVER_OUTPUTS
 
     def robot(xk: ca.MX, cs: ca.MX, sq: Mapping[str, Any], cn: Mapping[str, Any]) -> dict[str, Any]:
         c, s_state = cs[:nc], cs[nc:]
         meas, s_mid = sense(estimator, xk, s_state, sq["noise"], sq["valid"], cn["p_plant"], cn["s"],
                             cn["Ts"])
         out = embedded.call({"c": c, "meas": meas, **{k: sq[k] for k in ("q_ref", "dq_ref", "ddq_ref", "v_ref")},
-                             **{k: cn[k] for k in EMBEDDED_INPUTS[6:]}})
+                             **{k: cn[k] for k in EMBEDDED_INPUTS[6:]},
+                             **({k: cn[k] for k in OBSERVER_INPUTS} if with_obs else {})})
         return {**out, "z_next": ca.vertcat(out["c_next"], s_mid), "meas": meas}
 
     plant = rk4_plant(ode_w, n_sub, const["p_plant"], const["Ts"])
@@ -222,10 +257,9 @@ def make_estimating_step(
     return ca.Function(
         f"ballbot_cl_step_{blocks.name}_{estimator.name}",
         [xz, *seq.values(), *const.values()],
-        [ca.vertcat(out["x_next"], z_next), *(out[k] for k in PERIOD_OUTPUTS),
-         *(out[k] for k in ESTIMATION_OUTPUTS)],
+        [ca.vertcat(out["x_next"], z_next), *(out[k] for k in outputs)],
         ["xz", *seq, *const],
-        ["xz_next", *PERIOD_OUTPUTS, *ESTIMATION_OUTPUTS],
+        ["xz_next", *outputs],
     )
 
 
@@ -312,30 +346,33 @@ def closed_loop_functions(n_sub: int = N_SUB, estimator: str = "true",
     Returns
     -------
     steps
-        ``{"flc": ballbot_cl_step_flc..., "smc": ballbot_cl_step_smc...}``.
+        ``{"flc": ballbot_cl_step_flc..., "smc": ballbot_cl_step_smc...}``, each with the
+        COM observer (``ballbot_com_observer``, switched by the ``com_observer`` input).
     exported
         The step and chunk (:func:`make_chunk`) Functions plus, for ``"true"``, the
         controllers ``ballbot_flc``, ``ballbot_smc``, ``ballbot_velocity`` (for the C
         benchmark), otherwise the embedded software ``ballbot_embedded_<ctrl>_<est>`` (the
-        controller FMU's code) and the filters (for the estimator benchmark).
+        controller FMU's code) and the filters (for the estimator benchmark), and the
+        COM observer.
     """
     ode, affine = make_ode(), make_affine()
     velocity = make_velocity_controller()
+    observer = make_com_observer()
     est = None if estimator == "true" else estimator_blocks(estimator, ode, make_wheel_speeds())
     steps: dict[str, ca.Function] = {}
     exported: list[ca.Function] = []
     for name, builder in BALANCE_CONTROLLERS.items():
         bal = builder(affine)
         if est is None:
-            steps[name] = make_closed_loop_step(bal, velocity, ode, n_sub)
+            steps[name] = make_closed_loop_step(bal, velocity, ode, n_sub, observer)
             exported += [steps[name], make_chunk(steps[name]), bal]
         else:
-            embedded = make_embedded_step(bal, velocity, est)
+            embedded = make_embedded_step(bal, velocity, est, observer)
             steps[name] = make_estimating_step(bal, velocity, ode, make_wheel_speeds(), est, n_sub,
                                                embedded)
             exported += [steps[name], make_chunk(steps[name]), embedded]
     exported += [velocity] if est is None else [est.attitude, est.velocity]
-    return steps, exported
+    return steps, exported + [observer]
 
 
 def library_name(n_sub: int, estimator: str = "true") -> str:
@@ -531,6 +568,9 @@ class ClosedLoop:
         estimator: str = "true",
         estimation: Mapping[str, Any] | None = None,
         xz0: np.ndarray | None = None,
+        com_observer: bool = False,
+        k_obs: np.ndarray | None = None,
+        o0: np.ndarray | None = None,
     ) -> dict[str, np.ndarray]:
         """Run one mission in a single Function call.
 
@@ -544,6 +584,12 @@ class ClosedLoop:
         filters' initial state) and ``s0`` (the initial sensor state).  ``xz0``
         (optional) replaces the whole initial accumulated state built from those (a
         segment of a long run continues from the previous segment's ``xz_final``).
+        Steps with the COM observer (the package's) also take ``com_observer`` (the
+        controllers use the estimate), ``k_obs`` (gains, default
+        :data:`~ballbot_casadi.estimation.com_observer.COM_OBSERVER_DEFAULT_GAINS`) and
+        ``o0`` (its initial state, default: the controller model's COM, see
+        :func:`~ballbot_casadi.estimation.com_observer.com_observer_initial_state`); the
+        observer's state is the last part of the controller state.
 
         Returns the named arrays of the log: ``time`` (N+1), ``state`` (N+1, 12; row
         k < N is the plant state at ``t_k`` after a push, the last row the final
@@ -552,7 +598,8 @@ class ClosedLoop:
         references used), ``v_ref`` (N, 3), ``w`` (N, 6), ``diag`` (N, ND); with an
         estimator also ``x_hat`` (N, 12, what the controllers read), ``meas`` (N, 9),
         ``nis`` (N, 2), ``repairs`` (N, 1), ``noise``, ``valid``, ``phi`` (N+1, 3, wheel
-        angles) and ``c_final`` (the embedded software's final state).
+        angles) and ``c_final`` (the embedded software's final state); with the
+        observer ``com_hat`` (N, 2: the estimate after each period's update).
         """
         n_sub = self.n_sub if n_sub is None else n_sub
         if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
@@ -577,15 +624,26 @@ class ClosedLoop:
                 raise ShapeError(f"{key} has {arr.shape[0]} rows, the other sequences {n}")
             seqs[key] = arr
         x0 = np.asarray(x0, float).reshape(NX)
+        with_obs = "k_obs" in step.name_in()
+        if com_observer and not with_obs:
+            raise ScenarioError("com_observer = true needs steps with the COM observer "
+                                "(these custom steps have none)")
+        obs: list[np.ndarray] = []
+        if with_obs:
+            k_obs = check_com_observer_gains(COM_OBSERVER_DEFAULT_GAINS if k_obs is None else k_obs)
+            obs = [com_observer_initial_state(x0, p_ctrl) if o0 is None else np.asarray(o0, float).reshape(-1)]
         parts = [x0, np.zeros(N_WHEEL)] if est else [x0]
         parts += [np.asarray(z0, float).reshape(-1)]
         if est:
-            parts += [np.asarray(extra["e0"], float).reshape(-1), np.asarray(extra["s0"], float).reshape(-1)]
+            parts += [np.asarray(extra["e0"], float).reshape(-1), *obs, np.asarray(extra["s0"], float).reshape(-1)]
+        else:
+            parts += obs
         xz0 = np.concatenate(parts) if xz0 is None else np.asarray(xz0, float).reshape(-1)
         const = {"p_plant": p_plant, "p_ctrl": p_ctrl, "k_bal": k_bal, "k_vel": k_vel, "Ts": Ts,
                  "cascade": 1.0 if cascade else 0.0, "feedforward": 1.0 if feedforward else 0.0,
                  **{k: np.asarray(extra[k], float).ravel(order="F")
-                    for k in (ESTIMATION_CONSTANTS if est else ())}}
+                    for k in (ESTIMATION_CONSTANTS if est else ())},
+                 **({"com_observer": 1.0 if com_observer else 0.0, "k_obs": k_obs} if with_obs else {})}
         args = [xz0]
         for i in range(1, step.n_in()):
             name = step.name_in(i)
@@ -621,6 +679,8 @@ class ClosedLoop:
             "diag": out["diag"],
             "xz_final": xz_next[-1].copy(),
         }
+        if with_obs:
+            log.update({k: out[k] for k in OBSERVER_OUTPUTS})
         if est:
             log.update({k: out[k] for k in ESTIMATION_OUTPUTS})
             log.update({k: seqs[k] for k in ESTIMATION_SEQUENCES})

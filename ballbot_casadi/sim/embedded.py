@@ -25,8 +25,9 @@ With an estimator in the loop the plant carries the three wheel angles as well
    :func:`~ballbot_casadi.sim.period.controller_part` on ``x_hat``.  A NaN reading makes
    its filter predict only for that sensor.
 
-The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos]`` (:func:`controller_layout`)
-and the sensor state ``[tau_prev, bias, phi_prev]`` (:data:`SENSOR_STATE`) are carried
+The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos]`` (:func:`controller_layout`;
+with the COM observer of :mod:`ballbot_casadi.estimation.com_observer` its state ``obs``
+follows, and the observer reads ``x_hat`` before the controllers) and the sensor state ``[tau_prev, bias, phi_prev]`` (:data:`SENSOR_STATE`) are carried
 by the mission.  The sensors belong to the plant (``p_plant`` and the sensor
 parameters ``s``); the filters run on their own model parameters ``p_est``.
 """
@@ -63,6 +64,8 @@ __all__ = [
     "N_WHEEL",
     "EMBEDDED_INPUTS",
     "EMBEDDED_OUTPUTS",
+    "OBSERVER_INPUTS",
+    "OBSERVER_OUTPUTS",
     "EstimatorBlocks",
     "estimator_blocks",
     "estimator_layout",
@@ -90,6 +93,9 @@ EMBEDDED_INPUTS = ("c", "meas", "q_ref", "dq_ref", "ddq_ref", "v_ref", "p_ctrl",
 #: Outputs of the embedded step.
 EMBEDDED_OUTPUTS = ("c_next", "tau_lim", "tau_cmd", "x_hat", "q_ref_used", "dq_ref_used",
                     "ddq_ref_used", "diag", "nis", "repairs")
+#: Further inputs and outputs of an embedded step with the COM observer (after the others).
+OBSERVER_INPUTS = ("com_observer", "k_obs")
+OBSERVER_OUTPUTS = ("com_hat",)
 
 
 @dataclass(frozen=True)
@@ -136,10 +142,12 @@ def estimator_layout(estimator: str) -> Layout:
                                       ("xv", vel.x0.size), ("Pv", vel.P0.size), ("pos", 2)])
 
 
-def controller_layout(estimator: str, nz: int) -> Layout:
-    """Layout of the embedded software's state ``c``: velocity controller, then filters."""
+def controller_layout(estimator: str, nz: int, n_obs: int = 0) -> Layout:
+    """Layout of the embedded software's state ``c``: velocity controller, then filters,
+    then (``n_obs > 0``) the COM observer's state ``obs``."""
     e = estimator_layout(estimator)
-    return Layout("controller state c", [("z", nz), *((f, e[f].stop - e[f].start) for f in e.fields)])
+    return Layout("controller state c", [("z", nz), *((f, e[f].stop - e[f].start) for f in e.fields),
+                                         *((("obs", n_obs),) if n_obs else ())])
 
 
 def _drop(y: Any, ok: Any) -> Any:
@@ -166,7 +174,8 @@ def sense(blocks: EstimatorBlocks, xk: ca.MX, s_state: ca.MX, noise: ca.MX, vali
     return meas, ca.vertcat(bias_next, phi)
 
 
-def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: EstimatorBlocks) -> ca.Function:
+def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: EstimatorBlocks,
+                       observer: ca.Function | None = None) -> ca.Function:
     """The embedded software's period ``ballbot_embedded_<ctrl>_<est>`` (module docstring, 2.).
 
     Inputs :data:`EMBEDDED_INPUTS`: the controller state ``c``
@@ -178,10 +187,18 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     the direction-preserving limit), ``tau_cmd``, ``x_hat`` (the estimate the
     controllers read), the references used, ``diag``, ``nis`` (attitude, velocity) and
     ``repairs`` (covariance repairs this period).
+
+    With ``observer`` (``ballbot_com_observer``,
+    :mod:`ballbot_casadi.estimation.com_observer`, a called Function) ``c`` ends with the
+    observer's state (field ``obs``), the inputs end with :data:`OBSERVER_INPUTS`
+    (``com_observer`` switch, ``k_obs`` gains) and the outputs with
+    :data:`OBSERVER_OUTPUTS` (``com_hat``, the estimate); the observer reads ``x_hat``
+    (:func:`~ballbot_casadi.sim.period.controller_part`).
     """
     blocks = PeriodBlocks(balance, velocity)
     sz = check_blocks(blocks, len(PARAM_NAMES))
-    C = controller_layout(est.name, sz["nz"])
+    n_obs = observer.numel_in(2) if observer is not None else 0
+    C = controller_layout(est.name, sz["nz"], n_obs)
     na = int(round(np.sqrt(C["Pa"].stop - C["Pa"].start)))
     nv = int(round(np.sqrt(C["Pv"].stop - C["Pv"].start)))
     NP = len(PARAM_NAMES)
@@ -192,6 +209,8 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
            "k_vel": MX("k_vel", sz["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade"),
            "feedforward": MX("feedforward"), "Qa": MX("Qa", 36), "Ra": MX("Ra", 36),
            "Qv": MX("Qv", nv * nv), "Rv": MX("Rv", 36)}
+    if observer is not None:
+        sym.update({"com_observer": MX("com_observer"), "k_obs": MX("k_obs", observer.numel_in(4))})
     c, meas, Ts, p_est = sym["c"], sym["meas"], sym["Ts"], sym["p_est"]
     acc, gyro, enc = meas[MEAS["acc"]], meas[MEAS["gyro"]], meas[MEAS["enc"]]
 
@@ -209,13 +228,18 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     pos = c[C["pos"]] + Ts * v_hat
     x_hat = ca.vertcat(pos, q_hat, v_hat, 0.5 * Q.mul(q_hat, ca.vertcat(0, w_hat)))
 
-    ctrl = controller_part(blocks, x_hat, c[C["z"]], sym, sym)
-    c_next = ca.vertcat(ctrl["z_next"], xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos)
+    z_ctrl = c[C["z"]] if observer is None else ca.vertcat(c[C["z"]], c[C["obs"]])
+    ctrl = controller_part(blocks, x_hat, z_ctrl, sym, sym, observer)
+    z_next, obs_next = ctrl["z_next"], []
+    if observer is not None:
+        z_next, obs_next = z_next[:sz["nz"]], [z_next[sz["nz"]:]]
+    c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos, *obs_next)
     outs = {"c_next": c_next, "x_hat": x_hat, "nis": ca.vertcat(att["nis"], vel["nis"]),
             "repairs": att["n_repair"] + vel["n_repair"], **ctrl}
+    names_in = list(EMBEDDED_INPUTS) + (list(OBSERVER_INPUTS) if observer is not None else [])
+    names_out = list(EMBEDDED_OUTPUTS) + (list(OBSERVER_OUTPUTS) if observer is not None else [])
     return ca.Function(f"ballbot_embedded_{blocks.name}_{est.name}",
-                       [sym[k] for k in EMBEDDED_INPUTS], [outs[k] for k in EMBEDDED_OUTPUTS],
-                       list(EMBEDDED_INPUTS), list(EMBEDDED_OUTPUTS))
+                       [sym[k] for k in names_in], [outs[k] for k in names_out], names_in, names_out)
 
 
 def initial_estimator_state(estimator: str, x0: np.ndarray) -> np.ndarray:

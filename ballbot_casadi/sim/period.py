@@ -160,6 +160,7 @@ def controller_part(
     z: Any,
     seq: Mapping[str, Any],
     const: Mapping[str, Any],
+    observer: ca.Function | None = None,
 ) -> dict[str, Any]:
     """The robot's controllers for one period: velocity controller, balance controller and
     the direction-preserving torque limit (steps 2-4 of the module docstring).
@@ -167,20 +168,47 @@ def controller_part(
     ``x_seen`` is what the controllers read (the true state or an estimate).  Returns
     ``z_next``, ``tau_cmd`` (balance controller output), ``tau_lim`` (after the limit at
     the controller's ``tau_max``), the references used and ``diag``.
+
+    With ``observer`` (``ballbot_com_observer``,
+    :mod:`ballbot_casadi.estimation.com_observer`) the controller state is
+    ``z = [z_velocity; o]`` with the observer's state ``o`` last, ``const`` also holds
+    ``k_obs`` (observer gains) and ``com_observer`` (switch): the observer runs every
+    period on ``x_seen`` and, with the switch on, both controllers use its internal
+    model ``p_hat`` (the estimated COM offset) instead of ``p_ctrl``; with the switch off
+    they get ``p_ctrl`` itself, so the loop is exactly the one without an observer (the
+    estimate still runs, unused).  The result then also has ``com_hat`` (the COM-offset
+    estimate after this period's update) and ``com_meas`` (the observer's measurement).
     """
     p_ctrl = const["p_ctrl"]
-    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(x_seen, seq["v_ref"], z, p_ctrl,
+    z_vel, extra = z, {}
+    if observer is not None:
+        no = observer.numel_in(2)
+        nz = (z.numel() if _symbolic(z) else np.size(z)) - no
+        z_vel, o = z[:nz], z[nz:]
+        o_next, p_hat, com_hat, com_meas = (_value(v) for v in observer(
+            x_seen, seq["v_ref"], o, p_ctrl, const["k_obs"], const["Ts"]))
+        p_ctrl = _select(_on(const["com_observer"]), p_hat, p_ctrl)
+        extra = {"com_hat": com_hat, "com_meas": com_meas}
+    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(x_seen, seq["v_ref"], z_vel, p_ctrl,
                                                             const["k_vel"], const["Ts"]))
-    on = const["cascade"] > 0.5 if _symbolic(const["cascade"]) else bool(const["cascade"])
+    on = _on(const["cascade"])
     qr = _select(on, qv, seq["q_ref"])
     dqr = _select(on, dqv, seq["dq_ref"])
     ddqr = _select(on, ddqv, seq["ddq_ref"])
     ddqr = ddqr * (const["feedforward"] if _symbolic(const["feedforward"]) else float(const["feedforward"]))
-    z_next = _select(on, zv, z)
+    z_next = _select(on, zv, z_vel)
+    if observer is not None:
+        z_next = (ca.vertcat(z_next, o_next) if _symbolic(z_next, o_next)
+                  else np.concatenate([np.ravel(z_next), np.ravel(o_next)]))
     tau_cmd, diag = (_value(v) for v in blocks.balance(x_seen, qr, dqr, ddqr, p_ctrl, const["k_bal"]))
-    tau_lim = saturate_torques(tau_cmd, p_ctrl[_TAU_MAX])
+    tau_lim = saturate_torques(tau_cmd, const["p_ctrl"][_TAU_MAX])
     return {"z_next": z_next, "tau_cmd": tau_cmd, "tau_lim": tau_lim, "q_ref_used": qr,
-            "dq_ref_used": dqr, "ddq_ref_used": ddqr, "diag": diag}
+            "dq_ref_used": dqr, "ddq_ref_used": ddqr, "diag": diag, **extra}
+
+
+def _on(switch: Any) -> Any:
+    """A 0/1 switch input as a condition (symbolic: ``> 0.5``)."""
+    return switch > 0.5 if _symbolic(switch) else bool(switch)
 
 
 def control_period(

@@ -17,6 +17,7 @@ Format (every key optional unless marked; units in the names)::
     estimator = "true"              # true | ukf | ekf (noisy sensors + QUKF/VUKF or QEKF/VEKF)
     seed = 0                        # sensor-noise seed, int >= 0
     noise = true                    # with an estimator: draw sensor noise (false: noise-free sensors)
+    com_observer = false            # controllers use the online COM-offset estimate (position hold)
     control_period_s = 0.005        # 200 Hz (thesis §7.1)
     rk4_substeps = 5                # plant RK4 steps per control period
 
@@ -77,6 +78,7 @@ Format (every key optional unless marked; units in the names)::
     [gains]
     k_bal = [...]                   # balance gains (default: the controller's)
     k_vel = [...]                   # velocity gains (default: LQR of thesis §7.3)
+    k_obs = [0.3, 2.0, 0.1, 0.1]   # COM observer: t_obs, t_com, t_diff (s), c_max (m)
 
     [[spec]]                        # pass/fail criteria on the run's metrics
     metric = "max_tilt_deg"
@@ -263,7 +265,7 @@ class _Checker:
 _TOP = ("name", "description", "study", "controller", "duration_s", "cascade", "feedforward",
         "estimator", "seed", "control_period_s", "rk4_substeps", "initial", "attitude", "velocity",
         "push", "torque_disturbance", "plant", "controller_model", "gains", "spec", "montecarlo",
-        "noise", "estimator_model", "sensors", "sensor_dropout", "estimator_tuning")
+        "noise", "estimator_model", "sensors", "sensor_dropout", "estimator_tuning", "com_observer")
 _INITIAL = ("roll_deg", "pitch_deg", "yaw_deg", "x_m", "y_m", "vx_mps", "vy_mps", "on_reference")
 #: friendly signal key -> Scenario signal key, per type
 _SIGNAL = {
@@ -473,7 +475,7 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         if t1 <= t0:
             raise c.fail(f"{key}.t_end_s", f"must be after t_start_s ({t0:g}), got {t1:g}")
         dists.append((t0, t1, *c.vector(row, "tau_nm", f"{key}.tau_nm", 3)))
-    gains = c.keys(table.get("gains", {}), "gains", ("k_bal", "k_vel"))
+    gains = c.keys(table.get("gains", {}), "gains", ("k_bal", "k_vel", "k_obs"))
     fields = dict(
         name=name,
         controller=c.choice(table, "controller", "controller", "flc", tuple(BALANCE_CONTROLLERS)),
@@ -484,6 +486,8 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         plant_changes=_changes(c, table.get("plant", {}), "plant"),
         ctrl_changes=_changes(c, table.get("controller_model", {}), "controller_model"),
         k_bal=c.vector(gains, "k_bal", "gains.k_bal"), k_vel=c.vector(gains, "k_vel", "gains.k_vel"),
+        com_observer=c.boolean(table, "com_observer", "com_observer", False),
+        k_obs=c.vector(gains, "k_obs", "gains.k_obs"),
         Ts=Ts, n_sub=c.integer(table, "rk4_substeps", "rk4_substeps", 5, 1),
         feedforward=c.choice(table, "feedforward", "feedforward", "exact", FEEDFORWARD_MODES),
         estimator=c.choice(table, "estimator", "estimator", "true", ESTIMATOR_CHOICES),

@@ -44,6 +44,7 @@ from ballbot_casadi.core.sensor_params import (
 from ballbot_casadi.core.validation import check_state
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.estimation import DEFAULT_TUNING
+from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS, check_com_observer_gains
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.model.sensors import NOISE_STREAMS
 from ballbot_casadi.sim import references as R
@@ -257,6 +258,13 @@ class Scenario:
         Rows ``(t_start, t_end, sensor)`` with sensor ``"acc"``, ``"gyro"`` or ``"enc"``:
         that sensor's readings are missing (NaN) in the periods starting in
         ``[t_start, t_end)``; the filters predict only for it.
+    com_observer
+        The controllers use the online estimate of the COM offset
+        (:mod:`ballbot_casadi.estimation.com_observer`) as their internal model: the
+        balance controller's model and the velocity controller's balance point (position
+        hold at standstill).  Off (default): the loop of thesis §7.3, bit for bit.
+    k_obs
+        COM observer gains ``[t_obs, t_com, t_diff, c_max]``; empty = the defaults.
     study
         Which study the scenario belongs to (:mod:`ballbot_casadi.studies.registry`).
     """
@@ -284,6 +292,8 @@ class Scenario:
     est_changes: Mapping[str, Any] = field(default_factory=dict)
     estimator_tuning: Mapping[str, Any] = field(default_factory=dict)
     sensor_dropouts: tuple = ()
+    com_observer: bool = False
+    k_obs: tuple = ()
     study: str = ""
     description: str = ""
 
@@ -317,6 +327,14 @@ class Scenario:
             raise ScenarioError(f"scenario {self.name!r}: seed must be an int in [0, 2^32), got {self.seed!r}")
         if not isinstance(self.noise, bool):
             raise ScenarioError(f"scenario {self.name!r}: noise must be true or false, got {self.noise!r}")
+        if not isinstance(self.com_observer, bool):
+            raise ScenarioError(f"scenario {self.name!r}: com_observer must be true or false, "
+                                f"got {self.com_observer!r}")
+        if self.k_obs:
+            try:
+                check_com_observer_gains(self.k_obs)
+            except ScenarioError as exc:
+                raise ScenarioError(f"scenario {self.name!r}: {exc}") from None
         drops = []
         for row in self.sensor_dropouts:
             ok = (isinstance(row, (list, tuple)) and len(row) == 3 and row[2] in VALID.fields
@@ -343,7 +361,7 @@ class Scenario:
             raise ScenarioError(f"scenario {self.name!r}: attitude axes {unknown} unknown; allowed roll, pitch, yaw")
         for axis, spec in self.attitude.items():
             _check_signal(axis, spec, self.Ts)
-        for what in ("velocity_keyframes", "pushes", "torque_disturbances", "k_bal", "k_vel"):
+        for what in ("velocity_keyframes", "pushes", "torque_disturbances", "k_bal", "k_vel", "k_obs"):
             arr = np.asarray(getattr(self, what), dtype=float)
             if not np.all(np.isfinite(arr)):
                 raise ScenarioError(f"scenario {self.name!r}: {what} contains NaN or Inf")
@@ -465,6 +483,8 @@ class Scenario:
             "Ts": self.Ts,
             "cascade": self.cascade,
             "feedforward": self.feedforward == "exact",
+            "com_observer": self.com_observer,
+            "k_obs": np.asarray(self.k_obs if self.k_obs else COM_OBSERVER_DEFAULT_GAINS, float),
             "estimator": self.estimator,
             **({"estimation": self.estimation_inputs(base, periods)} if self.estimator != "true" else {}),
         }
