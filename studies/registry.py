@@ -14,7 +14,8 @@ never decide pass/fail.
 ``sine``       roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
 ``sine_asym``  the same on a robot whose COM is off-axis, unknown to the controller
 ``robustness`` plant mass +10 %, inertias x3.2, against the nominal run (thesis §8.4.1)
-``com``        COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2) and cascade (§9.2)
+``com``        COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2), cascade (§9.2),
+               and with the online COM observer and position hold (true state, QUKF + VUKF)
 ``push``       4 deg roll jump of the plant attitude (thesis §8.4.3)
 ``velocity``   velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
 ``chirp``      roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
@@ -25,7 +26,6 @@ never decide pass/fail.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
@@ -47,6 +47,7 @@ from ballbot_casadi.sim.scenario_file import (
     spec_ok,
 )
 from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.studies import com as COM
 from ballbot_casadi.studies import estimators as E
 
 __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenarios",
@@ -234,12 +235,6 @@ class Study:
         return evaluate_specs(self.spec_list(), metrics)
 
 
-def _com_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
-    b = logs[0].arrays["state"]
-    return {"runaway_speed_mps": float(math.hypot(b[-1, 6], b[-1, 7])),
-            "runaway_distance_m": float(math.hypot(b[-1, 0], b[-1, 1]))}
-
-
 def _chirp_expand(tables: list[dict[str, Any]]) -> list[dict[str, Any]]:
     main = tables[-1]
     exact = set_value(set_value(main, "feedforward", "exact"), "name", f"{main.get('name', 'chirp')}_exact")
@@ -283,6 +278,30 @@ _FULL_SPECS = (
 )
 
 
+_COM_SPECS = (
+    Spec("runaway_speed_mps", ">", 0.5, "balance controller alone runs away (thesis §8.4.2)",
+         "run-away (Fig. 8.13)"),
+    Spec("no_observer_final_speed_mps", "<", 0.01,
+         "without the observer the velocity loop stops the runaway (thesis §9.2, Fig. 9.7)",
+         "run-away disappears"),
+    Spec("no_observer_equilibrium_error_deg", "<", 0.1,
+         "without the observer the tilt settles with the COM over the ball centre",
+         "roll -4 deg, pitch 2.5 deg (§9.2)"),
+    Spec("observer_true_com_estimate_error_max_mm", "<=", 2.0,
+         "true state: COM estimate within 2 mm of its observable part from 10 s of standstill on"),
+    Spec("observer_true_final_position_error_m", "<=", 0.02,
+         "true state: position hold, back within 2 cm of the start after 30 s"),
+    Spec("observer_true_standing_tilt_error_deg", "<=", 0.05,
+         "true state: the balance controller reaches the commanded balance point (mean, last 10 s)"),
+    Spec("observer_velocity_velocity_error_rms_delayed_mps", "<=", 0.05,
+         "velocity profile with the observer on: the velocity study's spec still holds"),
+    Spec("observer_velocity_max_abs_roll_pitch_deg", "<=", 5.0,
+         "velocity profile with the observer on: inclination limit +-5 deg (thesis §7.1)"),
+    Spec("observer_velocity_final_velocity_error_mps", "<=", 0.01,
+         "velocity profile with the observer on: reaches the final reference"),
+)
+
+
 def _robustness_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     return robustness_metrics(logs[0], logs[-1])
 
@@ -303,9 +322,11 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                 "no overshoot beyond the nominal run's peak error (+5 %)",
                 "reaches upright like the nominal model (Fig. 8.11)"))),
     Study("com", "COM offset (-2, -3, +3) cm: runaway alone, held by the velocity loop "
-          "(thesis §8.4.2, §9.2)", ("com_balance_only", "com"), _com_metrics,
-          (Spec("runaway_speed_mps", ">", 0.5, "balance controller alone runs away (thesis §8.4.2)",
-                "run-away (Fig. 8.13)"),)),
+          "(thesis §8.4.2, §9.2), and with the online COM observer and position hold, true state "
+          "and QUKF + VUKF side by side with the loop without it",
+          ("com_balance_only", "com", "com_observer_true", "com_ukf", "com_observer_velocity",
+           "com_observer_centred", "com_observer"), COM.com_study_metrics, _COM_SPECS, plot=COM.plot_com,
+          report=COM.com_report_lines),
     Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", ("push",)),
     Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2)", ("velocity",)),
     Study("chirp", "roll chirp 3 deg, 0.05 -> 5 Hz over 100 s: bandwidth, saturation, fall "

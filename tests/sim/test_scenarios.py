@@ -95,9 +95,10 @@ def test_study_scenarios_definitions():
     for j in ("Jbx", "Jby", "Jbz"):
         assert getattr(pp, j) == pytest.approx(3.2 * getattr(nominal, j), rel=1e-15)
     assert pc == nominal
-    bal, cas = study_scenarios("com")
+    bal, cas, *with_observer = study_scenarios("com")
     assert not bal.cascade and cas.cascade
     assert bal.plant_changes == cas.plant_changes
+    assert not cas.com_observer and with_observer[-1].com_observer  # the main run: with the observer
     p = cas.plant_params()
     assert (p.com_x, p.com_y) == (-0.02, -0.03) and p.l == pytest.approx(nominal.l + 0.03, abs=1e-15)
     (vel,) = study_scenarios("velocity")

@@ -40,7 +40,7 @@ def test_files_reproduce_the_thesis_scenarios():
     assert (exact.feedforward, none.feedforward) == ("exact", "none")
     assert none.attitude["roll"] == {"type": "chirp", "amplitude_deg": 3.0, "f0_hz": 0.05, "f1_hz": 5.0,
                                      "duration": 99.0}
-    _, com = get_study("com").scenarios()
+    _, com, *_ = get_study("com").scenarios()
     p = com.plant_params()
     assert (p.com_x, p.com_y) == (-0.02, -0.03) and com.controller_params().com_x == 0.0
 
