@@ -36,8 +36,8 @@ import numpy as np
 from ballbot_casadi.core.layout import STATE, STATE_XY
 from ballbot_casadi.estimation.com_observer import observable_offset
 
-__all__ = ["WINDOW_S", "HOLD_WINDOW_S", "ESTIMATE_TOL_M", "standstill_start", "commanded_position", "vertical_in_body",
-           "inclination_error_deg", "com_observer_metrics"]
+__all__ = ["WINDOW_S", "HOLD_WINDOW_S", "ESTIMATE_TOL_M", "ESTIMATE_BY_S", "standstill_start",
+           "commanded_position", "vertical_in_body", "inclination_error_deg", "com_observer_metrics"]
 
 #: Averaging window of the standing tilt errors (s).
 WINDOW_S = 10.0
