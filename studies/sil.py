@@ -33,6 +33,7 @@ import numpy as np
 
 from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.core.files import staged_dir
+from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.sil import SilRun, run_ssp, sil_log
 from ballbot_casadi.fmi.sil_mission import jacobi_mission
@@ -101,6 +102,8 @@ def run_sil(ssp: str | Path, out: str | Path, duration: float | None = None,
     if run.scenario is None:
         raise ScenarioError(f"{ssp} carries no scenario (resources/scenario.json); write it with "
                             "'ballbot fmu ssp'")
+    if any(f"plant.{n}" not in run.signals for n in STATE.names):
+        return _connections_only(run, out)
     log = sil_log(run)
     metrics = run_metrics(log)
     spec = evaluate_specs([Spec.from_row(r) for r in run.specs], metrics)
@@ -132,3 +135,15 @@ def run_sil(ssp: str | Path, out: str | Path, duration: float | None = None,
         (tmp / "metrics.json").write_text(json.dumps(jsonable(result), indent=2) + "\n")
     return result
 
+
+def _connections_only(run: SilRun, out: Path) -> dict[str, Any]:
+    """A plant without the state outputs: the connections and the run's facts only."""
+    result = {"sil": {"master": run.master, "steps": run.time.size - 1, "wall_s": run.wall_s,
+                      "connections": len(run.connections), "signals": len(run.signals)},
+              "passed": True, "metrics": {},
+              "note": "the plant FMU has no state outputs (x, y, q0..q3, dx, dy, dq0..dq3): no "
+                      "metrics or plots, the connections are in connections.csv"}
+    with staged_dir(out, owned=SIL_OUTPUTS) as tmp:
+        run.write_connections(tmp / "connections.csv")
+        (tmp / "metrics.json").write_text(json.dumps(jsonable(result), indent=2) + "\n")
+    return result

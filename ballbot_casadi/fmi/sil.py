@@ -477,6 +477,10 @@ def sil_log(run: SilRun, scenario: Scenario | None = None) -> SimulationLog:
     if sc is None:
         raise ScenarioError("the SSP carries no scenario; pass the scenario to sil_log")
     s = run.signals
+    missing = [n for n in STATE.names if f"{PLANT}.{n}" not in s]
+    if missing:
+        raise ScenarioError(f"the plant FMU has no outputs {', '.join(missing)}: the log in the "
+                            "mission's layout needs the state (the connections are logged anyway)")
     n = run.time.size - 1
 
     def cols(comp: str, names: Sequence[str]) -> np.ndarray:
@@ -499,8 +503,9 @@ def sil_log(run: SilRun, scenario: Scenario | None = None) -> SimulationLog:
     w = np.zeros((n, 6))
     w[:, 3:6] = dist
     arrays = {"time": run.time - run.time[0], "state": cols(PLANT, STATE.names),
-              "phi": cols(PLANT, WHEEL_ANGLE_NAMES), "tau": tau, "meas": meas, "v_ref": inp_v,
-              "w": w, **ctrl}
+              "tau": tau, "meas": meas, "v_ref": inp_v, "w": w, **ctrl}
+    if all(f"{PLANT}.{m}" in s for m in WHEEL_ANGLE_NAMES):
+        arrays["phi"] = cols(PLANT, WHEEL_ANGLE_NAMES)
     return SimulationLog(arrays=arrays, scenario=sc.to_dict(), params=params,
                          ctrl_params=sc.controller_params(), diag_names=tuple(BALANCE_DIAG_NAMES),
                          extra={"master": run.master, "sil": True})

@@ -15,8 +15,13 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
-from ballbot_casadi.fmi.controller import READING_NAMES, REFERENCE_NAMES, XHAT_NAMES
-from ballbot_casadi.fmi.package import build_tool
+from ballbot_casadi.fmi.controller import (
+    READING_NAMES,
+    REFERENCE_NAMES,
+    XHAT_NAMES,
+    controller_spec,
+)
+from ballbot_casadi.fmi.package import build_tool, fmu_source_dir
 from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import value_range
 
@@ -94,8 +99,6 @@ def test_both_variants_validate_and_share_the_plant_reading_names():
 
 
 def test_the_per_model_file_is_small():
-    from ballbot_casadi.fmi.package import fmu_source_dir
-
     lines = (fmu_source_dir() / "controller_model.c").read_text().splitlines()
     assert len(lines) < 220  # the second FMU costs a small per-model file, not a copy
 
@@ -268,8 +271,6 @@ def test_parameters_are_checked_and_the_initial_estimate_is_readable_in_initiali
 
 
 def _variables():
-    from ballbot_casadi.fmi.controller import controller_spec
-
     return controller_spec().variables
 
 

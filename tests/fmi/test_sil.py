@@ -9,10 +9,13 @@ import shutil
 import zipfile
 from pathlib import Path
 
+import fmpy
 import numpy as np
 import pytest
+from _controller_support import controller_build
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
+from lxml import etree
 
 from ballbot_casadi.cli import main
 from ballbot_casadi.core.layout import STATE
@@ -57,10 +60,6 @@ def _max_diff(log, ref) -> tuple[float, float]:
 
 
 def test_the_ssp_is_valid_ssp_1_0_and_carries_the_system(work):
-    from lxml import etree
-
-    import fmpy
-
     ssp = _ssp("full_sine", SINE_S, work)
     schema_dir = Path(fmpy.__file__).parent / "ssp" / "schema"
     with zipfile.ZipFile(ssp) as zf:
@@ -151,8 +150,6 @@ def test_your_own_plant_fmu_with_the_same_names(work, tmp_path):
     ds, dt = _max_diff(log, jacobi_mission(sc))
     assert ds <= BOUND and dt <= BOUND
     # a plant without the robot's readings cannot be wired
-    from _controller_support import controller_build
-
     with pytest.raises(BuildError, match="lacks tau0"):
         write_sil_ssp(sc, tmp_path / "bad.ssp", plant_fmu=controller_build().fmu)
 
