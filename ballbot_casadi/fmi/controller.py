@@ -83,6 +83,10 @@ from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
 from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError, ScenarioError
+from ballbot_casadi.estimation.com_observer import (
+    COM_OBSERVER_GAIN_NAMES,
+    com_observer_initial_state,
+)
 from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuSpec, FmuVar, VarTable, block_start
 from ballbot_casadi.sim.closed_loop import closed_loop_functions
@@ -92,14 +96,6 @@ from ballbot_casadi.sim.embedded import (
     controller_layout,
 )
 from ballbot_casadi.sim.scenarios import Scenario
-
-try:  # the embedded software's optional COM observer (estimation.com_observer)
-    from ballbot_casadi.estimation.com_observer import (
-        COM_OBSERVER_GAIN_NAMES,
-        com_observer_initial_state,
-    )
-except ImportError:  # pragma: no cover - a tree without the observer has no such input
-    COM_OBSERVER_GAIN_NAMES, com_observer_initial_state = (), None
 
 __all__ = [
     "MODEL_IDENTIFIER",
