@@ -58,7 +58,8 @@ DEMO_STEPS: tuple[tuple[str, Callable[[Path], int]], ...] = (
     ("closed loop: chirp bandwidth test (thesis 9.1)", study.demo_chirp),
     ("complete system: noisy sensors, QUKF + VUKF, FLC in the thesis mode, beside SMC + EKF "
      "(thesis 9.3, 9.4)", study.demo_full),
-    ("Monte Carlo: 16 dispersed runs of the COM scenario on 2 Dask workers", montecarlo.demo_step),
+    ("Monte Carlo: 16 random COM offsets, estimated online, noise and UKFs, on 2 Dask workers",
+     montecarlo.demo_step),
     ("plant FMU: build BallbotPlant.fmu and co-simulate it in fmpy", fmu_demo.demo_step),
     ("report", report.demo_step),
 )
