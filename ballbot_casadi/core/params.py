@@ -13,7 +13,7 @@ from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping, NamedTuple
+from typing import Any, Callable, Mapping, NamedTuple, Sequence
 
 import numpy as np
 import tomllib
@@ -323,6 +323,31 @@ def _read_toml(path: Path) -> dict[str, Any]:
     return values
 
 
+def layered_values(
+    read: Callable[[Path], dict[str, Any]],
+    reject_unknown: Callable[[Mapping[str, Any]], None],
+    names: Sequence[str],
+    path: str | Path | None,
+    overrides: Mapping[str, Any],
+    what: str,
+) -> dict[str, Any]:
+    """The values of a parameter record: packaged defaults, then ``path``, then ``overrides``.
+
+    ``read(file)`` returns a file's (known) values; ``reject_unknown`` refuses unknown
+    override names; every name of ``names`` must end up with a value.  Shared by
+    :func:`load_params` and :func:`~ballbot_casadi.core.sensor_params.load_sensor_params`.
+    """
+    values = read(default_params_path())
+    if path is not None:
+        values.update(read(Path(path)))
+    reject_unknown(overrides)
+    values.update(overrides)
+    missing = sorted(set(names) - set(values))
+    if missing:
+        raise ParameterError(f"{what} missing from the defaults: {missing}")
+    return values
+
+
 def load_params(path: str | Path | None = None, **overrides: Any) -> Params:
     """Load a parameter set.
 
@@ -348,15 +373,8 @@ def load_params(path: str | Path | None = None, **overrides: Any) -> Params:
     BallbotTypeError
         A value of the wrong type.
     """
-    values = _read_toml(default_params_path())
-    if path is not None:
-        values.update(_read_toml(Path(path)))
-    _reject_unknown(overrides)
-    values.update(overrides)
-    missing = sorted(set(PARAM_NAMES) - set(values))
-    if missing:
-        raise ParameterError(f"parameters missing from the defaults: {missing}")
-    return Params(**values)
+    return Params(**layered_values(_read_toml, _reject_unknown, PARAM_NAMES, path, overrides,
+                                   "parameters"))
 
 
 class ParamView:

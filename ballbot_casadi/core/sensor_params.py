@@ -65,8 +65,8 @@ import numpy as np
 from ballbot_casadi.core.params import (
     SENSOR_TABLE,
     check_value,
-    default_params_path,
     flatten_tables,
+    layered_values,
     read_param_file,
     to_float,
 )
@@ -246,15 +246,8 @@ def load_sensor_params(path: str | Path | None = None, **overrides: Any) -> Sens
     BallbotTypeError
         An entry of the wrong type.
     """
-    values = _sensor_values(default_params_path())
-    if path is not None:
-        values.update(_sensor_values(Path(path)))
-    _reject_unknown(overrides)
-    values.update(overrides)
-    missing = sorted(set(SENSOR_PARAM_NAMES) - set(values))
-    if missing:
-        raise ParameterError(f"sensor parameters missing from the defaults: {missing}")
-    return SensorParams(**values)
+    return SensorParams(**layered_values(_sensor_values, _reject_unknown, SENSOR_PARAM_NAMES, path,
+                                         overrides, "sensor parameters"))
 
 
 class SensorView:
