@@ -34,7 +34,6 @@ __all__ = [
     "zero_metrics",
     "sine_metrics",
     "push_metrics",
-    "com_metrics",
     "velocity_metrics",
     "com_equilibrium_deg",
     "tilt_rate_deg_s",
@@ -223,27 +222,6 @@ def com_equilibrium_deg(com_x: float, com_y: float, l: float) -> tuple[float, fl
     roll = math.atan2(com_y, l)
     pitch = math.atan2(-com_x, math.hypot(com_y, l))
     return math.degrees(roll), math.degrees(pitch)
-
-
-def com_metrics(balance_only: Any, cascade: Any, params: Any, window_s: float = 2.0) -> dict[str, float]:
-    """COM offset (thesis §8.4.2, §9.2): runaway without, equilibrium with the velocity loop."""
-    b, c = _arrays(balance_only), _arrays(cascade)
-    xb, xc = b["state"], c["state"]
-    win = _window(c["time"], c["time"][-1] - window_s)
-    ang = rpy_deg(xc[:, STATE["q"]])
-    roll_a, pitch_a = com_equilibrium_deg(params.com_x, params.com_y, params.l)
-    eq_roll, eq_pitch = float(np.mean(ang[win, 0])), float(np.mean(ang[win, 1]))
-    return {
-        "runaway_speed_mps": float(np.hypot(xb[-1, STATE.index("dx")], xb[-1, STATE.index("dy")])),
-        "runaway_distance_m": float(np.hypot(xb[-1, 0], xb[-1, 1])),
-        "final_speed_mps": float(np.hypot(xc[-1, STATE.index("dx")], xc[-1, STATE.index("dy")])),
-        "equilibrium_roll_deg": eq_roll,
-        "equilibrium_pitch_deg": eq_pitch,
-        "equilibrium_roll_analytic_deg": roll_a,
-        "equilibrium_pitch_analytic_deg": pitch_a,
-        "equilibrium_error_deg": max(abs(eq_roll - roll_a), abs(eq_pitch - pitch_a)),
-        "final_position_drift_m": float(np.hypot(xc[-1, 0], xc[-1, 1])),
-    }
 
 
 def _yaw_rate(x: np.ndarray) -> np.ndarray:

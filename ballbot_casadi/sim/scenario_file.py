@@ -329,15 +329,21 @@ def _sensor_changes(c: _Checker, table: Any) -> dict[str, list]:
     return out
 
 
+def _interval(c: _Checker, row: Any, key: str, field: str) -> tuple[float, float]:
+    """``(t_start_s, t_end_s)`` of a row that also requires ``field``; end after start."""
+    c.keys(row, key, ("t_start_s", "t_end_s", field), ("t_start_s", "t_end_s", field))
+    t0 = c.num(row, "t_start_s", f"{key}.t_start_s", lo=0.0)
+    t1 = c.num(row, "t_end_s", f"{key}.t_end_s")
+    if t1 <= t0:
+        raise c.fail(f"{key}.t_end_s", f"must be after t_start_s ({t0:g}), got {t1:g}")
+    return t0, t1
+
+
 def _dropouts(c: _Checker, table: Mapping[str, Any]) -> list[tuple]:
     rows = []
     for i, row in enumerate(c.rows(table, "sensor_dropout")):
         key = f"sensor_dropout[{i}]"
-        c.keys(row, key, ("t_start_s", "t_end_s", "sensor"), ("t_start_s", "t_end_s", "sensor"))
-        t0 = c.num(row, "t_start_s", f"{key}.t_start_s", lo=0.0)
-        t1 = c.num(row, "t_end_s", f"{key}.t_end_s")
-        if t1 <= t0:
-            raise c.fail(f"{key}.t_end_s", f"must be after t_start_s ({t0:g}), got {t1:g}")
+        t0, t1 = _interval(c, row, key, "sensor")
         rows.append((t0, t1, c.choice(row, "sensor", f"{key}.sensor", "", ("acc", "gyro", "enc"))))
     return rows
 
@@ -469,11 +475,7 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
     dists = []
     for i, row in enumerate(c.rows(table, "torque_disturbance")):
         key = f"torque_disturbance[{i}]"
-        c.keys(row, key, ("t_start_s", "t_end_s", "tau_nm"), ("t_start_s", "t_end_s", "tau_nm"))
-        t0 = c.num(row, "t_start_s", f"{key}.t_start_s", lo=0.0)
-        t1 = c.num(row, "t_end_s", f"{key}.t_end_s")
-        if t1 <= t0:
-            raise c.fail(f"{key}.t_end_s", f"must be after t_start_s ({t0:g}), got {t1:g}")
+        t0, t1 = _interval(c, row, key, "tau_nm")
         dists.append((t0, t1, *c.vector(row, "tau_nm", f"{key}.tau_nm", 3)))
     gains = c.keys(table.get("gains", {}), "gains", ("k_bal", "k_vel", "k_obs"))
     fields = dict(
