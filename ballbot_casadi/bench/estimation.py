@@ -3,11 +3,14 @@
 Keys
 ----
 ``estimator_step_us``
-    One period of the QUKF and the VUKF (``ballbot_qukf`` + ``ballbot_vukf``, the
-    filters of the estimating closed-loop library) in generated C, timed by the C
-    driver ``csrc/bench_function.c`` on a realistic operating point.  Target <= 10 us
-    (the loop period is 5000 us).  Also ``qukf_step_us``, ``vukf_step_us`` and
-    ``embedded_step_us`` (the whole embedded software: filters, controllers, limit).
+    One period of the estimation: the QUKF, the VUKF, the velocity-aided tilt
+    correction and the COM observer (``ballbot_qukf`` + ``ballbot_vukf`` +
+    ``ballbot_tilt_correction`` + ``ballbot_com_observer``, exported by the estimating
+    closed-loop library) in generated C, each timed by the C driver
+    ``csrc/bench_function.c`` on a realistic operating point.  Target <= 10 us (the
+    loop period is 5000 us).  Also the parts ``qukf_step_us``, ``vukf_step_us``,
+    ``tilt_correction_step_us``, ``com_observer_step_us`` and ``embedded_step_us``
+    (the whole embedded software: filters, observer, controllers, limit).
 ``mission_full_100s_s``
     Wall time of 100 s of the complete system (sensor noise, QUKF + VUKF, velocity LQR,
     FLC, plant) run from Python as one call of the compiled mission, inputs prepared
@@ -87,6 +90,7 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
     c = log["c_final"]
     names = {f.name(): f for f in variant.exported}
     qukf, vukf = names["ballbot_qukf"], names["ballbot_vukf"]
+    tilt, observer = names["ballbot_tilt_correction"], names["ballbot_com_observer"]
     embedded = names[f"ballbot_embedded_{sc.controller}_{sc.estimator}"]
     nz = np.size(inputs["z0"])
     xa, Pa = c[nz:nz + 7], c[nz + 7:nz + 43]
@@ -96,9 +100,15 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
     q_in = [xa, Pa, meas[:6], est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
     v_in = [xv, Pv, np.r_[meas[6:9] * inputs["Ts"], meas[:3]], xa, np.eye(3) * 1e-8, est["Qv"],
             est["Rv"], inputs["Ts"], p]
+    t_in = [xa[:4], xv[2:4], xv[4:7], p]
+    x_hat = log["x_hat"][k]
+    o_in = [x_hat, np.zeros(3), c[-observer.numel_in(2):], inputs["p_ctrl"], inputs["k_obs"], inputs["Ts"]]
     data["qukf_step_us"] = c_function_us(lib, qukf, q_in, n_calls)
     data["vukf_step_us"] = c_function_us(lib, vukf, v_in, n_calls)
-    data["estimator_step_us"] = data["qukf_step_us"] + data["vukf_step_us"]
+    data["tilt_correction_step_us"] = c_function_us(lib, tilt, t_in, n_calls)
+    data["com_observer_step_us"] = c_function_us(lib, observer, o_in, n_calls)
+    data["estimator_step_us"] = sum(data[f"{k}_step_us"] for k in ("qukf", "vukf", "tilt_correction",
+                                                                   "com_observer"))
     e_in = [c, meas, *(inputs[s][k] for s in ("q_ref", "dq_ref", "ddq_ref", "v_ref")),
             inputs["p_ctrl"], p, inputs["k_bal"], inputs["k_vel"], inputs["Ts"],
             1.0 if inputs["cascade"] else 0.0, 1.0 if inputs["feedforward"] else 0.0,

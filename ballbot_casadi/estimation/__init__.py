@@ -16,7 +16,9 @@ vukf    velocity UKF (thesis ch. 5)                            7 x 7      make_v
 vekf    predecessor's velocity EKF (baseline)                  7 x 7      make_vekf(ws)
 ======  =====================================================  =========  ==========
 
-``ws`` is the model's ``ballbot_wheel_speeds`` Function.  Inputs and outputs:
+``ws`` is the model's ``ballbot_wheel_speeds`` Function.  ``make_tilt_correction()``
+(:mod:`~ballbot_casadi.estimation.tilt_aiding`) combines the two: the attitude filter's
+slow tilt error, read from the velocity filter's accelerometer bias.  Inputs and outputs:
 
 * attitude: ``(xhat[7], P, z[6], Q[6x6], R[6x6], dt, p[NP])`` ->
   ``(xhat_next, P_next, nu[6], nis, n_valid, n_repair, P_att[3x3])``;
@@ -61,6 +63,7 @@ from ballbot_casadi.estimation.tuning import (
     VUKF_X0,
     read_only,
 )
+from ballbot_casadi.estimation.tilt_aiding import make_tilt_correction
 from ballbot_casadi.estimation.velocity import make_vekf, make_vukf
 
 __all__ = [
@@ -71,6 +74,7 @@ __all__ = [
     "initial_state",
     "make_qekf",
     "make_qukf",
+    "make_tilt_correction",
     "make_vekf",
     "make_vukf",
 ]

@@ -352,8 +352,8 @@ def closed_loop_functions(n_sub: int = N_SUB, estimator: str = "true",
         The step and chunk (:func:`make_chunk`) Functions plus, for ``"true"``, the
         controllers ``ballbot_flc``, ``ballbot_smc``, ``ballbot_velocity`` (for the C
         benchmark), otherwise the embedded software ``ballbot_embedded_<ctrl>_<est>`` (the
-        controller FMU's code) and the filters (for the estimator benchmark), and the
-        COM observer.
+        controller FMU's code), the filters and the tilt correction (for the estimator
+        benchmark), and the COM observer.
     """
     ode, affine = make_ode(), make_affine()
     velocity = make_velocity_controller()
@@ -371,7 +371,7 @@ def closed_loop_functions(n_sub: int = N_SUB, estimator: str = "true",
             steps[name] = make_estimating_step(bal, velocity, ode, make_wheel_speeds(), est, n_sub,
                                                embedded)
             exported += [steps[name], make_chunk(steps[name]), embedded]
-    exported += [velocity] if est is None else [est.attitude, est.velocity]
+    exported += [velocity] if est is None else [est.attitude, est.velocity, est.tilt_correction]
     return steps, exported + [observer]
 
 

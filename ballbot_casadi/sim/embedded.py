@@ -19,8 +19,11 @@ With an estimator in the loop the plant carries the three wheel angles as well
    acceleration (the thesis's model (4.29) takes the accelerometer as measuring gravity
    only, which tilts the estimate by ``atan(a/g)`` whenever the ball accelerates), the
    velocity filter (VUKF ch. 5, or VEKF) on the encoder tick increments (predicted at
-   the period's middle) and the accelerometer, the estimate ``x_hat = [pos, q, v, dq]``
-   (``dq = 1/2 q o [0, omega]``; the position integrates the velocity estimate: the
+   the period's middle) and the accelerometer, the velocity-aided tilt correction
+   (``ballbot_tilt_correction``: the velocity filter's horizontal accelerometer bias is
+   the attitude filter's slow tilt error, :mod:`~ballbot_casadi.estimation.tilt_aiding`),
+   the estimate ``x_hat = [pos, q_c, v, dq]`` (``q_c`` the corrected attitude,
+   ``dq = 1/2 q_c o [0, omega]``; the position integrates the velocity estimate: the
    robot has no position sensor), then the controllers and the torque limit of
    :func:`~ballbot_casadi.sim.period.controller_part` on ``x_hat``.  A NaN reading makes
    its filter predict only for that sensor.
@@ -49,6 +52,7 @@ from ballbot_casadi.estimation import (
     initial_state,
     make_qekf,
     make_qukf,
+    make_tilt_correction,
     make_vekf,
     make_vukf,
 )
@@ -110,6 +114,8 @@ class EstimatorBlocks:
     attitude, velocity
         The filters (``ballbot_qukf``/``ballbot_qekf`` with the acceleration input,
         ``ballbot_vukf``/``ballbot_vekf`` with mid-period encoder prediction).
+    tilt_correction
+        ``ballbot_tilt_correction`` (:mod:`~ballbot_casadi.estimation.tilt_aiding`).
     name
         ``"ukf"`` or ``"ekf"``.
     """
@@ -120,6 +126,7 @@ class EstimatorBlocks:
     attitude: ca.Function
     velocity: ca.Function
     name: str
+    tilt_correction: ca.Function
 
 
 def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function) -> EstimatorBlocks:
@@ -130,7 +137,7 @@ def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function
     attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
     velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True)
     return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
-                           velocity, estimator)
+                           velocity, estimator, make_tilt_correction())
 
 
 def estimator_layout(estimator: str) -> Layout:
@@ -224,7 +231,10 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                        att=xa, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
                        R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est)
     xv = vel["xhat_next"]
-    q_hat, w_hat, v_hat = xa[0:4], xa[4:7], xv[0:2]
+    # the velocity filter's horizontal accelerometer bias is the attitude filter's slow
+    # tilt error (velocity-aided tilt, estimation.tilt_aiding): the controllers read q_c
+    q_hat = est.tilt_correction(q=xa[0:4], a=xv[2:4], b_acc=xv[4:7], p=p_est)["q_c"]
+    w_hat, v_hat = xa[4:7], xv[0:2]
     pos = c[C["pos"]] + Ts * v_hat
     x_hat = ca.vertcat(pos, q_hat, v_hat, 0.5 * Q.mul(q_hat, ca.vertcat(0, w_hat)))
 

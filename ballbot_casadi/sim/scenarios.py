@@ -70,7 +70,7 @@ FEEDFORWARD_MODES = ("exact", "none")
 #: What the controllers read: the true state, or estimates from noisy sensors.
 ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
 #: Keys of Scenario.estimator_tuning (changes to the thesis tuning of the filters).
-ESTIMATOR_TUNING_KEYS = ("rate_process_var", "encoder_var")
+ESTIMATOR_TUNING_KEYS = ("rate_process_var", "encoder_var", "acc_bias_process_var")
 _CHANGE_OPS = ("set", "scale", "add")
 
 
@@ -252,8 +252,11 @@ class Scenario:
     estimator_tuning
         Changes to the filters' default (thesis) tuning: ``rate_process_var`` (the
         attitude filter's body-rate process noise per period, (rad/s)^2, thesis 4.39:
-        1e-5) and ``encoder_var`` (the velocity filter's encoder noise, ticks^2, thesis
-        5.27: 1/9).
+        1e-5), ``encoder_var`` (the velocity filter's encoder noise, ticks^2, thesis
+        5.27: 1/9) and ``acc_bias_process_var`` (the velocity filter's accelerometer-bias
+        process noise per period, (m/s^2)^2, the predecessor's 1e-9; it sets how fast
+        the velocity-aided tilt correction follows the attitude filter's slow error,
+        :mod:`~ballbot_casadi.estimation.tilt_aiding`).
     sensor_dropouts
         Rows ``(t_start, t_end, sensor)`` with sensor ``"acc"``, ``"gyro"`` or ``"enc"``:
         that sensor's readings are missing (NaN) in the periods starting in
@@ -529,12 +532,15 @@ class Scenario:
             Qa[3:6, 3:6] = np.eye(3) * float(self.estimator_tuning["rate_process_var"])
         if "encoder_var" in self.estimator_tuning:
             Rv[0:3, 0:3] = np.eye(3) * float(self.estimator_tuning["encoder_var"])
+        Qv = np.array(vel.Q, float)
+        if "acc_bias_process_var" in self.estimator_tuning:
+            Qv[4:7, 4:7] = np.eye(3) * float(self.estimator_tuning["acc_bias_process_var"])
         return {
             "noise": noise,
             "valid": valid,
             "s": sp.to_vector(),
             "p_est": self.estimator_params(base).to_vector(),
-            "Qa": Qa, "Ra": att.R, "Qv": vel.Q, "Rv": Rv,
+            "Qa": Qa, "Ra": att.R, "Qv": Qv, "Rv": Rv,
             "e0": initial_estimator_state(self.estimator, np.asarray(self.x0, float)),
             "s0": np.concatenate([np.zeros(3), np.asarray(sp.gyro_bias0, float), np.zeros(3)]),
         }

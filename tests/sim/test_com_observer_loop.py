@@ -104,12 +104,26 @@ def test_true_state_estimate_converges_and_the_robot_returns(sim):
 
 
 def test_with_noisy_sensors_and_ukfs_the_acceptance_numbers_hold(sim):
+    # seeds 1, 8 and 12 left the true attitude 0.09-0.12 deg off before the
+    # velocity-aided tilt correction (the attitude filter's slow error)
     sc = load_scenario_file(shipped_scenarios()["com_observer"]).scenario
-    for seed in (1, 5):
+    for seed in (1, 8, 12):
         m = com_observer_metrics(run_scenario(sc.replace(seed=seed), sim))
         assert m["com_estimate_error_max_mm"] <= 2.0
         assert m["final_position_error_m"] <= 0.02
         assert m["standing_tilt_error_est_deg"] <= 0.05
+        assert m["standing_tilt_error_deg"] <= 0.05
+
+
+def test_the_tilt_correction_needs_a_bias_estimate_that_can_follow(sim):
+    # with the predecessor's accelerometer-bias process noise (1e-9 per period) the
+    # velocity filter's bias follows the attitude filter's slow error over minutes, not
+    # seconds: the true attitude misses the 0.05 deg it meets with the tuned filter
+    sc = load_scenario_file(shipped_scenarios()["com_observer"]).scenario
+    tuned = com_observer_metrics(run_scenario(sc, sim))
+    slow = sc.replace(estimator_tuning={**sc.estimator_tuning, "acc_bias_process_var": 1e-9})
+    m = com_observer_metrics(run_scenario(slow, sim))
+    assert m["standing_tilt_error_deg"] > 0.05 >= 1.5 * tuned["standing_tilt_error_deg"]
 
 
 def test_velocity_profile_with_observer_on_keeps_the_velocity_specs_and_freezes_the_estimate(sim):
