@@ -9,9 +9,10 @@ or serially with ``workers = 0``) with a progress bar (tqdm) and writes, all tog
   ok, metrics);
 * ``histograms.png`` (distributions of the spec metrics and the §7.1 peaks),
   ``scatter.png`` (a metric against each dispersed parameter);
-* ``worst/`` the scenario files of the worst runs (failed specs first, then the largest
-  peak tilt), each rerunnable alone: ``ballbot simulate worst/<file>.toml``;
-* ``report.md``.
+* ``worst/`` the scenario files of the worst runs (failed specs first, then the spec
+  closest to its threshold, :func:`spec_usage`, then the largest peak tilt), each
+  rerunnable alone: ``ballbot simulate worst/<file>.toml``;
+* ``report.md`` (with the worst run of each spec).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import matplotlib
 
@@ -47,7 +48,7 @@ from ballbot_casadi.sim.scenario_file import (
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.study import jsonable
 
-__all__ = ["run_montecarlo", "execute", "demo_step", "OWNED_OUTPUTS", "N_WORST"]
+__all__ = ["run_montecarlo", "execute", "demo_step", "spec_usage", "OWNED_OUTPUTS", "N_WORST"]
 
 #: Files an existing output folder may hold and still be replaced.
 OWNED_OUTPUTS = ("montecarlo.json", "*.png", "report.md", "worst")
@@ -76,11 +77,40 @@ def execute(source: ScenarioFile, runs: Sequence[dict[str, Any]], scheduler: str
         bar.close()
 
 
-def _rank(results: Sequence[dict[str, Any]]) -> list[int]:
+def spec_usage(value: Any, op: str, threshold: Any) -> float | None:
+    """How much of a spec's allowance a value uses: 1 at the threshold, above 1 beyond it
+    (``value / threshold`` for upper bounds, ``threshold / value`` for lower bounds);
+    ``None`` for ``==`` specs, non-numeric values or a zero threshold."""
+    num = (int, float)
+    if (op == "==" or not isinstance(value, num) or isinstance(value, bool)
+            or not isinstance(threshold, num) or isinstance(threshold, bool) or threshold == 0
+            or not math.isfinite(value)):
+        return None
+    if op in ("<", "<="):
+        return value / threshold
+    if op == "abs<=":
+        return abs(value) / abs(threshold)
+    return threshold / value if value > 0 else math.inf
+
+
+def _worst_usage(specs: Sequence[Mapping[str, Any]], metrics: Mapping[str, Any]) -> tuple[float, str | None]:
+    """The largest :func:`spec_usage` of a run over the specs, and its metric."""
+    best: tuple[float, str | None] = (-math.inf, None)
+    for s in specs:
+        u = spec_usage(metrics.get(s["metric"]), s["op"], s["threshold"])
+        if u is not None and u > best[0]:
+            best = (u, s["metric"])
+    return best
+
+
+def _rank(results: Sequence[dict[str, Any]], specs: Sequence[Mapping[str, Any]]) -> list[int]:
+    """Worst first: failed specs, then the spec closest to (or furthest beyond) its
+    threshold, then the peak tilt."""
     def key(i: int) -> tuple:
         r = results[i]
         v = r["metrics"].get(_RANK_METRIC, math.inf)
         return (sum(not ok for ok in r["spec_ok"]) + (1 if r["error"] else 0),
+                _worst_usage(specs, r["metrics"])[0],
                 v if isinstance(v, float) and math.isfinite(v) else math.inf)
     return sorted(range(len(results)), key=key, reverse=True)
 
@@ -149,7 +179,7 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
     runs = draw_runs(source, n, seed)
     results = execute(source, runs, scheduler, workers, quiet, sim)
     summary = summarize(source, runs, results)
-    worst = _rank(results)[:min(N_WORST, len(results))]
+    worst = _rank(results, summary["specs"])[:min(N_WORST, len(results))]
     doc = {"scenario": str(path), "name": source.scenario.name, **summary,
            "worst": [{"index": i, "seed": runs[i]["seed"], "file": f"worst/{runs[i]['table']['name']}.toml"}
                      for i in worst],
@@ -186,12 +216,31 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
         dist = f"normal, sd {d['sd']:g}{rel}" if d["dist"] == "normal" else f"uniform [{d['low']:g}, {d['high']:g}]{rel}"
         lines.append(f"| `{d['param']}` | {dist} |")
     lines += ["", "## Worst runs (rerun one alone with `ballbot simulate FILE`)", "",
-              "| run | noise seed | failed specs | peak tilt (deg) | file |", "| --- | --- | --- | --- | --- |"]
+              "Ranked by failed specs, then by the spec closest to its threshold (% of the "
+              "allowance used: 100 % at the threshold).", "",
+              "| run | noise seed | failed specs | closest spec | peak tilt (deg) | file |",
+              "| --- | --- | --- | --- | --- | --- |"]
     for w in doc["worst"]:
         r = doc["runs"][w["index"]]
         failed = ", ".join(s["metric"] for s, ok in zip(doc["specs"], _spec_oks(doc, r)) if not ok) or "none"
-        lines.append(f"| {w['index']} | {w['seed']} | {failed} | {_fmt(r['metrics'].get('peak_tilt_deg'))} | "
-                     f"[{w['file']}]({w['file']}) |")
+        u, metric = _worst_usage(doc["specs"], r["metrics"])
+        closest = f"`{metric}` {_fmt(r['metrics'][metric])} ({100 * u:.0f} %)" if metric else "—"
+        lines.append(f"| {w['index']} | {w['seed']} | {failed} | {closest} | "
+                     f"{_fmt(r['metrics'].get('peak_tilt_deg'))} | [{w['file']}]({w['file']}) |")
+    per_spec = [s for s in doc["specs"] if s["op"] != "=="]
+    if per_spec and doc["runs"]:
+        lines += ["", "## Worst run of each spec", "",
+                  "| metric | spec | worst value | % of the allowance | run | noise seed |",
+                  "| --- | --- | --- | --- | --- | --- |"]
+        for s in per_spec:
+            usage = [(spec_usage(r["metrics"].get(s["metric"]), s["op"], s["threshold"]), r)
+                     for r in doc["runs"]]
+            usage = [(u, r) for u, r in usage if u is not None]
+            if not usage:
+                continue
+            u, r = max(usage, key=lambda ur: ur[0])
+            lines.append(f"| `{s['metric']}` | {s['op']} {s['threshold']} | {_fmt(r['metrics'][s['metric']])} | "
+                         f"{100 * u:.0f} % | {r['index']} | {r['seed']} |")
     lines += ["", "## Metric statistics", "", "| metric | mean | std | min | max | p95 |",
               "| --- | --- | --- | --- | --- | --- |"]
     for k, st in doc["metric_stats"].items():

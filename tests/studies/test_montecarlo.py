@@ -12,7 +12,7 @@ from ballbot_casadi.analysis.montecarlo import DEFAULT_DISPERSIONS, draw_runs, r
 from ballbot_casadi.cli import main
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.scenario_file import load_scenario_file, parse_scenario, set_value
-from ballbot_casadi.studies.montecarlo import run_montecarlo
+from ballbot_casadi.studies.montecarlo import run_montecarlo, spec_usage
 from ballbot_casadi.studies.registry import shipped_scenarios
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -84,3 +84,28 @@ def test_cli_montecarlo_quiet_and_errors(tmp_path, capsys):
     assert main(["montecarlo", "nosuch", "--n", "2"]) == 2
     err = capsys.readouterr().err
     assert "nosuch" in err and len(err.strip().splitlines()) == 1
+
+
+def test_spec_usage_measures_the_allowance_used():
+    assert spec_usage(0.018, "<=", 0.02) == pytest.approx(0.9, rel=1e-12)
+    assert spec_usage(-0.03, "abs<=", 0.02) == pytest.approx(1.5, rel=1e-12)
+    assert spec_usage(0.25, ">", 0.5) == pytest.approx(2.0, rel=1e-12)      # beyond a lower bound
+    assert spec_usage(0.0, ">=", 0.5) == float("inf")
+    assert spec_usage(True, "==", True) is None and spec_usage(None, "<=", 1.0) is None
+    assert spec_usage(float("nan"), "<=", 1.0) is None and spec_usage(1.0, "<=", 0) is None
+
+
+def test_the_report_ranks_by_the_spec_closest_to_its_threshold_and_shows_each_specs_worst(tmp_path, sim):
+    doc = run_montecarlo("zero", 4, tmp_path / "mc", workers=0, quiet=True,
+                         overrides=[("duration_s", 0.5)], sim=sim)
+    specs = [s for s in doc["specs"] if s["op"] != "=="]
+    assert specs
+    worst_usage = [max(u for s in specs
+                       if (u := spec_usage(doc["runs"][w["index"]]["metrics"].get(s["metric"]), s["op"],
+                                           s["threshold"])) is not None)
+                   for w in doc["worst"]]
+    assert worst_usage == sorted(worst_usage, reverse=True)
+    report = (tmp_path / "mc" / "report.md").read_text()
+    assert "## Worst run of each spec" in report
+    for s in specs:
+        assert f"| `{s['metric']}` | {s['op']} {s['threshold']} |" in report
