@@ -11,7 +11,8 @@ Models (shared by both filters)
   ``q_k = q_{k-1} o [cos(|omega| dt/2), omega/|omega| sin(|omega| dt/2)]`` - the exact
   rotation for a constant rate over the period, a product of unit quaternions.
 * Measurement (4.29, 4.30): ``h = [R(q)^T e_z, omega]``, the gravity *direction* in {B}
-  and the rate.  As in the thesis and its predecessor (whose code divides the
+  and the rate (with the optional acceleration compensation, ``R(q)^T e_z + a_B / g``,
+  ``a_B`` the given acceleration rotated into {B} with the prior attitude).  As in the thesis and its predecessor (whose code divides the
   accelerometer by ``g`` - its "nominal normalisation"), the accelerometer input is
   divided by ``g`` (from ``p``) inside the Function before it is compared with ``h``, so
   the accelerometer block of ``R`` and the first three entries of ``nu`` are in units of
@@ -75,7 +76,7 @@ _NO_INPUT = ca.DM.zeros(3)
 
 
 def _model_symbols() -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
-    # u is the linear acceleration of the IMU in {K} in units of g (zero in the thesis's
+    # u is the linear acceleration of the IMU in {B} in units of g (zero in the thesis's
     # model); the process model does not use it.
     return ca.SX.sym("x", 7), ca.SX.sym("u", 3), ca.SX.sym("dt"), ca.SX.sym("p", _NP)
 
@@ -92,12 +93,13 @@ def make_attitude_process() -> ca.Function:
 def make_attitude_measurement() -> ca.Function:
     """``att_measurement(x, u, dt, p) -> [f_B / g, omega]``: thesis (4.29), (4.30).
 
-    The accelerometer predicts the specific force in {B} in units of g, ``R(q)^T (u +
-    e_z)``; with ``u = 0`` (the thesis's model) the accelerometer measures gravity only,
-    with ``u`` the IMU's linear acceleration in {K} (units of g) it is compensated.
+    The accelerometer predicts the specific force in {B} in units of g,
+    ``R(q)^T e_z + u``; with ``u = 0`` (the thesis's model) the accelerometer measures
+    gravity only, with ``u`` the IMU's linear acceleration in {B} (units of g) it is
+    compensated.
     """
     x, u, dt, p = _model_symbols()
-    g_b = Q.rotate_inv(x[:4], u + ca.DM([0.0, 0.0, 1.0]))
+    g_b = Q.rotate_inv(x[:4], ca.DM([0.0, 0.0, 1.0])) + u
     return ca.Function("att_measurement", [x, u, dt, p], [ca.vertcat(g_b, x[4:])],
                        ["x", "u", "dt", "p"], ["z"], {"cse": True})
 
@@ -119,11 +121,13 @@ def _function(name: str, args: tuple, out: dict, P_att: ca.MX) -> ca.Function:
 
 
 def _acceleration(args: tuple, p: ca.MX, compensate: bool) -> tuple[tuple, ca.MX]:
-    """The filter's input ``a`` (IMU acceleration in {K}, m/s^2) in units of g, if any."""
+    """The filter's input ``a`` (IMU acceleration in {K}, m/s^2), if any, as the
+    measurement model's ``u``: rotated into {B} with the prior attitude ``xhat`` (the
+    same for every sigma point) and in units of g (see :func:`make_qukf`)."""
     if not compensate:
         return args, _NO_INPUT
     a = ca.MX.sym("a", 3)
-    return (*args, a), a / ParamView(p).g
+    return (*args, a), Q.rotate_inv(args[0][:4], a) / ParamView(p).g
 
 
 def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: bool = False
@@ -139,6 +143,12 @@ def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: b
         from the accelerometer's prediction (e.g. the velocity filter's estimate).  The
         thesis's model (4.29) assumes the accelerometer measures gravity only, which
         biases the tilt while the ball accelerates (1 m/s^2 reads as 5.8 deg of tilt).
+        ``a`` is rotated into {B} once, with the prior attitude ``xhat``, and added to
+        every sigma point's prediction as a known body-frame term: rotated per sigma
+        point it would make the accelerometer observe the heading through ``a``, whose
+        direction in {K} the velocity filter took from this filter's own heading - a
+        circular, spurious heading measurement (it drifted the heading by ~5 deg per
+        100 s on the noisy velocity profile, against ~1.5 deg from the gyroscope).
 
     Returns
     -------
