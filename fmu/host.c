@@ -9,55 +9,19 @@
  * fmi2DoStep + reading the 12 states (micro-seconds).  Exit status 0 on success.
  */
 #define _POSIX_C_SOURCE 200809L
-#include <dlfcn.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
-#include <time.h>
 
-#include "fmi2FunctionTypes.h"
+#include "fmi2_host.h"
 #include "plant_vr.h" /* generated: value references */
 
 #define NX PLANT_NX   /* the 12 model states (the wheel angles follow them) */
 #define NOUT PLANT_NY /* continuous outputs */
 
-static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
-                   fmi2String category, fmi2String message, ...) {
-    (void)env;
-    fprintf(stderr, "[%s] %s (status %d): %s\n", category, name, (int)status, message);
-}
-
-typedef struct {
-    fmi2InstantiateTYPE *instantiate;
-    fmi2FreeInstanceTYPE *free_instance;
-    fmi2SetupExperimentTYPE *setup;
-    fmi2EnterInitializationModeTYPE *enter_init;
-    fmi2ExitInitializationModeTYPE *exit_init;
-    fmi2SetRealTYPE *set_real;
-    fmi2GetRealTYPE *get_real;
-    fmi2DoStepTYPE *do_step;
-    fmi2TerminateTYPE *terminate;
-} api;
-
-static void *sym(void *lib, const char *name) {
-    void *p = dlsym(lib, name);
-    if (p == NULL) {
-        fprintf(stderr, "missing symbol %s\n", name);
-        exit(3);
-    }
-    return p;
-}
-
-static double now_s(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 int main(int argc, char **argv) {
     void *lib;
-    api f;
+    host_api f;
     fmi2CallbackFunctions cb;
     fmi2Component c;
     fmi2ValueReference vr_x[NX], vr_tau[3], vr_q[4], vr_y[NOUT];
@@ -78,25 +42,8 @@ int main(int argc, char **argv) {
     for (k = 0; k < NOUT; ++k) vr_y[k] = (fmi2ValueReference)(PLANT_VR_roll + k);
     for (k = 0; k < 3; ++k) vr_tau[k] = (fmi2ValueReference)(PLANT_VR_tau0 + k);
     for (k = 0; k < 4; ++k) vr_q[k] = (fmi2ValueReference)(PLANT_VR_q0 + k);
-    lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
-    if (lib == NULL) {
-        fprintf(stderr, "dlopen failed: %s\n", dlerror());
-        return 3;
-    }
-    *(void **)&f.instantiate = sym(lib, "fmi2Instantiate");
-    *(void **)&f.free_instance = sym(lib, "fmi2FreeInstance");
-    *(void **)&f.setup = sym(lib, "fmi2SetupExperiment");
-    *(void **)&f.enter_init = sym(lib, "fmi2EnterInitializationMode");
-    *(void **)&f.exit_init = sym(lib, "fmi2ExitInitializationMode");
-    *(void **)&f.set_real = sym(lib, "fmi2SetReal");
-    *(void **)&f.get_real = sym(lib, "fmi2GetReal");
-    *(void **)&f.do_step = sym(lib, "fmi2DoStep");
-    *(void **)&f.terminate = sym(lib, "fmi2Terminate");
-    cb.logger = logger;
-    cb.allocateMemory = calloc;
-    cb.freeMemory = free;
-    cb.stepFinished = NULL;
-    cb.componentEnvironment = NULL;
+    lib = host_load(argv[1], &f);
+    cb = host_callbacks();
     /* start quaternion of a roll about body x */
     q[0] = cos(roll0 / 2);
     q[1] = sin(roll0 / 2);
@@ -111,7 +58,7 @@ int main(int argc, char **argv) {
             f.set_real(c, vr_tau, 3, tau) != fmi2OK || f.exit_init(c) != fmi2OK)
             return 5;
         t = 0.0;
-        t0 = now_s();
+        t0 = host_now_s();
         for (i = 0; i < n; ++i) {
             if (f.set_real(c, vr_tau, 3, tau) != fmi2OK) return 6;
             if (f.do_step(c, t, h, fmi2True) != fmi2OK) return 6;
@@ -119,7 +66,7 @@ int main(int argc, char **argv) {
             if (f.get_real(c, vr_x, NX, x) != fmi2OK) return 7;
         }
         if (r > 0 || reps == 0) {
-            double per = (now_s() - t0) / (double)n * 1e6;
+            double per = (host_now_s() - t0) / (double)n * 1e6;
             if (per < best) best = per;
         }
         if (f.get_real(c, vr_y, NOUT, y) != fmi2OK) return 7;

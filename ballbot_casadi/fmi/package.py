@@ -67,6 +67,8 @@ __all__ = [
 
 #: Hand-written C of the shared FMI layer (in ``fmu/``), part of every FMU.
 COMMON_SOURCES = ("fmi2_common.c", "fmi2_common.h")
+#: What the C host programs (``fmu/host.c``, ``fmu/controller_host.c``) share.
+HOST_HEADER = "fmi2_host.h"
 CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-fPIC",
           "-fvisibility=hidden")
 LDFLAGS = ("-shared", "-static-libgcc", "-Wl,--no-undefined", "-Wl,--as-needed")
@@ -348,15 +350,15 @@ def build_tool(build: FmuBuild, name: str, cc: str | None = None) -> Path:
     """Compile the C host program ``fmu/<name>.c`` against ``build``.
 
     The program includes the generated headers of the FMU (``<prefix>_vr.h``, or the
-    neutral ``fmu_model_info.h``) and the fmpy FMI headers, and loads the FMU binary with
-    ``dlopen`` at run time; it is cached (verified, see
+    neutral ``fmu_model_info.h``), the hosts' shared ``fmu/fmi2_host.h`` and the fmpy FMI
+    headers, and loads the FMU binary with ``dlopen`` at run time; it is cached (verified, see
     :func:`~ballbot_casadi.core.toolchain.cached_file`) next to the FMU build.
     """
     ccmd = compiler_command(cc)
     src = fmu_source_dir() / f"{name}.c"
     if not src.is_file():
         raise BuildError(f"no C host program {src}")
-    text = src.read_text()
+    text = src.read_text() + "\0" + (fmu_source_dir() / HOST_HEADER).read_text()
     tag = hashlib.sha256("\0".join([text, *ccmd, *CFLAGS]).encode()).hexdigest()[:12]
     exe = build.unzipped.parent / f"{name}-{tag}"
 
