@@ -35,6 +35,7 @@ from ballbot_casadi.analysis.montecarlo import (
     run_serial,
     summarize,
 )
+from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.scenario_file import (
@@ -55,6 +56,9 @@ OWNED_OUTPUTS = ("montecarlo.json", "*.png", "report.md", "worst")
 #: Number of worst runs written as scenario files.
 N_WORST = 5
 _RANK_METRIC = "peak_tilt_deg"
+#: The thesis §7.1 limits drawn on the histograms of the peaks (deg, deg/s).
+_LIMITS = {"peak_tilt_deg": math.degrees(THESIS_LIMITS["tilt_max"]),
+           "peak_tilt_rate_deg_s": math.degrees(THESIS_LIMITS["tilt_rate_max"])}
 
 
 def execute(source: ScenarioFile, runs: Sequence[dict[str, Any]], scheduler: str | None = None,
@@ -128,6 +132,9 @@ def _plots(summary: dict[str, Any], runs: Sequence[dict[str, Any]], results: Seq
             if s["metric"] == m and isinstance(s["threshold"], (int, float)) and not isinstance(s["threshold"], bool):
                 ax.axvline(s["threshold"], color="r", lw=1, label=f"spec {s['op']} {s['threshold']}")
                 ax.legend(fontsize=6)
+        if m in _LIMITS:
+            ax.axvline(_LIMITS[m], color="C1", lw=1, ls="--", label=f"§7.1 limit {_LIMITS[m]:g}")
+            ax.legend(fontsize=6)
         ax.set_title(m, fontsize=8)
     for ax in axes.ravel()[len(metrics):]:
         ax.axis("off")
