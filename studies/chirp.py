@@ -25,14 +25,15 @@ import numpy as np
 
 from ballbot_casadi.analysis import closed_loop as cla
 from ballbot_casadi.analysis import linear as an
-from ballbot_casadi.analysis.bandwidth import FALL_TILT_DEG
-from ballbot_casadi.analysis.metrics import rpy_deg
+from ballbot_casadi.analysis.bandwidth import FALL_TILT_DEG, chirp_metrics
+from ballbot_casadi.analysis.metrics import rpy_deg, run_metrics
 from ballbot_casadi.control import default_balance_gains
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
 from ballbot_casadi.sim.log import SimulationLog
 
-__all__ = ["linear_response", "plot_chirp", "chirp_report_lines", "THESIS_BANDWIDTH_HZ", "axis_overrides"]
+__all__ = ["linear_response", "chirp_study_metrics", "plot_chirp_study", "plot_chirp", "chirp_report_lines",
+           "THESIS_BANDWIDTH_HZ", "axis_overrides"]
 
 #: The thesis's chirp bandwidth (§9.1: tracking lost at ~23-25 s of the sweep).
 THESIS_BANDWIDTH_HZ = 1.25
@@ -81,6 +82,31 @@ def linear_response(params: Params, controller: str = "flc", axis: str = "roll")
                  "phase_deg": np.degrees(np.unwrap(np.angle(T))).tolist(), "bandwidth_hz": bw_none},
         "gains": {"Kp": float(kp), "Kd": float(kd)},
     }
+
+
+def chirp_study_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
+    """The chirp study's metrics: :func:`~ballbot_casadi.analysis.bandwidth.chirp_metrics`
+    and the §7.1 peaks of each feed-forward mode (``by_feedforward``), the main run's at
+    the top level, and the linear model's bandwidths (:func:`linear_response`)."""
+    by = {}
+    for log in logs:
+        m = chirp_metrics(log)
+        m.update({k: v for k, v in run_metrics(log).items()
+                  if k in ("peak_tilt_deg", "peak_tilt_rate_deg_s", "peak_torque_nm")})
+        by[log.scenario["feedforward"]] = m
+    main = by[logs[-1].scenario["feedforward"]]
+    out = {k: v for k, v in main.items() if k != "response"}
+    out["by_feedforward"] = by
+    linear = linear_response(logs[-1].params, logs[-1].scenario["controller"], out["chirp_axis"])
+    out["linear_bandwidth_hz"] = linear["linear_bandwidth_hz"]
+    out["linear_bandwidth_none_hz"] = linear["none"]["bandwidth_hz"]
+    return out
+
+
+def plot_chirp_study(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path) -> list[Path]:
+    """The chirp study's plots: :func:`plot_chirp` over the linear responses."""
+    linear = linear_response(logs[-1].params, logs[-1].scenario["controller"], metrics["chirp_axis"])
+    return plot_chirp(logs, metrics, linear, out)
 
 
 def plot_chirp(logs: Sequence[SimulationLog], metrics: dict[str, Any], linear: dict[str, Any],

@@ -101,7 +101,7 @@ def _trailing_mean_angle_deg(e: np.ndarray, t: np.ndarray, window_s: float) -> n
     return np.degrees(np.arcsin(np.minimum(1.0, np.linalg.norm(m, axis=1))))
 
 
-def plot_com(logs: Sequence[SimulationLog], out: Path) -> list[Path]:
+def plot_com(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path) -> list[Path]:
     """``com_observer.png``: distance from the start, COM estimate against its observable
     part, and inclination error against the reference, of the standing runs."""
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)

@@ -124,7 +124,7 @@ def estimators_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     }
 
 
-def plot_estimates(logs: Sequence[SimulationLog], out: Path) -> list[Path]:
+def plot_estimates(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path) -> list[Path]:
     """Estimation errors of every run (attitude, body rate, velocity, position, norm): one PNG
     per scenario with all estimators overlaid (thesis Fig. 6.4-6.10)."""
     groups: dict[str, list[SimulationLog]] = {}

@@ -33,8 +33,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
-from ballbot_casadi.analysis.bandwidth import chirp_metrics
-from ballbot_casadi.analysis.metrics import robustness_metrics, run_metrics
+from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.log import SimulationLog
@@ -47,8 +46,10 @@ from ballbot_casadi.sim.scenario_file import (
     spec_ok,
 )
 from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.studies import chirp as CH
 from ballbot_casadi.studies import com as COM
 from ballbot_casadi.studies import estimators as E
+from ballbot_casadi.studies import robustness as ROB
 
 __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenarios",
            "evaluate_specs", "spec_ok", "scenario_dir", "shipped_scenarios", "resolve_scenario",
@@ -178,7 +179,8 @@ class Study:
     specs
         ``None``: the main file's specs plus :attr:`extra_specs`; a tuple replaces them.
     plot
-        Optional ``(logs, out_dir) -> [paths]``: the study's own plots (beside the main run's).
+        Optional ``(logs, metrics, out_dir) -> [paths]``: the study's own plots (beside the
+        main run's).
     report
         Optional ``metrics -> lines``: the study's own section of ``report.md``.
     """
@@ -190,7 +192,7 @@ class Study:
     extra_specs: tuple[Spec, ...] = ()
     expand: Callable[[list[dict[str, Any]]], list[dict[str, Any]]] | None = None
     specs: tuple[Spec, ...] | None = field(default=None)
-    plot: Callable[[Sequence[SimulationLog], Path], list[Path]] | None = None
+    plot: Callable[[Sequence[SimulationLog], dict[str, Any], Path], list[Path]] | None = None
     report: Callable[[dict[str, Any]], list[str]] | None = None
 
     def tables(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> list[dict[str, Any]]:
@@ -239,19 +241,6 @@ def _chirp_expand(tables: list[dict[str, Any]]) -> list[dict[str, Any]]:
     main = tables[-1]
     exact = set_value(set_value(main, "feedforward", "exact"), "name", f"{main.get('name', 'chirp')}_exact")
     return [exact, main]
-
-
-def _chirp_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
-    by = {}
-    for log in logs:
-        m = chirp_metrics(log)
-        m.update({k: v for k, v in run_metrics(log).items()
-                  if k in ("peak_tilt_deg", "peak_tilt_rate_deg_s", "peak_torque_nm")})
-        by[log.scenario["feedforward"]] = m
-    main = by[logs[-1].scenario["feedforward"]]
-    out = {k: v for k, v in main.items() if k != "response"}
-    out["by_feedforward"] = by
-    return out
 
 
 _NORM = Spec("quat_norm_max_dev", "<=", 1e-12,
@@ -306,17 +295,13 @@ _COM_SPECS = (
 )
 
 
-def _robustness_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
-    return robustness_metrics(logs[0], logs[-1])
-
-
 STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
     Study("zero", "zero reference from roll = pitch = 5 deg (thesis §8.2.3)", ("zero",)),
     Study("sine", "roll sine 3 deg at 0.5 Hz (thesis §8.2.5)", ("sine",)),
     Study("sine_asym", "roll sine 3 deg at 0.5 Hz, COM 5 mm off-axis unknown to the controller "
           "(pitch/yaw coupling vs thesis §8.2.5)", ("sine_asym",)),
     Study("robustness", "plant mass +10 %, inertias x3.2, controller nominal, against the nominal "
-          "run (thesis §8.4.1)", ("robustness_nominal", "robustness"), _robustness_metrics,
+          "run (thesis §8.4.1)", ("robustness_nominal", "robustness"), ROB.robustness_study_metrics,
           (Spec("settling_time_ratio", "<=", 2.0,
                 "settles at most 2x slower than the nominal run: a 3.2x inertia the FLC does not "
                 "know scales its stiffness by 1/3.2, its natural frequency by 1/sqrt(3.2) = "
@@ -324,7 +309,8 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                 "tracks properly despite the change (Fig. 8.10)"),
            Spec("peak_error_ratio", "<=", 1.05,
                 "no overshoot beyond the nominal run's peak error (+5 %)",
-                "reaches upright like the nominal model (Fig. 8.11)"))),
+                "reaches upright like the nominal model (Fig. 8.11)")),
+          report=ROB.robustness_report_lines),
     Study("com", "COM offset (-2, -3, +3) cm: runaway alone, held by the velocity loop "
           "(thesis §8.4.2, §9.2), and with the online COM observer and position hold, true state "
           "and QUKF + VUKF side by side with the loop without it",
@@ -334,7 +320,8 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
     Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", ("push",)),
     Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2)", ("velocity",)),
     Study("chirp", "roll chirp 3 deg, 0.05 -> 5 Hz over 100 s: bandwidth, saturation, fall "
-          "(thesis §9.1)", ("chirp",), _chirp_metrics, expand=_chirp_expand),
+          "(thesis §9.1)", ("chirp",), CH.chirp_study_metrics, expand=_chirp_expand,
+          plot=CH.plot_chirp_study, report=CH.chirp_report_lines),
     Study("estimators", "noisy sine and velocity profile: QUKF + VUKF against the predecessor's "
           "QEKF + VEKF, estimates against the truth (thesis ch. 6)", ("full_sine", "full_velocity"),
           E.estimators_metrics, expand=E.comparison_expand({"estimator": "ekf"}),

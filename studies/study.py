@@ -45,7 +45,6 @@ from ballbot_casadi.core.params import Params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario_file import ScenarioFile, dump_toml
-from ballbot_casadi.studies import chirp as chirp_study
 from ballbot_casadi.studies.registry import (
     STUDY_NAMES,
     Spec,
@@ -212,11 +211,6 @@ def run_study(
     sim = ClosedLoop() if sim is None else sim
     logs = [run_scenario(s, sim) for s in scenarios]
     metrics = study.compute_metrics(logs)
-    linear = None
-    if name == "chirp":
-        linear = chirp_study.linear_response(logs[-1].params, controller, metrics["chirp_axis"])
-        metrics["linear_bandwidth_hz"] = linear["linear_bandwidth_hz"]
-        metrics["linear_bandwidth_none_hz"] = linear["none"]["bandwidth_hz"]
     spec = study.check(metrics)
     result = _result("study", name, controller, metrics, spec, logs, [s.description for s in scenarios])
     with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
@@ -226,15 +220,9 @@ def run_study(
         plots: list[str] = []
         extra: list[str] = []
         if plot:
-            if name == "chirp":
-                plots += [p.name for p in chirp_study.plot_chirp(logs, metrics, linear, tmp)]
             if study.plot is not None:
-                plots += [p.name for p in study.plot(logs, tmp)]
+                plots += [p.name for p in study.plot(logs, metrics, tmp)]
             plots.append(plot_run(f"study {name}", logs, tmp / "plot.png").name)
-        if name == "chirp":
-            extra = chirp_study.chirp_report_lines(metrics)
-        if name == "robustness":
-            extra = _robustness_lines(result["metrics"])
         if study.report is not None:
             extra = study.report(metrics)
         _report(tmp, f"Study `{name}`: {study.description}", result, plots,
@@ -243,25 +231,6 @@ def run_study(
                    "(`ballbot study --list`; copy one and run it with `ballbot simulate`)"], extra)
         (tmp / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
     return result
-
-
-def _robustness_lines(m: dict[str, Any]) -> list[str]:
-    rel = {ax: m.get(f"relative_deviation_{ax}") for ax in ("roll", "pitch", "yaw")}
-    dev = {ax: m.get(f"deviation_{ax}_deg") for ax in ("roll", "pitch", "yaw")}
-    abs_v = "confirmed" if m.get("yaw_affected_most") else "refuted"
-    rel_v = "confirmed" if m.get("yaw_affected_most_relative") else "refuted"
-    return ["## Thesis observation: “the inertia change affects yaw most” (§8.4.1)", "",
-            "| axis | largest deviation from the nominal run (deg) | relative to the nominal excursion |",
-            "| --- | --- | --- |",
-            *[f"| {ax} | {_fmt(dev[ax])} | {_fmt(rel[ax])} |" for ax in dev], "",
-            f"- In degrees the most affected axis is **{m.get('most_affected_axis')}**: the observation is "
-            f"**{abs_v}** in absolute terms.",
-            f"- Relative to each angle's own excursion the most affected is **"
-            f"{m.get('most_affected_axis_relative')}**: **{rel_v}** in relative terms (the thesis compared "
-            "quaternion plots where q3 is small, so a relative reading is the likely one).",
-            f"- Settling into 0.1°: {_fmt(m.get('settling_time_s'))} s against "
-            f"{_fmt(m.get('nominal_settling_time_s'))} s nominal (ratio {_fmt(m.get('settling_time_ratio'))}; "
-            "a linear loop with 3.2× unknown inertia predicts √3.2 ≈ 1.79).", ""]
 
 
 def run_file(
