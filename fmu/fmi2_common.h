@@ -1,8 +1,9 @@
 /*
  * fmi2_common.h - shared, hand-written FMI 2.0 layer (Model Exchange and/or Co-Simulation).
  *
- * The common layer (fmi2_common.c) implements every fmi2* entry point: the state machine
- * (one table of which call is allowed in which state), logging through the FMI logger,
+ * The common layer (fmi2_common.c and its parts, one topic each: see fmi2_internal.h)
+ * implements every fmi2* entry point: the state machine (one table of which call is
+ * allowed in which state), logging through the FMI logger,
  * Real, Integer and Boolean variables by value reference (range checks, settability by
  * kind and state), FMU-state snapshots and their serialisation, directional derivatives
  * from a model Jacobian, and the solver-independent parts of Model Exchange and

@@ -7,7 +7,7 @@ taken from the Functions the compiled mission exports
 (:func:`~ballbot_casadi.sim.closed_loop.closed_loop_functions`): the FMU's C and the
 mission's C are generated from the same Function, so there is one implementation.  The
 per-model C file is ``fmu/controller_model.c``; the FMI layer is the plant's
-(``fmu/fmi2_common.c``), the table below generates ``modelDescription.xml`` and the C
+(``fmu/fmi2_common.c`` and its parts), the table below generates ``modelDescription.xml`` and the C
 headers.
 
 Variants: :func:`controller_spec` builds any balance controller with any estimator;

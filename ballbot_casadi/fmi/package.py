@@ -3,8 +3,9 @@
 :func:`build_fmu_from_spec` generates ``modelDescription.xml``
 (:mod:`~ballbot_casadi.fmi.model_description`), the C headers
 (:mod:`~ballbot_casadi.fmi.cheaders`) and the CasADi C of the spec's Functions, and
-compiles them with the hand-written C in ``fmu/`` (the shared FMI 2.0 layer
-``fmi2_common.c`` and the spec's per-model file) and the spec's extra sources into
+compiles them with the hand-written C in ``fmu/`` (the shared FMI 2.0 layer,
+``fmi2_common.c`` and its parts listed in :data:`COMMON_SOURCES`, and the spec's per-model
+file) and the spec's extra sources into
 ``binaries/<platform>/<model_identifier>.so``, zipped with all sources (so
 ``fmpy compile`` can rebuild the binary elsewhere).
 
@@ -53,6 +54,7 @@ __all__ = [
     "CFLAGS",
     "LDFLAGS",
     "COMMON_SOURCES",
+    "COMMON_C_SOURCES",
     "build_fmu_from_spec",
     "build_tool",
     "fmi_headers_dir",
@@ -65,8 +67,14 @@ __all__ = [
     "casadi_sources",
 ]
 
-#: Hand-written C of the shared FMI layer (in ``fmu/``), part of every FMU.
-COMMON_SOURCES = ("fmi2_common.c", "fmi2_common.h")
+#: Hand-written C of the shared FMI layer (in ``fmu/``), part of every FMU: the core
+#: (instance, call table, logging, checks, values), the life cycle, get/set by value
+#: reference, FMU states, the mode-specific calls (directional derivatives, Model Exchange,
+#: Co-Simulation); the per-model interface and the layer's internal header.
+COMMON_SOURCES = ("fmi2_common.c", "fmi2_instance.c", "fmi2_values.c", "fmi2_state.c",
+                  "fmi2_modes.c", "fmi2_common.h", "fmi2_internal.h")
+#: The C files of :data:`COMMON_SOURCES`, compiled into every FMU.
+COMMON_C_SOURCES = tuple(s for s in COMMON_SOURCES if s.endswith(".c"))
 #: What the C host programs (``fmu/host.c``, ``fmu/controller_host.c``) share.
 HOST_HEADER = "fmi2_host.h"
 CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-fPIC",
@@ -98,19 +106,19 @@ def fmi_headers_dir() -> Path:
 def fmu_source_dir() -> Path:
     """Directory of the hand-written FMU C sources.
 
-    The installed package data ``ballbot_casadi.fmu_src`` if present, else ``fmu/`` of the
-    source checkout.
+    The installed package data ``ballbot_casadi.fmu_src`` if it holds every file of
+    :data:`COMMON_SOURCES`, else ``fmu/`` of the source checkout.
     """
     try:
         d = Path(str(resources.files("ballbot_casadi.fmu_src")))
-        if (d / "fmi2_common.c").is_file():
+        if all((d / name).is_file() for name in COMMON_SOURCES):
             return d
     except (ModuleNotFoundError, TypeError):
         pass
     d = Path(__file__).resolve().parents[2] / "fmu"
-    if (d / "fmi2_common.c").is_file():
+    if all((d / name).is_file() for name in COMMON_SOURCES):
         return d
-    raise BuildError("the FMU C sources (fmu/fmi2_common.c, ...) were not found; "
+    raise BuildError(f"the FMU C sources ({', '.join(COMMON_SOURCES)} in fmu/) were not found; "
                      "reinstall the package or run from the source checkout")
 
 
@@ -275,7 +283,7 @@ def generated_files(spec: FmuSpec, guid: str, cg: tuple[str, str] | None = None
         f"{spec.cg_name}.c": cg_c,
         f"{spec.cg_name}.h": cg_h,
     })
-    c_sources = ["fmi2_common.c", model.name, f"{spec.cg_name}.c",
+    c_sources = [*COMMON_C_SOURCES, model.name, f"{spec.cg_name}.c",
                  *[p.name for p in spec.extra_sources if p.suffix == ".c"]]
     return model_description_xml(spec, guid, c_sources), files, c_sources
 
