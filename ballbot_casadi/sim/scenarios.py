@@ -70,7 +70,7 @@ FEEDFORWARD_MODES = ("exact", "none")
 #: What the controllers read: the true state, or estimates from noisy sensors.
 ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
 #: Keys of Scenario.estimator_tuning (changes to the thesis tuning of the filters).
-ESTIMATOR_TUNING_KEYS = ("rate_process_var", "encoder_var", "acc_bias_process_var")
+ESTIMATOR_TUNING_KEYS = ("rate_process_var", "encoder_var", "acc_process_var", "acc_bias_process_var")
 _CHANGE_OPS = ("set", "scale", "add")
 
 
@@ -253,7 +253,9 @@ class Scenario:
         Changes to the filters' default (thesis) tuning: ``rate_process_var`` (the
         attitude filter's body-rate process noise per period, (rad/s)^2, thesis 4.39:
         1e-5), ``encoder_var`` (the velocity filter's encoder noise, ticks^2, thesis
-        5.27: 1/9) and ``acc_bias_process_var`` (the velocity filter's accelerometer-bias
+        5.27: 1/9), ``acc_process_var`` (the velocity filter's acceleration random walk per
+        period, (m/s^2)^2, the predecessor's 1e-5) and ``acc_bias_process_var`` (the velocity
+        filter's accelerometer-bias
         process noise per period, (m/s^2)^2, the predecessor's 1e-9; it sets how fast
         the velocity-aided tilt correction follows the attitude filter's slow error,
         :mod:`~ballbot_casadi.estimation.tilt_aiding`).
@@ -533,6 +535,8 @@ class Scenario:
         if "encoder_var" in self.estimator_tuning:
             Rv[0:3, 0:3] = np.eye(3) * float(self.estimator_tuning["encoder_var"])
         Qv = np.array(vel.Q, float)
+        if "acc_process_var" in self.estimator_tuning:
+            Qv[2:4, 2:4] = np.eye(2) * float(self.estimator_tuning["acc_process_var"])
         if "acc_bias_process_var" in self.estimator_tuning:
             Qv[4:7, 4:7] = np.eye(3) * float(self.estimator_tuning["acc_bias_process_var"])
         return {
