@@ -147,8 +147,8 @@ def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: b
         every sigma point's prediction as a known body-frame term: rotated per sigma
         point it would make the accelerometer observe the heading through ``a``, whose
         direction in {K} the velocity filter took from this filter's own heading - a
-        circular, spurious heading measurement (it drifted the heading by ~5 deg per
-        100 s on the noisy velocity profile, against ~1.5 deg from the gyroscope).
+        circular, spurious heading measurement that drifts the heading systematically
+        (the full study's report shows the heading error).
 
     Returns
     -------

@@ -12,11 +12,11 @@ accelerometer's gravity direction (thesis 4.29) with a weight that the thesis ke
 small on purpose (4.40: ``alpha_trust Sigma_acc`` applied to readings in units of g),
 because every acceleration of the ball reads as tilt.  Between the accelerometer's
 slow corrections the gyroscope's white noise integrates into a tilt error ``r`` with a
-correlation time of seconds: averaged over 10 s of standstill it is ~0.05 deg (up to
-~0.13 deg) with the thesis's MPU-9250 noise.  Trusting the accelerometer more does
-not help in closed loop: the ball's own balancing acceleration then enters the tilt
-estimate, and with the acceleration compensation of the embedded software (which
-lags at the balance loop's 1-3 Hz) the loop oscillates.
+correlation time of seconds, which averaging over a standstill does not remove (the
+``com`` study reports it).  Trusting the accelerometer more does not help in closed
+loop: the ball's own balancing acceleration then enters the tilt estimate, and the
+acceleration compensation of the embedded software lags at the balance loop's
+frequencies, so the loop oscillates.
 
 Why the velocity filter sees it
 -------------------------------
@@ -38,8 +38,9 @@ the accelerometer unchanged and is not observable.  The controllers read
 ``q_c = q o exp(r / 2)``.  Nothing is fed back into either filter, so the two filters
 run exactly as in the thesis; ``b_acc`` can follow the attitude filter's error only as
 fast as its process noise allows (the ``acc_bias_process_var`` of the scenario's
-``estimator_tuning``; the predecessor's ``1e-9`` per period makes it follow within
-minutes, ``2e-8`` within seconds).
+``estimator_tuning``: with the predecessor's ``1e-9`` per period it follows over
+minutes; the ``full`` and ``com`` scenario files raise it so that it follows within
+seconds).
 
 A real accelerometer bias is indistinguishable from a tilt error for both filters (the
 attitude filter already turns it into a tilt error of ``b / g``; the velocity filter
