@@ -73,8 +73,9 @@ def linear_response(params: Params, controller: str = "flc", axis: str = "roll")
     s = 1j * w
     T = (kd * s + kp) / (s**2 + kd * s + kp)
     mag = np.abs(T)
-    below = np.nonzero(20 * np.log10(mag) < -3.0)[0]
-    bw_none = float(w[below[0]] / (2 * math.pi)) if below.size else None
+    # -3 dB in closed form: |T|^2 = 1/2  <=>  x^2 - (2 Kp + Kd^2) x - Kp^2 = 0, x = omega^2
+    b = 2 * kp + kd**2
+    bw_none = math.sqrt((b + math.sqrt(b**2 + 4 * kp**2)) / 2) / (2 * math.pi) if kp > 0 else None
     return {
         "analyze": None if inner is None else {**inner, "bandwidth_hz": res.get("bandwidth_inner_hz")},
         "linear_bandwidth_hz": res.get("bandwidth_inner_hz"),

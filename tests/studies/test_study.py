@@ -12,6 +12,7 @@ from ballbot_casadi.analysis import metrics
 from ballbot_casadi.studies.registry import STUDIES, STUDY_NAMES, Spec
 
 from ballbot_casadi.cli import main
+from ballbot_casadi.control import FLC_DEFAULT_GAINS
 from ballbot_casadi.sim.closed_loop import ClosedLoop, load_log
 
 
@@ -21,9 +22,13 @@ def sim() -> ClosedLoop:
 
 
 @pytest.fixture(scope="module")
-def results(sim, tmp_path_factory) -> dict:
-    out = tmp_path_factory.mktemp("study")
-    return {(n, c): study.run_study(n, c, out / n / c, sim, plot=False)
+def study_out(tmp_path_factory):
+    return tmp_path_factory.mktemp("study")
+
+
+@pytest.fixture(scope="module")
+def results(sim, study_out) -> dict:
+    return {(n, c): study.run_study(n, c, study_out / n / c, sim, plot=False)
             for n in STUDY_NAMES for c in study.CONTROLLERS}
 
 
@@ -90,3 +95,23 @@ def test_cli_rejects_unknown_study(capsys):
         main(["study", "nosuchstudy"])
     assert exc.value.code == 2
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_chirp_study_carries_the_linear_models_bandwidths(results):
+    m = results[("chirp", "flc")]["metrics"]
+    # the sampled cascade's inner loop: critically damped at 10 rad/s (closed form)
+    assert m["linear_bandwidth_hz"] == pytest.approx(10 * np.sqrt(np.sqrt(2) - 1) / (2 * np.pi), rel=0.02)
+    # the thesis mode's continuous loop (Kd s + Kp) / (s^2 + Kd s + Kp), roll gains, half power
+    kp, kd = FLC_DEFAULT_GAINS[0], FLC_DEFAULT_GAINS[3]
+    w = np.linspace(0.1, 100.0, 400001)
+    mag = np.abs((kd * 1j * w + kp) / (-w**2 + kd * 1j * w + kp))
+    assert m["linear_bandwidth_none_hz"] == pytest.approx(w[np.argmax(mag < 1 / np.sqrt(2))] / (2 * np.pi),
+                                                          rel=1e-4)
+
+
+def test_robustness_report_answers_the_thesis_observation(results, study_out):
+    for c in study.CONTROLLERS:
+        text = (study_out / "robustness" / c / "report.md").read_text()
+        m = results[("robustness", c)]["metrics"]
+        assert "the inertia change affects yaw most" in text
+        assert f"the most affected axis is **{m['most_affected_axis']}**" in text
