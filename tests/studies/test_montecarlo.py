@@ -107,5 +107,9 @@ def test_the_report_ranks_by_the_spec_closest_to_its_threshold_and_shows_each_sp
     assert worst_usage == sorted(worst_usage, reverse=True)
     report = (tmp_path / "mc" / "report.md").read_text()
     assert "## Worst run of each spec" in report
+    section = report.split("## Worst run of each spec")[1].split("## Metric statistics")[0]
+    rows = {line.split("|")[1].strip(): line for line in section.splitlines() if line.startswith("| `")}
     for s in specs:
-        assert f"| `{s['metric']}` | {s['op']} {s['threshold']} |" in report
+        usage = [(spec_usage(r["metrics"].get(s["metric"]), s["op"], s["threshold"]), r) for r in doc["runs"]]
+        worst = max((ur for ur in usage if ur[0] is not None), key=lambda ur: ur[0])[1]
+        assert rows[f"`{s['metric']}`"].endswith(f"| {worst['index']} | {worst['seed']} |")
