@@ -10,6 +10,7 @@ Reference: SciPy DOP853 (rtol = atol = 1e-13) on the CasADi ODE Function.
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 
 import casadi as ca
@@ -19,6 +20,7 @@ from _fmu_support import ALL_STATES, SENSORS, STATES, plant_build, python_rk4
 from scipy.integrate import solve_ivp
 
 from ballbot_casadi import load_params
+from ballbot_casadi.fmi import package
 from ballbot_casadi.fmi.build import build_tool
 from ballbot_casadi.model.dynamics import make_model_functions
 from ballbot_casadi.model.numeric import make_state
@@ -179,3 +181,15 @@ def test_c_host_runs_the_binary_without_python(plant):
     bad = subprocess.run([str(exe), str(plant.binary), "{wrong}", "1", "0.005", "0", "0", "0",
                           "0"], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 4 and "wrong GUID" in bad.stderr
+
+
+def test_c_host_is_rebuilt_when_the_shared_host_header_changes(plant, tmp_path, monkeypatch):
+    exe = build_tool(plant, "host")
+    src = tmp_path / "fmu"
+    shutil.copytree(package.fmu_source_dir(), src)
+    monkeypatch.setattr(package, "fmu_source_dir", lambda: src)
+    assert build_tool(plant, "host") == exe  # same sources: the cached program
+    header = src / package.HOST_HEADER
+    header.write_text(header.read_text() + "\n/* changed */\n")
+    changed = build_tool(plant, "host")
+    assert changed != exe and changed.is_file()

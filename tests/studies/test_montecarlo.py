@@ -12,6 +12,7 @@ from ballbot_casadi.analysis.montecarlo import DEFAULT_DISPERSIONS, draw_runs, r
 from ballbot_casadi.cli import main
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.scenario_file import load_scenario_file, parse_scenario, set_value
+from ballbot_casadi.studies import montecarlo as montecarlo_study
 from ballbot_casadi.studies.montecarlo import run_montecarlo, spec_usage
 from ballbot_casadi.studies.registry import shipped_scenarios
 
@@ -113,3 +114,9 @@ def test_the_report_ranks_by_the_spec_closest_to_its_threshold_and_shows_each_sp
         usage = [(spec_usage(r["metrics"].get(s["metric"]), s["op"], s["threshold"]), r) for r in doc["runs"]]
         worst = max((ur for ur in usage if ur[0] is not None), key=lambda ur: ur[0])[1]
         assert rows[f"`{s['metric']}`"].endswith(f"| {worst['index']} | {worst['seed']} |")
+
+
+def test_the_histograms_draw_the_thesis_limits_in_the_metrics_units():
+    # thesis §7.1: inclination 5 deg, inclination rate 20 deg/s (the peaks are in deg, deg/s)
+    assert montecarlo_study._LIMITS["peak_tilt_deg"] == pytest.approx(5.0, rel=1e-12)
+    assert montecarlo_study._LIMITS["peak_tilt_rate_deg_s"] == pytest.approx(20.0, rel=1e-12)
