@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass, field
+from types import MappingProxyType
 from typing import Any, Mapping
 
 import numpy as np
@@ -60,6 +61,7 @@ __all__ = [
     "FEEDFORWARD_MODES",
     "ESTIMATOR_CHOICES",
     "ESTIMATOR_TUNING_KEYS",
+    "ESTIMATOR_TUNING_TARGETS",
     "initial_state",
     "apply_changes",
 ]
@@ -69,8 +71,16 @@ _SIGNAL_TYPES = ("const", "sine", "step", "chirp")
 FEEDFORWARD_MODES = ("exact", "none")
 #: What the controllers read: the true state, or estimates from noisy sensors.
 ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
-#: Keys of Scenario.estimator_tuning (changes to the thesis tuning of the filters).
-ESTIMATOR_TUNING_KEYS = ("rate_process_var", "encoder_var", "acc_process_var", "acc_bias_process_var")
+#: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
+#: input each sets and the diagonal block of it (the value times the identity).
+ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
+    "rate_process_var": ("Qa", slice(3, 6)),      # QUKF body rate (tangent [rotation, omega])
+    "encoder_var": ("Rv", slice(0, 3)),           # VUKF encoder ticks
+    "acc_process_var": ("Qv", slice(2, 4)),       # VUKF ball acceleration
+    "acc_bias_process_var": ("Qv", slice(4, 7)),  # VUKF accelerometer bias
+})
+#: Keys of Scenario.estimator_tuning.
+ESTIMATOR_TUNING_KEYS = tuple(ESTIMATOR_TUNING_TARGETS)
 _CHANGE_OPS = ("set", "scale", "add")
 
 
@@ -529,22 +539,18 @@ class Scenario:
             valid[(t >= t0 - 1e-12) & (t < t1 - 1e-12), VALID.index(sensor)] = 0.0
         sp = self.sensor_params()
         att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[self.estimator])
-        Qa, Rv = np.array(att.Q, float), np.array(vel.R, float)
-        if "rate_process_var" in self.estimator_tuning:
-            Qa[3:6, 3:6] = np.eye(3) * float(self.estimator_tuning["rate_process_var"])
-        if "encoder_var" in self.estimator_tuning:
-            Rv[0:3, 0:3] = np.eye(3) * float(self.estimator_tuning["encoder_var"])
-        Qv = np.array(vel.Q, float)
-        if "acc_process_var" in self.estimator_tuning:
-            Qv[2:4, 2:4] = np.eye(2) * float(self.estimator_tuning["acc_process_var"])
-        if "acc_bias_process_var" in self.estimator_tuning:
-            Qv[4:7, 4:7] = np.eye(3) * float(self.estimator_tuning["acc_bias_process_var"])
+        cov = {"Qa": np.array(att.Q, float), "Ra": np.array(att.R, float),
+               "Qv": np.array(vel.Q, float), "Rv": np.array(vel.R, float)}
+        for key, val in self.estimator_tuning.items():
+            name, block = ESTIMATOR_TUNING_TARGETS[key]
+            n = block.stop - block.start
+            cov[name][block, block] = np.eye(n) * float(val)
         return {
             "noise": noise,
             "valid": valid,
             "s": sp.to_vector(),
             "p_est": self.estimator_params(base).to_vector(),
-            "Qa": Qa, "Ra": att.R, "Qv": Qv, "Rv": Rv,
+            **cov,
             "e0": initial_estimator_state(self.estimator, np.asarray(self.x0, float)),
             "s0": np.concatenate([np.zeros(3), np.asarray(sp.gyro_bias0, float), np.zeros(3)]),
         }
