@@ -32,6 +32,7 @@ import numpy as np
 from ballbot_casadi.core.toolchain import CFLAGS, Library, build_root, compiler_command, run_tool
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.embedded import controller_layout
 from ballbot_casadi.sim.scenario_file import load_scenario_file
 
 __all__ = ["bench_estimation", "c_function_us"]
@@ -92,9 +93,8 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
     qukf, vukf = names["ballbot_qukf"], names["ballbot_vukf"]
     tilt, observer = names["ballbot_tilt_correction"], names["ballbot_com_observer"]
     embedded = names[f"ballbot_embedded_{sc.controller}_{sc.estimator}"]
-    nz = np.size(inputs["z0"])
-    xa, Pa = c[nz:nz + 7], c[nz + 7:nz + 43]
-    xv, Pv = c[nz + 43:nz + 50], c[nz + 50:nz + 99]
+    C = controller_layout(sc.estimator, np.size(inputs["z0"]), observer.numel_in(2))
+    xa, Pa, xv, Pv, obs = (c[C[f]] for f in ("xa", "Pa", "xv", "Pv", "obs"))
     meas = log["meas"][k]
     p = est["p_est"]
     q_in = [xa, Pa, meas[:6], est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
@@ -102,7 +102,7 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
             est["Rv"], inputs["Ts"], p]
     t_in = [xa[:4], xv[2:4], xv[4:7], p]
     x_hat = log["x_hat"][k]
-    o_in = [x_hat, np.zeros(3), c[-observer.numel_in(2):], inputs["p_ctrl"], inputs["k_obs"], inputs["Ts"]]
+    o_in = [x_hat, np.zeros(3), obs, inputs["p_ctrl"], inputs["k_obs"], inputs["Ts"]]
     data["qukf_step_us"] = c_function_us(lib, qukf, q_in, n_calls)
     data["vukf_step_us"] = c_function_us(lib, vukf, v_in, n_calls)
     data["tilt_correction_step_us"] = c_function_us(lib, tilt, t_in, n_calls)
