@@ -39,6 +39,7 @@ from ballbot_casadi.analysis.com_observer import (  # noqa: E402
     WINDOW_S,
     com_observer_metrics,
     inclination_error_deg,
+    trailing_mean_angle_deg,
 )
 from ballbot_casadi.analysis.metrics import run_metrics  # noqa: E402
 from ballbot_casadi.core.layout import STATE, STATE_XY  # noqa: E402
@@ -91,16 +92,6 @@ def com_study_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     return out
 
 
-def _trailing_mean_angle_deg(e: np.ndarray, t: np.ndarray, window_s: float) -> np.ndarray:
-    """Angle (deg) of the mean inclination-error vector over the preceding ``window_s``
-    (from the start while shorter): the standing metric's quantity at every instant."""
-    c = np.vstack([np.zeros((1, e.shape[1])), np.cumsum(e, axis=0)])
-    k = np.arange(1, len(e) + 1)
-    k0 = np.searchsorted(t, t - window_s + 1e-12)
-    m = (c[k] - c[k0]) / (k - k0)[:, None]
-    return np.degrees(np.arcsin(np.minimum(1.0, np.linalg.norm(m, axis=1))))
-
-
 def plot_com(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path) -> list[Path]:
     """``com_observer.png``: distance from the start, COM estimate against its observable
     part, and inclination error against the reference, of the standing runs."""
@@ -119,7 +110,7 @@ def plot_com(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path) 
                          label=name + ("" if log.scenario.get("com_observer") else " (shadow)"))
         e, ang = inclination_error_deg(a["state"][:n, STATE["q"]], a["q_ref"])
         line, = axes[2].semilogy(t[:n], np.maximum(ang, 1e-9), lw=0.5, alpha=0.35)
-        axes[2].semilogy(t[:n], np.maximum(_trailing_mean_angle_deg(e, t[:n], WINDOW_S), 1e-9),
+        axes[2].semilogy(t[:n], np.maximum(trailing_mean_angle_deg(e, t[:n], WINDOW_S), 1e-9),
                          lw=1.4, color=line.get_color(), label=name)
     axes[0].set_ylabel("distance from start (m)")
     axes[1].axhline(2.0, color="r", lw=0.6)

@@ -37,7 +37,8 @@ from ballbot_casadi.core.layout import STATE, STATE_XY
 from ballbot_casadi.estimation.com_observer import observable_offset
 
 __all__ = ["WINDOW_S", "HOLD_WINDOW_S", "ESTIMATE_TOL_M", "ESTIMATE_BY_S", "standstill_start",
-           "commanded_position", "vertical_in_body", "inclination_error_deg", "com_observer_metrics"]
+           "commanded_position", "vertical_in_body", "inclination_error_deg", "trailing_mean_angle_deg",
+           "com_observer_metrics"]
 
 #: Averaging window of the standing tilt errors (s).
 WINDOW_S = 10.0
@@ -83,9 +84,24 @@ def inclination_error_deg(q: np.ndarray, q_ref: np.ndarray) -> tuple[np.ndarray,
     return e, ang
 
 
+def _angle_deg(m: np.ndarray) -> np.ndarray:
+    """Angles (deg) of (rows of) mean inclination-error vectors (sines of the angles)."""
+    return np.degrees(np.arcsin(np.minimum(1.0, np.linalg.norm(m, axis=-1))))
+
+
 def _mean_angle_deg(e: np.ndarray) -> float:
     """Angle (deg) of the mean error vector."""
-    return math.degrees(math.asin(min(1.0, float(np.linalg.norm(np.mean(e, axis=0)))))) if len(e) else math.nan
+    return float(_angle_deg(np.mean(e, axis=0))) if len(e) else math.nan
+
+
+def trailing_mean_angle_deg(e: np.ndarray, t: np.ndarray, window_s: float = WINDOW_S) -> np.ndarray:
+    """At every instant, the angle (deg) of the mean of the error vectors ``e`` (rows of
+    :func:`inclination_error_deg`) over the preceding ``window_s`` (from the start while
+    shorter): the standing tilt errors' quantity as it evolves."""
+    c = np.vstack([np.zeros((1, e.shape[1])), np.cumsum(e, axis=0)])
+    k = np.arange(1, len(e) + 1)
+    k0 = np.searchsorted(t, t - window_s + 1e-12)
+    return _angle_deg((c[k] - c[k0]) / (k - k0)[:, None])
 
 
 def com_observer_metrics(log: Any) -> dict[str, Any]:

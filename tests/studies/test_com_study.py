@@ -13,13 +13,13 @@ from ballbot_casadi.analysis.com_observer import (
     commanded_position,
     inclination_error_deg,
     standstill_start,
+    trailing_mean_angle_deg,
 )
 from ballbot_casadi.analysis.montecarlo import draw_runs, run_serial, summarize
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario_file import load_scenario_file
-from ballbot_casadi.studies.com import _trailing_mean_angle_deg
 from ballbot_casadi.studies.registry import shipped_scenarios
 from ballbot_casadi.studies.study import run_study
 
@@ -95,7 +95,7 @@ def test_the_plotted_standing_error_is_the_metrics_mean_over_the_preceding_windo
     # a constant error vector for 20 s, then none: the trailing 10 s mean is zero at the end
     t = np.arange(6000) * 0.005
     e = np.where((t < 20.0)[:, None], [[0.0, 1e-3, 0.0]], 0.0)
-    ang = _trailing_mean_angle_deg(e, t, 10.0)
+    ang = trailing_mean_angle_deg(e, t, 10.0)
     assert ang[3999] == pytest.approx(np.degrees(np.arcsin(1e-3)), rel=1e-12)
     assert ang[-1] == 0.0 and 0.0 < ang[4999] < ang[3999]
     # and at the end of a run it is the standing metric
@@ -103,5 +103,5 @@ def test_the_plotted_standing_error_is_the_metrics_mean_over_the_preceding_windo
     log = run_scenario(sc, sim)
     n = log["q_ref"].shape[0]
     err, _ = inclination_error_deg(log["state"][:n, 2:6], log["q_ref"])
-    assert _trailing_mean_angle_deg(err, log["time"][:n], WINDOW_S)[-1] == pytest.approx(
+    assert trailing_mean_angle_deg(err, log["time"][:n], WINDOW_S)[-1] == pytest.approx(
         com_observer_metrics(log)["standing_tilt_error_deg"], rel=1e-9)
