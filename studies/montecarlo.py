@@ -46,6 +46,7 @@ from ballbot_casadi.sim.scenario_file import (
     set_value,
     spec_ok,
 )
+from ballbot_casadi.studies.formatting import fmt
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.study import jsonable
 
@@ -164,8 +165,6 @@ def _plots(summary: dict[str, Any], runs: Sequence[dict[str, Any]], results: Seq
     return ["histograms.png", "scatter.png"]
 
 
-def _fmt(v: Any) -> str:
-    return f"{v:.4g}" if isinstance(v, float) else str(v)
 
 
 def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str | None = None,
@@ -231,9 +230,9 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
         r = doc["runs"][w["index"]]
         failed = ", ".join(s["metric"] for s, ok in zip(doc["specs"], _spec_oks(doc, r)) if not ok) or "none"
         u, metric = _worst_usage(doc["specs"], r["metrics"])
-        closest = f"`{metric}` {_fmt(r['metrics'][metric])} ({100 * u:.0f} %)" if metric else "—"
+        closest = f"`{metric}` {fmt(r['metrics'][metric])} ({100 * u:.0f} %)" if metric else "—"
         lines.append(f"| {w['index']} | {w['seed']} | {failed} | {closest} | "
-                     f"{_fmt(r['metrics'].get('peak_tilt_deg'))} | [{w['file']}]({w['file']}) |")
+                     f"{fmt(r['metrics'].get('peak_tilt_deg'))} | [{w['file']}]({w['file']}) |")
     per_spec = [s for s in doc["specs"] if s["op"] != "=="]
     if per_spec and doc["runs"]:
         lines += ["", "## Worst run of each spec", "",
@@ -246,12 +245,12 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
             if not usage:
                 continue
             u, r = max(usage, key=lambda ur: ur[0])
-            lines.append(f"| `{s['metric']}` | {s['op']} {s['threshold']} | {_fmt(r['metrics'][s['metric']])} | "
+            lines.append(f"| `{s['metric']}` | {s['op']} {s['threshold']} | {fmt(r['metrics'][s['metric']])} | "
                          f"{100 * u:.0f} % | {r['index']} | {r['seed']} |")
     lines += ["", "## Metric statistics", "", "| metric | mean | std | min | max | p95 |",
               "| --- | --- | --- | --- | --- | --- |"]
     for k, st in doc["metric_stats"].items():
-        lines.append(f"| `{k}` | " + " | ".join(_fmt(st[c]) for c in ("mean", "std", "min", "max", "p95")) + " |")
+        lines.append(f"| `{k}` | " + " | ".join(fmt(st[c]) for c in ("mean", "std", "min", "max", "p95")) + " |")
     lines += ["", "## Plots", ""] + [f"![{p}]({p})" for p in plots]
     (out / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 

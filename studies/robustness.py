@@ -12,12 +12,11 @@ from typing import Any, Sequence
 
 from ballbot_casadi.analysis.metrics import robustness_metrics
 from ballbot_casadi.sim.log import SimulationLog
+from ballbot_casadi.studies.formatting import fmt
 
 __all__ = ["robustness_study_metrics", "robustness_report_lines"]
 
 
-def _fmt(v: Any) -> str:
-    return f"{v:.4g}" if isinstance(v, float) else str(v)
 
 
 def robustness_study_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
@@ -36,12 +35,12 @@ def robustness_report_lines(m: dict[str, Any]) -> list[str]:
     return ["## Thesis observation: “the inertia change affects yaw most” (§8.4.1)", "",
             "| axis | largest deviation from the nominal run (deg) | relative to the nominal excursion |",
             "| --- | --- | --- |",
-            *[f"| {ax} | {_fmt(dev[ax])} | {_fmt(rel[ax])} |" for ax in dev], "",
+            *[f"| {ax} | {fmt(dev[ax])} | {fmt(rel[ax])} |" for ax in dev], "",
             f"- In degrees the most affected axis is **{m.get('most_affected_axis')}**: the observation is "
             f"**{abs_v}** in absolute terms.",
             f"- Relative to each angle's own excursion the most affected is **"
             f"{m.get('most_affected_axis_relative')}**: **{rel_v}** in relative terms (the thesis compared "
             "quaternion plots where q3 is small, so a relative reading is the likely one).",
-            f"- Settling into 0.1°: {_fmt(m.get('settling_time_s'))} s against "
-            f"{_fmt(m.get('nominal_settling_time_s'))} s nominal (ratio {_fmt(m.get('settling_time_ratio'))}; "
+            f"- Settling into 0.1°: {fmt(m.get('settling_time_s'))} s against "
+            f"{fmt(m.get('nominal_settling_time_s'))} s nominal (ratio {fmt(m.get('settling_time_ratio'))}; "
             "a linear loop with 3.2× unknown inertia predicts √3.2 ≈ 1.79).", ""]

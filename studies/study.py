@@ -45,6 +45,7 @@ from ballbot_casadi.core.params import Params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario_file import ScenarioFile, dump_toml
+from ballbot_casadi.studies.formatting import fmt
 from ballbot_casadi.studies.registry import (
     STUDY_NAMES,
     Spec,
@@ -142,12 +143,6 @@ def _result(kind: str, name: str, controller: str, metrics: dict[str, Any], spec
     }
 
 
-def _fmt(v: Any) -> str:
-    if isinstance(v, bool) or v is None:
-        return str(v)
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    return str(v)
 
 
 def _report(out: Path, title: str, result: dict[str, Any], plots: Sequence[str], intro: Sequence[str],
@@ -159,13 +154,13 @@ def _report(out: Path, title: str, result: dict[str, Any], plots: Sequence[str],
              f"controller `{result['controller']}`).", "",
              "## Specs", "", "| | metric | ours | spec | thesis | why |", "| --- | --- | --- | --- | --- | --- |"]
     for r in result["spec"]:
-        lines.append(f"| {'✅ pass' if r['ok'] else '❌ FAIL'} | `{r['metric']}` | {_fmt(r['value'])} | "
-                     f"{r['op']} {_fmt(r['threshold'])} | {r.get('thesis') or '—'} | {r['source']} |")
+        lines.append(f"| {'✅ pass' if r['ok'] else '❌ FAIL'} | `{r['metric']}` | {fmt(r['value'])} | "
+                     f"{r['op']} {fmt(r['threshold'])} | {r.get('thesis') or '—'} | {r['source']} |")
     lines += ["", "## Thesis §7.1 limits (reported, not part of the verdict)", "",
               "| | quantity | ours | limit | scenario itself beyond it? |", "| --- | --- | --- | --- | --- |"]
     for r in result["limits"]:
-        lines.append(f"| {'⚠️ EXCEEDED' if r['exceeded'] else 'within'} | `{r['metric']}` | {_fmt(r['value'])} "
-                     f"| {_fmt(r['limit'])} | {'yes' if r['by_scenario'] else 'no'} |")
+        lines.append(f"| {'⚠️ EXCEEDED' if r['exceeded'] else 'within'} | `{r['metric']}` | {fmt(r['value'])} "
+                     f"| {fmt(r['limit'])} | {'yes' if r['by_scenario'] else 'no'} |")
     exceeded = [r for r in result["limits"] if r["exceeded"]]
     if exceeded:
         lines += [""] + [
@@ -176,7 +171,7 @@ def _report(out: Path, title: str, result: dict[str, Any], plots: Sequence[str],
             for r in exceeded]
     lines += ["", *extra, "## Plots", ""] + [f"![{p}]({p})" for p in plots]
     lines += ["", "## All metrics", "", "| metric | value |", "| --- | --- |"]
-    lines += [f"| `{k}` | {_fmt(v)} |" for k, v in result["metrics"].items()
+    lines += [f"| `{k}` | {fmt(v)} |" for k, v in result["metrics"].items()
               if not isinstance(v, (dict, list))]
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
@@ -275,12 +270,12 @@ def format_summary(result: dict[str, Any]) -> str:
              f"{'PASS' if result['passed'] else 'FAIL'}"]
     for r in result["spec"]:
         th = f"; thesis {r['thesis']}" if r.get("thesis") else ""
-        lines.append(f"  [{'ok' if r['ok'] else 'FAIL'}] {r['metric']} = {_fmt(r['value'])} "
+        lines.append(f"  [{'ok' if r['ok'] else 'FAIL'}] {r['metric']} = {fmt(r['value'])} "
                      f"(spec {r['op']} {r['threshold']}; {r['source']}{th})")
     for r in result.get("limits", []):
         state = "EXCEEDED" if r["exceeded"] else "within"
         by = " (the scenario itself is beyond it)" if r["exceeded"] and r["by_scenario"] else ""
-        lines.append(f"  [limit {state}] {r['metric']} = {_fmt(r['value'])} (limit {_fmt(r['limit'])}){by}")
+        lines.append(f"  [limit {state}] {r['metric']} = {fmt(r['value'])} (limit {fmt(r['limit'])}){by}")
     return "\n".join(lines)
 
 
@@ -299,13 +294,13 @@ def run_all(out: Path | None = None, plot: bool = True) -> dict[str, Any]:
             cells = []
             for c in CONTROLLERS:
                 r = res[c]["spec"][i]
-                cells.append(_fmt(r["value"]) + ("" if r["ok"] else " ✗"))
+                cells.append(fmt(r["value"]) + ("" if r["ok"] else " ✗"))
             md.append(f"| {name} | {row['metric']} | {row['op']} {row['threshold']} | {row.get('thesis') or ''} "
                       f"| {cells[0]} | {cells[1]} |")
         for i, row in enumerate(res["flc"]["limits"]):
-            cells = [_fmt(res[c]["limits"][i]["value"]) + (" ⚠" if res[c]["limits"][i]["exceeded"] else "")
+            cells = [fmt(res[c]["limits"][i]["value"]) + (" ⚠" if res[c]["limits"][i]["exceeded"] else "")
                      for c in CONTROLLERS]
-            md.append(f"| {name} | {row['metric']} (§7.1 limit) | <= {_fmt(row['limit'])} | | {cells[0]} | {cells[1]} |")
+            md.append(f"| {name} | {row['metric']} (§7.1 limit) | <= {fmt(row['limit'])} | | {cells[0]} | {cells[1]} |")
     (out / "summary.md").write_text("\n".join(md) + "\n")
     return table
 
