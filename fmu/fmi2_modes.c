@@ -314,53 +314,55 @@ fmi2Status fmi2CancelStep(fmi2Component c) {
     return fmi2Error;
 }
 
-fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    fmu_instance *inst = fmu_enter(c, CALL_GET_STATUS);
-    if (inst == NULL) return fmi2Error;
-    if (value == NULL || s != fmi2DoStepStatus) {
-        LOG_ERR(inst, "fmi2GetStatus: only fmi2DoStepStatus is provided (non-NULL value)");
-        return fmi2Error;
+/* The instance for a status query when it asks for what is provided (`provided`);
+ * otherwise NULL, with `what` logged as the error. */
+static fmu_instance *status_query(fmi2Component c, fmu_call call, int provided, const char *what) {
+    fmu_instance *inst = fmu_enter(c, call);
+    if (inst != NULL && !provided) {
+        LOG_ERR(inst, "%s", what);
+        return NULL;
     }
+    return inst;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    fmu_instance *inst =
+        status_query(c, CALL_GET_STATUS, value != NULL && s == fmi2DoStepStatus,
+                     "fmi2GetStatus: only fmi2DoStepStatus is provided (non-NULL value)");
+    if (inst == NULL) return fmi2Error;
     *value = inst->state == FMU_ST_STEP_FAILED ? fmi2Discard : fmi2OK;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    fmu_instance *inst = fmu_enter(c, CALL_GET_REAL_STATUS);
+    fmu_instance *inst =
+        status_query(c, CALL_GET_REAL_STATUS, value != NULL && s == fmi2LastSuccessfulTime,
+                     "fmi2GetRealStatus: only fmi2LastSuccessfulTime is provided");
     if (inst == NULL) return fmi2Error;
-    if (value == NULL || s != fmi2LastSuccessfulTime) {
-        LOG_ERR(inst, "fmi2GetRealStatus: only fmi2LastSuccessfulTime is provided");
-        return fmi2Error;
-    }
     *value = inst->time;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    fmu_instance *inst = fmu_enter(c, CALL_GET_INTEGER_STATUS);
     (void)s;
     (void)value;
-    if (inst == NULL) return fmi2Error;
-    LOG_ERR(inst, "fmi2GetIntegerStatus: no integer status is provided");
+    status_query(c, CALL_GET_INTEGER_STATUS, 0,
+                 "fmi2GetIntegerStatus: no integer status is provided");
     return fmi2Error;
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    fmu_instance *inst = fmu_enter(c, CALL_GET_BOOLEAN_STATUS);
+    fmu_instance *inst =
+        status_query(c, CALL_GET_BOOLEAN_STATUS, value != NULL && s == fmi2Terminated,
+                     "fmi2GetBooleanStatus: only fmi2Terminated is provided");
     if (inst == NULL) return fmi2Error;
-    if (value == NULL || s != fmi2Terminated) {
-        LOG_ERR(inst, "fmi2GetBooleanStatus: only fmi2Terminated is provided");
-        return fmi2Error;
-    }
     *value = fmi2False;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    fmu_instance *inst = fmu_enter(c, CALL_GET_STRING_STATUS);
     (void)s;
     (void)value;
-    if (inst == NULL) return fmi2Error;
-    LOG_ERR(inst, "fmi2GetStringStatus: no string status is provided");
+    status_query(c, CALL_GET_STRING_STATUS, 0, "fmi2GetStringStatus: no string status is provided");
     return fmi2Error;
 }
