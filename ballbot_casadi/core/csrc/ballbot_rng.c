@@ -99,28 +99,29 @@ void ballbot_rng_normal(uint32_t seed, uint32_t stream, uint64_t counter, double
     }
 }
 
-void ballbot_rng_fill_uniform(uint32_t seed, uint32_t stream, uint64_t row0, size_t n_rows,
-                              uint32_t dim, double *out)
+/* Rows row0 .. row0 + n_rows - 1 of `dim` draws each of the generator `at`, row-major. */
+static void fill_rows(double (*at)(uint32_t, uint32_t, uint64_t, uint32_t), uint32_t seed,
+                      uint32_t stream, uint64_t row0, size_t n_rows, uint32_t dim, double *out)
 {
     size_t i;
     uint32_t j;
     for (i = 0; i < n_rows; ++i) {
         for (j = 0; j < dim; ++j) {
-            out[i * dim + j] = ballbot_rng_uniform_at(seed, stream, row0 + (uint64_t)i, j);
+            out[i * dim + j] = at(seed, stream, row0 + (uint64_t)i, j);
         }
     }
+}
+
+void ballbot_rng_fill_uniform(uint32_t seed, uint32_t stream, uint64_t row0, size_t n_rows,
+                              uint32_t dim, double *out)
+{
+    fill_rows(ballbot_rng_uniform_at, seed, stream, row0, n_rows, dim, out);
 }
 
 void ballbot_rng_fill_normal(uint32_t seed, uint32_t stream, uint64_t row0, size_t n_rows,
                              uint32_t dim, double *out)
 {
-    size_t i;
-    uint32_t j;
-    for (i = 0; i < n_rows; ++i) {
-        for (j = 0; j < dim; ++j) {
-            out[i * dim + j] = ballbot_rng_normal_at(seed, stream, row0 + (uint64_t)i, j);
-        }
-    }
+    fill_rows(ballbot_rng_normal_at, seed, stream, row0, n_rows, dim, out);
 }
 
 void ballbot_rng_fill_bits(uint32_t seed, uint32_t stream, uint64_t row0, size_t n_rows,
