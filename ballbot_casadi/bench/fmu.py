@@ -2,7 +2,7 @@
 
 * ``fmu_plant_step_us``: one 5 ms co-simulation step (fmi2SetReal of the torques,
   fmi2DoStep with five 1 ms RK4 sub-steps of the 15 states and the sensor sample at its
-  end, fmi2GetReal of the 12 model states) in the C host ``fmu/host.c``; best of several
+  end, fmi2GetReal of the 12 model states) in the C host ``fmu/tools/host.c``; best of several
   repetitions of 2000 steps.
 * ``fmu_vs_pythonfmu_ratio``: wall time of the same fmpy co-simulation (2 s at 5 ms,
   constant torques, states recorded) of a PythonFMU export of the same CasADi model
@@ -11,7 +11,7 @@
   shipped.  Target: >= 20.
 * ``fmu_controller_step_us``: one 5 ms step of ``BallbotController.fmu`` (fmi2SetReal of
   the nine readings, fmi2DoStep running one period of the embedded software, fmi2GetReal
-  of the torques) in the C host ``fmu/controller_host.c``; best of several repetitions of
+  of the torques) in the C host ``fmu/tools/controller_host.c``; best of several repetitions of
   2000 steps.  Target: <= 15 us.
 * ``sil_100s_s``: 100 s of the velocity-profile scenario (``full_velocity``: noise, QUKF +
   VUKF, FLC, velocity cascade) as the SSP system (plant + controller + reference FMUs)

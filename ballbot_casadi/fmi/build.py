@@ -13,7 +13,7 @@ Where things are:
 * :mod:`ballbot_casadi.fmi.cheaders` - the generated C headers;
 * :mod:`ballbot_casadi.fmi.package` - CasADi codegen, compile, cache with manifest, zip;
 * :mod:`ballbot_casadi.fmi.plant` - the plant's table, Functions and spec
-  (per-model C: ``fmu/plant_model.c``);
+  (per-model C: ``fmu/plant/plant_model.c``);
 * :mod:`ballbot_casadi.fmi.plant_reference` - the plant's sensor readings in Python.
 
 A second FMU supplies its own table, Functions and per-model C file in an

@@ -6,8 +6,8 @@ The FMU runs the embedded software's period, the CasADi Function
 taken from the Functions the compiled mission exports
 (:func:`~ballbot_casadi.sim.closed_loop.closed_loop_functions`): the FMU's C and the
 mission's C are generated from the same Function, so there is one implementation.  The
-per-model C file is ``fmu/controller_model.c``; the FMI layer is the plant's
-(``fmu/fmi2_common.c`` and its parts), the table below generates ``modelDescription.xml`` and the C
+per-model C file is ``fmu/controller/controller_model.c``; the FMI layer is the plant's
+(``fmu/layer/fmi2_common.c`` and its parts), the table below generates ``modelDescription.xml`` and the C
 headers.
 
 Variants: :func:`controller_spec` builds any balance controller with any estimator;
@@ -25,7 +25,8 @@ is not a new sample), all with the latched references.  The outputs after the st
 those of the last period; the wheel torques ``tau0..2`` are the command the embedded
 software sends at the end of its period.  A communication step that is not a whole
 number of periods (within ``STEP_TOL Ts``) is refused (``fmi2Error``, logged, nothing
-changed).  The encoder reading of period 0 is missing (there is no previous count to
+changed); a step within ``STEP_TOL Ts`` of zero (the rounding remainder an importer with a
+running-sum clock issues at the end, 1e-17 .. 1e-13 s) runs no period and returns OK.  The encoder reading of period 0 is missing (there is no previous count to
 difference), as in the compiled mission.  A NaN reading (Real inputs accept NaN as
 "missing") makes its filter predict only for that sensor; the torque stays finite.
 
@@ -79,20 +80,23 @@ from ballbot_casadi.control.velocity import (
 )
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
-from ballbot_casadi.core.layout import Layout
+from ballbot_casadi.core.layout import STATE, Layout
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
 from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError, ScenarioError
+from ballbot_casadi.estimation.attitude import ATTITUDE_STATE
 from ballbot_casadi.estimation.com_observer import (
     COM_OBSERVER_GAIN_NAMES,
     com_observer_initial_state,
 )
 from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
-from ballbot_casadi.fmi.spec import INT32_MAX, FmuSpec, FmuVar, VarTable, block_start
+from ballbot_casadi.estimation.velocity import VELOCITY_STATE
+from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.closed_loop import closed_loop_functions
 from ballbot_casadi.sim.embedded import (
     EMBEDDED_INPUTS,
     EMBEDDED_OUTPUTS,
+    MEAS,
     controller_layout,
 )
 from ballbot_casadi.sim.scenarios import Scenario
@@ -115,7 +119,7 @@ __all__ = [
 ]
 
 MODEL_IDENTIFIER = "BallbotController"
-#: A communication step within STEP_TOL * Ts of n * Ts runs n periods.
+#: A communication step within STEP_TOL * Ts of n * Ts runs n periods (n = 0 included).
 STEP_TOL = 1e-6
 #: Largest number of periods one fmi2DoStep may run.
 MAX_PERIODS = 1_000_000
@@ -127,6 +131,11 @@ READING_NAMES = SENSOR_OUTPUT_NAMES
 #: each, balance-only mode), then the velocity reference and the heading-rate reference.
 REFERENCE_NAMES = (*(f"q_ref{i}" for i in range(4)), *(f"dq_ref{i}" for i in range(4)),
                    *(f"ddq_ref{i}" for i in range(4)), "v_ref_x", "v_ref_y", "yaw_rate_ref")
+#: The reference inputs by field (the embedded Function's q_ref, dq_ref, ddq_ref, v_ref).
+REFERENCE = Layout("references", [("q_ref", 4), ("dq_ref", 4), ("ddq_ref", 4), ("v_ref", 3)],
+                   REFERENCE_NAMES)
+#: The references the balance controller used (outputs q_ref_used, dq_ref_used, ddq_ref_used).
+REFERENCE_USED = Layout("references used", [("q", 4), ("dq", 4), ("ddq", 4)])
 #: The estimate x_hat the controllers read (output block, the order of the Function's output).
 XHAT_NAMES = ("pos_hat_x", "pos_hat_y", "q_hat0", "q_hat1", "q_hat2", "q_hat3", "v_hat_x",
               "v_hat_y", "dq_hat0", "dq_hat1", "dq_hat2", "dq_hat3")
@@ -408,45 +417,44 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
     layout = controller_state_layout(embedded, estimator)
     has_obs = _has_observer(embedded)
 
-    def first(names: list[str] | tuple[str, ...]) -> int:
-        return block_start(rows, names)
+    def field_names(prefix: str) -> tuple[str, ...]:
+        return tuple(n for f in layout.fields
+                     for n in _element_names(f"{prefix}_{f}", layout[f].stop - layout[f].start))
 
-    def field_names(prefix: str) -> list[str]:
-        return [n for f in layout.fields for n in _element_names(f"{prefix}_{f}",
-                                                                 layout[f].stop - layout[f].start)]
-
+    for f, sub in (("xa", ATTITUDE_STATE), ("xv", VELOCITY_STATE)):
+        if layout[f].stop - layout[f].start != sub.size:
+            raise BuildError(f"{embedded.name()}: field {f} of the controller state has "
+                             f"{layout[f].stop - layout[f].start} entries, the {sub.name} {sub.size}")
     groups = dict(_parameter_groups(embedded, controller, estimator))
+    blocks = [
+        FmuBlock("c", layout, field_names("c")),
+        FmuBlock("c0", layout, field_names("c0")),
+        FmuBlock("xa", ATTITUDE_STATE),
+        FmuBlock("xv", VELOCITY_STATE),
+        FmuBlock("meas", MEAS, READING_NAMES),
+        FmuBlock("ref", REFERENCE, REFERENCE_NAMES),
+        FmuBlock("tau", None, tuple(f"tau{i}" for i in range(3))),
+        FmuBlock("tau_cmd", None, tuple(f"tau_cmd{i}" for i in range(3))),
+        FmuBlock("x_hat", STATE, XHAT_NAMES),
+        FmuBlock("rpy", None, ("roll_hat", "pitch_hat", "yaw_hat")),
+        FmuBlock("omega", None, tuple(f"omega_hat_{c}" for c in "xyz")),
+        FmuBlock("ref_used", REFERENCE_USED,
+                 tuple(f"{w}_ref_used{i}" for w in ("q", "dq", "ddq") for i in range(4))),
+        FmuBlock("diag", None, tuple(f"diag_{n}" for n in BALANCE_DIAG_NAMES)),
+        FmuBlock("nis", None, ("nis_attitude", "nis_velocity")),
+        *(FmuBlock(a, None, tuple(n)) for a, n in groups.items()),
+    ]
+    if has_obs:
+        blocks.append(FmuBlock("com_hat", None, ("com_hat_x", "com_hat_y")))
     defines: dict[str, Any] = {
-        "EMBEDDED": embedded.name(),
-        "NC": layout.size,
-        "C0": first(field_names("c")),
-        "C0PAR": first(field_names("c0")),
-        "C_XA": layout["xa"].start,
-        "C_XV": layout["xv"].start,
-        "C_POS": layout["pos"].start,
         "NQV": int(round(np.sqrt(len(groups["Qv"])))),
-        "MEAS0": first(READING_NAMES),
-        "REF0": first(REFERENCE_NAMES),
-        "TAU0": first([f"tau{i}" for i in range(3)]),
-        "TAUCMD0": first([f"tau_cmd{i}" for i in range(3)]),
-        "XHAT0": first(XHAT_NAMES),
-        "RPY0": first(["roll_hat", "pitch_hat", "yaw_hat"]),
-        "OMEGA0": first([f"omega_hat_{c}" for c in "xyz"]),
-        "REFUSED0": first([f"{w}_ref_used{i}" for w in ("q", "dq", "ddq") for i in range(4)]),
-        "DIAG0": first([f"diag_{n}" for n in BALANCE_DIAG_NAMES]),
-        "NIS0": first(["nis_attitude", "nis_velocity"]),
-        **{f"{a.upper()}0": first(n) for a, n in groups.items()},
         "HAS_OBSERVER": int(has_obs),
         "STEP_TOL": repr(STEP_TOL),
         "MAX_PERIODS": repr(float(MAX_PERIODS)),
         "PERIOD_MAX": repr(float(INT32_MAX)),
         "QUAT_TOL": repr(QUAT_TOL),
         "QUAT_TOL_RESTORED": repr(QUAT_TOL_RESTORED),
-        **{f"ARG_{n}": i for i, n in enumerate(embedded.name_in())},
-        **{f"RES_{n}": i for i, n in enumerate(embedded.name_out())},
     }
-    if has_obs:
-        defines["COMHAT0"] = first(["com_hat_x", "com_hat_y"])
     title = f"{controller.upper()} with the {'QUKF + VUKF' if estimator == 'ukf' else 'QEKF + VEKF'}"
     return FmuSpec(
         model_identifier=model_identifier(controller, estimator),
@@ -456,9 +464,11 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
         prefix="ctrl",
         variables=rows,
         functions=(embedded, _rpy_function()),
-        model_source="controller_model.c",
+        model_source="controller/controller_model.c",
         cg_name="ballbot_controller_cg",
         interfaces=("cs",),
         defines=tuple((k, str(v)) for k, v in defines.items()),
+        blocks=tuple(blocks),
+        function_aliases=((embedded.name(), "EMBEDDED"),),
         default_experiment=(0.0, 5.0, TS_CONTROL),
     )

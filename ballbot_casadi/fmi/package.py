@@ -3,9 +3,9 @@
 :func:`build_fmu_from_spec` generates ``modelDescription.xml``
 (:mod:`~ballbot_casadi.fmi.model_description`), the C headers
 (:mod:`~ballbot_casadi.fmi.cheaders`) and the CasADi C of the spec's Functions, and
-compiles them with the hand-written C in ``fmu/`` (the shared FMI 2.0 layer,
-``fmi2_common.c`` and its parts listed in :data:`COMMON_SOURCES`, and the spec's per-model
-file) and the spec's extra sources into
+compiles them with the hand-written C in ``fmu/`` (one folder per part: the shared FMI
+2.0 layer ``fmu/layer/``, listed in :data:`COMMON_SOURCES`, and the spec's per-model file
+in ``fmu/<model>/``) and the spec's extra sources into
 ``binaries/<platform>/<model_identifier>.so``, zipped with all sources (so
 ``fmpy compile`` can rebuild the binary elsewhere).
 
@@ -55,6 +55,7 @@ __all__ = [
     "LDFLAGS",
     "COMMON_SOURCES",
     "COMMON_C_SOURCES",
+    "TOOLS_DIR",
     "build_fmu_from_spec",
     "build_tool",
     "fmi_headers_dir",
@@ -67,16 +68,21 @@ __all__ = [
     "casadi_sources",
 ]
 
-#: Hand-written C of the shared FMI layer (in ``fmu/``), part of every FMU: the core
+#: Hand-written C of the shared FMI layer (``fmu/layer/``), part of every FMU: the core
 #: (instance, call table, logging, checks, values), the life cycle, get/set by value
 #: reference, FMU states, the mode-specific calls (directional derivatives, Model Exchange,
-#: Co-Simulation); the per-model interface and the layer's internal header.
-COMMON_SOURCES = ("fmi2_common.c", "fmi2_instance.c", "fmi2_values.c", "fmi2_state.c",
-                  "fmi2_modes.c", "fmi2_common.h", "fmi2_internal.h")
-#: The C files of :data:`COMMON_SOURCES`, compiled into every FMU.
-COMMON_C_SOURCES = tuple(s for s in COMMON_SOURCES if s.endswith(".c"))
-#: What the C host programs (``fmu/host.c``, ``fmu/controller_host.c``) share.
-HOST_HEADER = "fmi2_host.h"
+#: Co-Simulation), the one call of CasADi Functions (``fmu_casadi``); the per-model
+#: interface and the layer's internal header.  Paths relative to :func:`fmu_source_dir`;
+#: every file lands flat in the FMU's ``sources/``.
+COMMON_SOURCES = ("layer/fmi2_common.c", "layer/fmi2_instance.c", "layer/fmi2_values.c",
+                  "layer/fmi2_state.c", "layer/fmi2_modes.c", "layer/fmu_casadi.c",
+                  "layer/fmi2_common.h", "layer/fmi2_internal.h", "layer/fmu_casadi.h")
+#: The C files of :data:`COMMON_SOURCES`, compiled into every FMU (names in ``sources/``).
+COMMON_C_SOURCES = tuple(Path(s).name for s in COMMON_SOURCES if s.endswith(".c"))
+#: Folder of the C tools (hosts, fuzzer) under :func:`fmu_source_dir`.
+TOOLS_DIR = "tools"
+#: What the C host programs (``fmu/tools/host.c``, ``fmu/tools/controller_host.c``) share.
+HOST_HEADER = f"{TOOLS_DIR}/fmi2_host.h"
 CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-fPIC",
           "-fvisibility=hidden")
 LDFLAGS = ("-shared", "-static-libgcc", "-Wl,--no-undefined", "-Wl,--as-needed")
@@ -107,7 +113,8 @@ def fmu_source_dir() -> Path:
     """Directory of the hand-written FMU C sources.
 
     The installed package data ``ballbot_casadi.fmu_src`` if it holds every file of
-    :data:`COMMON_SOURCES`, else ``fmu/`` of the source checkout.
+    :data:`COMMON_SOURCES` (``layer/``, ``plant/``, ``controller/``, ``reference/``,
+    ``tools/``), else ``fmu/`` of the source checkout.
     """
     try:
         d = Path(str(resources.files("ballbot_casadi.fmu_src")))
@@ -265,7 +272,7 @@ def generated_files(spec: FmuSpec, guid: str, cg: tuple[str, str] | None = None
     src_dir = fmu_source_dir()
     model = (Path(spec.model_source) if isinstance(spec.model_source, Path)
              else src_dir / spec.model_source)
-    files = {name: (src_dir / name).read_text() for name in COMMON_SOURCES}
+    files = {Path(name).name: (src_dir / name).read_text() for name in COMMON_SOURCES}
     for path in (model, *spec.extra_sources):
         if not Path(path).is_file():
             raise BuildError(f"C source {path} of {spec.model_identifier} does not exist")
@@ -355,15 +362,15 @@ def build_fmu_from_spec(spec: FmuSpec, out: str | Path | None = None,
 
 
 def build_tool(build: FmuBuild, name: str, cc: str | None = None) -> Path:
-    """Compile the C host program ``fmu/<name>.c`` against ``build``.
+    """Compile the C host program ``fmu/tools/<name>.c`` against ``build``.
 
     The program includes the generated headers of the FMU (``<prefix>_vr.h``, or the
-    neutral ``fmu_model_info.h``), the hosts' shared ``fmu/fmi2_host.h`` and the fmpy FMI
+    neutral ``fmu_model_info.h``), the hosts' shared ``fmu/tools/fmi2_host.h`` and the fmpy FMI
     headers, and loads the FMU binary with ``dlopen`` at run time; it is cached (verified, see
     :func:`~ballbot_casadi.core.toolchain.cached_file`) next to the FMU build.
     """
     ccmd = compiler_command(cc)
-    src = fmu_source_dir() / f"{name}.c"
+    src = fmu_source_dir() / TOOLS_DIR / f"{name}.c"
     if not src.is_file():
         raise BuildError(f"no C host program {src}")
     text = src.read_text() + "\0" + (fmu_source_dir() / HOST_HEADER).read_text()

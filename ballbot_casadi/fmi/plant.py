@@ -1,7 +1,7 @@
 """The BallbotPlant FMU as an :class:`~ballbot_casadi.fmi.spec.FmuSpec` (ME + CS).
 
 :func:`plant_variables` is the one table of the plant's variables, :func:`plant_functions`
-the CasADi Functions compiled into it, ``fmu/plant_model.c`` its per-model C file and
+the CasADi Functions compiled into it, ``fmu/plant/plant_model.c`` its per-model C file and
 :func:`plant_spec` puts them together.
 
 The plant: the 12 model states of the 3D quaternion ballbot model plus the three wheel
@@ -12,7 +12,7 @@ sensor readings ``sensor_acc_*``, ``sensor_gyro_*``, ``sensor_enc*`` sampled eve
 ``Ts_sensor`` and held (discrete), with noise from the counter-based generator
 (``noise_on``, ``seed``) and the sensor parameters under their
 :data:`~ballbot_casadi.core.sensor_params.SENSOR_VECTOR_NAMES` names.  The sampling
-conventions are in ``fmu/plant_model.c`` and reproduced in Python by
+conventions are in ``fmu/plant/plant_model.c`` and reproduced in Python by
 :mod:`ballbot_casadi.fmi.plant_reference`.
 """
 
@@ -22,16 +22,23 @@ import casadi as ca
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import TS_CONTROL
+from ballbot_casadi.core.layout import STATE, Layout
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES, load_params
 from ballbot_casadi.core.rng import c_sources
 from ballbot_casadi.core.sensor_params import (
-    NS,
     SENSOR_PARAM_INFO,
     SENSOR_VECTOR_NAMES,
     load_sensor_params,
 )
 from ballbot_casadi.core.validation import QUAT_TOL
-from ballbot_casadi.fmi.spec import INT32_MAX, FmuSpec, FmuVar, VarTable, block_start
+from ballbot_casadi.fmi.spec import (
+    INT32_MAX,
+    FmuBlock,
+    FmuSpec,
+    FmuVar,
+    VarTable,
+    sparsity_dependencies,
+)
 from ballbot_casadi.model.dynamics import (
     INPUT_NAMES,
     NP,
@@ -50,6 +57,7 @@ from ballbot_casadi.model.sensors import (
     make_sensors,
     make_wheel_angle_ode,
 )
+from ballbot_casadi.sim.embedded import MEAS
 
 __all__ = [
     "MODEL_IDENTIFIER",
@@ -61,6 +69,8 @@ __all__ = [
     "NXW",
     "WHEEL_ANGLE_NAMES",
     "SENSOR_OUTPUT_NAMES",
+    "PLANT_STATE",
+    "PLANT_OUTPUTS",
     "plant_variables",
     "plant_functions",
     "plant_spec",
@@ -82,6 +92,16 @@ NXW = NX + len(WHEEL_ANGLE_NAMES)
 #: The held sensor readings (discrete outputs), in order: acc (3), gyro (3), enc (3).
 SENSOR_OUTPUT_NAMES = (*(f"sensor_acc_{c}" for c in "xyz"), *(f"sensor_gyro_{c}" for c in "xyz"),
                        *(f"sensor_enc{i}" for i in range(3)))
+
+#: The plant FMU's continuous state: the model state (:data:`~ballbot_casadi.core.layout.STATE`)
+#: and the wheel angles.
+PLANT_STATE = Layout("plant state with wheel angles",
+                     [*((f, STATE[f].stop - STATE[f].start) for f in STATE.fields),
+                      ("phi", len(WHEEL_ANGLE_NAMES))])
+#: The continuous outputs ``y`` of ``bbp_out``: ZYX angles, wheel speeds, noise-free IMU
+#: and encoder signals.
+PLANT_OUTPUTS = Layout("plant outputs y", [("rpy", 3), ("dphi", 3), ("acc", 3), ("gyro", 3),
+                                           ("enc", 3)])
 
 _STATE_UNITS = ("m", "m", "1", "1", "1", "1", "m/s", "m/s", "1/s", "1/s", "1/s", "1/s")
 _STATE_DESC = (
@@ -186,7 +206,7 @@ def plant_variables() -> tuple[FmuVar, ...]:
 
 
 def plant_functions() -> list[ca.Function]:
-    """The CasADi Functions compiled into the FMU (see ``fmu/plant_model.c``):
+    """The CasADi Functions compiled into the FMU (see ``fmu/plant/plant_model.c``):
     ``bbp_ode``, ``bbp_rk4``, ``bbp_out``, ``bbp_dd`` and the sensor Functions
     ``ballbot_imu``, ``ballbot_encoders``, ``ballbot_gyro_bias_step``."""
     f = make_model_functions()
@@ -219,28 +239,39 @@ def plant_functions() -> list[ca.Function]:
 def plant_spec() -> FmuSpec:
     """BallbotPlant: Model Exchange + Co-Simulation, directional derivatives."""
     rows = plant_variables()
-    n_y = sum(v.kind == "output" for v in rows)
+    xw_names = (*STATE_NAMES, *WHEEL_ANGLE_NAMES)
+    y_names = tuple(n for n, _, _ in _OUTPUTS)
+    blocks = (
+        FmuBlock("xw", PLANT_STATE, xw_names),
+        FmuBlock("der", PLANT_STATE, tuple(f"der({n})" for n in xw_names)),
+        FmuBlock("tau", None, INPUT_NAMES),
+        FmuBlock("tau_dist", None, tuple(f"tau_dist{i}" for i in range(NU))),
+        FmuBlock("y", PLANT_OUTPUTS, y_names),
+        FmuBlock("sensor", MEAS, SENSOR_OUTPUT_NAMES),
+        FmuBlock("bias", None, tuple(f"sensor_gyro_bias_{c}" for c in "xyz")),
+        FmuBlock("tau_prev", None, tuple(f"sensor_tau_prev{i}" for i in range(NU))),
+        FmuBlock("phi_prev", None, tuple(f"sensor_phi_prev{i}" for i in range(NU))),
+        FmuBlock("p", Layout("model parameters p", [(n, 1) for n in PARAM_NAMES]), PARAM_NAMES),
+        FmuBlock("s", Layout("sensor parameters s", [(n, 1) for n in SENSOR_VECTOR_NAMES]),
+                 SENSOR_VECTOR_NAMES),
+    )
     defines = {
-        "NX": NX, "NXW": NXW, "NU": NU, "NY": n_y, "NP": NP, "NS": NS,
-        "NJROW": NXW + n_y, "NJCOL": NXW + NU,
-        "P0": block_start(rows, PARAM_NAMES),
-        "S0": block_start(rows, SENSOR_VECTOR_NAMES),
-        "P_TAU_MAX": PARAM_NAMES.index("tau_max"),
-        "S_GYRO_BIAS0": SENSOR_VECTOR_NAMES.index("gyro_bias0_x"),
         "QUAT_TOL": repr(QUAT_TOL),
         "MAX_SUBSTEPS": repr(float(MAX_SUBSTEPS)),
         "MAX_SAMPLES": repr(float(MAX_SAMPLES)),
         "GRID_TOL": repr(GRID_TOL),
         **{f"STREAM_{k.upper()}": f"{v}u" for k, v in NOISE_STREAMS.items()},
     }
-    # the per-model C addresses these blocks by their first element
-    for block in ((*STATE_NAMES, *WHEEL_ANGLE_NAMES),
-                  [f"der({n})" for n in (*STATE_NAMES, *WHEEL_ANGLE_NAMES)],
-                  INPUT_NAMES, [f"tau_dist{i}" for i in range(NU)], [n for n, _, _ in _OUTPUTS],
-                  SENSOR_OUTPUT_NAMES, [f"sensor_gyro_bias_{c}" for c in "xyz"],
-                  [f"sensor_tau_prev{i}" for i in range(NU)],
-                  [f"sensor_phi_prev{i}" for i in range(NU)]):
-        block_start(rows, block)
+    functions = plant_functions()
+    by_name = {f.name(): f for f in functions}
+    # the knowns: the states and the inputs (a torque and its disturbance enter as one sum)
+    tau_knowns = [(n, f"tau_dist{i}") for i, n in enumerate(INPUT_NAMES)]
+    dependencies = {
+        **sparsity_dependencies(by_name["bbp_ode"], "xwdot", [f"der({n})" for n in xw_names],
+                                {"xw": [(n,) for n in xw_names], "tau": tau_knowns}),
+        **sparsity_dependencies(by_name["bbp_out"], "y", y_names,
+                                {"x": [(n,) for n in STATE_NAMES], "tau": tau_knowns}),
+    }
     rng_c, rng_h = c_sources()
     return FmuSpec(
         model_identifier=MODEL_IDENTIFIER,
@@ -249,12 +280,14 @@ def plant_spec() -> FmuSpec:
         "IMU and encoder signals and the robot's sampled sensor readings (optional noise) out",
         prefix="plant",
         variables=rows,
-        functions=tuple(plant_functions()),
-        model_source="plant_model.c",
+        functions=tuple(functions),
+        model_source="plant/plant_model.c",
         cg_name="ballbot_plant_cg",
         extra_sources=(rng_c, rng_h),
         interfaces=("me", "cs"),
         defines=tuple((k, str(v)) for k, v in defines.items()),
+        blocks=blocks,
+        dependencies=tuple(dependencies.items()),
         directional_derivatives=True,
         default_experiment=(0.0, 5.0, TS_SENSOR_DEFAULT),
     )

@@ -1,7 +1,7 @@
 """The plant FMU's sensor readings in Python: a numpy RK4 run of the model Functions.
 
 :func:`plant_sensor_reference` reproduces what ``BallbotPlant.fmu`` outputs in
-Co-Simulation, by the same conventions (``fmu/plant_model.c``) but from the CasADi
+Co-Simulation, by the same conventions (``fmu/plant/plant_model.c``) but from the CasADi
 Functions of :mod:`ballbot_casadi.model` called from Python and the noise of
 :class:`~ballbot_casadi.core.rng.NoiseStream` (the same Philox C file the FMU compiles):
 

@@ -17,7 +17,7 @@ disturbance inputs (:data:`DISTURBANCE_NAMES`), so the SSP connects equal names.
 Attitude pushes cannot enter an FMU's state through its inputs; scenarios with pushes
 are refused.
 One FMU per scenario (the table is compiled in), cached by content hash like every FMU
-of the package; the per-model C file is ``fmu/reference_model.c``.
+of the package; the per-model C file is ``fmu/reference/reference_model.c``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import numpy as np
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.controller import REFERENCE_NAMES
-from ballbot_casadi.fmi.spec import INT32_MAX, FmuSpec, FmuVar, VarTable, block_start
+from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.scenarios import Scenario
 
 __all__ = ["MODEL_IDENTIFIER", "GRID_TOL", "DISTURBANCE_NAMES", "OUTPUT_NAMES", "reference_table",
@@ -103,8 +103,7 @@ def reference_spec(scenario: Scenario) -> FmuSpec:
                             table.ravel(order="C"))
     f = ca.Function("ballbot_reference_table", [k], [interp(k)], ["k"], ["row"])
     rows = reference_variables(scenario.Ts)
-    defines = {"NROWS": n, "OUT0": block_start(rows, OUTPUT_NAMES),
-               "BALANCE_ONLY": int(not scenario.cascade), "GRID_TOL": repr(GRID_TOL)}
+    defines = {"NROWS": n, "BALANCE_ONLY": int(not scenario.cascade), "GRID_TOL": repr(GRID_TOL)}
     return FmuSpec(
         model_identifier=MODEL_IDENTIFIER,
         description=f"references of scenario {scenario.name!r} ({n} periods of "
@@ -113,9 +112,10 @@ def reference_spec(scenario: Scenario) -> FmuSpec:
         prefix="ref",
         variables=rows,
         functions=(f,),
-        model_source="reference_model.c",
+        model_source="reference/reference_model.c",
         cg_name="ballbot_reference_cg",
         interfaces=("cs",),
         defines=tuple((k_, str(v)) for k_, v in defines.items()),
+        blocks=(FmuBlock("out", None, OUTPUT_NAMES),),
         default_experiment=(0.0, n * scenario.Ts, scenario.Ts),
     )

@@ -4,7 +4,7 @@ An FMU of this package is one :class:`FmuSpec`: a table of :class:`FmuVar` (the 
 source of value references, kinds, start values, ranges, units and descriptions, from
 which ``modelDescription.xml`` and the C headers are generated), the CasADi Functions
 compiled into it, and its small hand-written C file in ``fmu/`` that fills the shared
-layer's ``fmu_model_def`` (see ``fmu/fmi2_common.h``).  :class:`VarTable` builds a table
+layer's ``fmu_model_def`` (see ``fmu/layer/fmi2_common.h``).  :class:`VarTable` builds a table
 and assigns the value references; :func:`~ballbot_casadi.fmi.package.build_fmu_from_spec`
 turns a spec into a cached, verified ``.fmu``.
 
@@ -39,7 +39,7 @@ Co-Simulation-only one with Real, Integer and Boolean variables this way):
    values as ``v->r[<PREFIX>_IX_<name>]``, ``v->i[...]``, ``v->b[...]``;
 4. an :class:`FmuSpec`, built by
    :func:`~ballbot_casadi.fmi.package.build_fmu_from_spec`.  The generic API fuzzer
-   ``fmu/fuzz.c`` runs against it (``build_tool(build, "fuzz")``).
+   ``fmu/tools/fuzz.c`` runs against it (``build_tool(build, "fuzz")``).
 """
 
 from __future__ import annotations
@@ -52,6 +52,7 @@ from typing import Sequence
 
 import casadi as ca
 
+from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_RULES
 from ballbot_casadi.errors import BuildError
 
@@ -61,11 +62,14 @@ __all__ = [
     "INT32_MIN",
     "INT32_MAX",
     "FmuVar",
+    "FmuBlock",
     "FmuSpec",
     "VarTable",
     "value_range",
     "c_ident",
     "block_start",
+    "sparsity_dependencies",
+    "output_dependencies",
 ]
 
 KINDS = ("state", "derivative", "input", "discrete_input", "output", "discrete_output",
@@ -281,6 +285,91 @@ def block_start(rows: Sequence[FmuVar], names: Sequence[str]) -> int:
     return first.vr - min(v.vr for v in rows if v.type == first.type)
 
 
+def sparsity_dependencies(f: ca.Function, out: str, rows: Sequence[str],
+                          knowns: dict[str, Sequence[Sequence[str]]]) -> dict[str, tuple[str, ...]]:
+    """Which known variables each element of output ``out`` of ``f`` depends on, from the
+    structural sparsity of its Jacobian (``f.sparsity_jac``), not by hand.
+
+    Parameters
+    ----------
+    f
+        The Function that computes the unknowns.
+    out
+        Name of its output; ``rows`` names the FMU variable of each element.
+    knowns
+        ``{input name: per element, the FMU variables that feed it}`` (an element may be
+        fed by several variables, e.g. a torque and its disturbance; an input not listed,
+        such as the parameter vector, is not a known of the model structure).
+
+    Returns
+    -------
+    dict
+        Variable name -> sorted names of the knowns it depends on (FMI-version neutral:
+        the 2.0 and 3.0 model descriptions render it with their own indices).
+    """
+    o = f.index_out(out)
+    if len(rows) != f.numel_out(o):
+        raise BuildError(f"{f.name()}: output {out} has {f.numel_out(o)} entries, {len(rows)} named")
+    deps: dict[str, set[str]] = {r: set() for r in rows}
+    for arg, names in knowns.items():
+        i = f.index_in(arg)
+        if len(names) != f.numel_in(i):
+            raise BuildError(f"{f.name()}: input {arg} has {f.numel_in(i)} entries, "
+                             f"{len(names)} named")
+        sp = f.sparsity_jac(i, o)
+        for r, c in zip(*sp.get_triplet()):
+            deps[rows[r]].update(names[c])
+    return {r: tuple(sorted(d)) for r, d in deps.items()}
+
+
+def output_dependencies(rows: Sequence[FmuVar], continuous: dict[str, tuple[str, ...]] | None
+                        ) -> dict[str, tuple[str, ...]] | None:
+    """The dependencies of every output and state derivative (name -> known names).
+
+    A state (an output) depends on itself; a held (discrete) output is written only by the
+    model's initialize / do_step / event update, so it depends on no known directly;
+    continuous outputs and derivatives take ``continuous`` (from
+    :func:`sparsity_dependencies`).  ``None`` if a continuous unknown is not covered (the
+    model description then omits the lists: "depends on every known").
+    """
+    out: dict[str, tuple[str, ...]] = {}
+    for v in rows:
+        if v.kind == "state":
+            out[v.name] = (v.name,)
+        elif v.kind == "discrete_output":
+            out[v.name] = ()
+        elif v.kind in ("output", "derivative"):
+            if continuous is None or v.name not in continuous:
+                return None
+            out[v.name] = continuous[v.name]
+    return out
+
+
+@dataclass(frozen=True)
+class FmuBlock:
+    """A packed vector the per-model C addresses by name (``<PREFIX>_<NAME>_<FIELD>``).
+
+    Attributes
+    ----------
+    name
+        C name of the block (``"c"``, ``"x_hat"``; upper-cased in the C names).
+    layout
+        Its fields (:class:`~ballbot_casadi.core.layout.Layout`); ``None`` for a vector
+        without named parts (only its position and size are generated).
+    variables
+        The FMU variables that store it, in element order (consecutive value references
+        of one type); empty for a vector that lives only in the model's work memory.
+    """
+
+    name: str
+    layout: Layout | None
+    variables: tuple[str, ...] = ()
+
+    @property
+    def size(self) -> int:
+        return self.layout.size if self.layout is not None else len(self.variables)
+
+
 @dataclass(frozen=True, eq=False)
 class FmuSpec:
     """Everything that defines one FMU; :func:`~ballbot_casadi.fmi.package.build_fmu_from_spec`
@@ -302,7 +391,8 @@ class FmuSpec:
     functions
         CasADi Functions generated into ``<cg_name>.c`` (called by the per-model C).
     model_source
-        The per-model C file (defines ``fmu_model``): a name in ``fmu/``, or a path.
+        The per-model C file (defines ``fmu_model``): a path relative to ``fmu/``
+        (``"plant/plant_model.c"``), or a :class:`~pathlib.Path`.
     cg_name
         Basename of the generated CasADi C.
     extra_sources
@@ -311,6 +401,18 @@ class FmuSpec:
         ``("me", "cs")``, ``("cs",)`` or ``("me",)``.
     defines
         Extra ``#define <PREFIX>_<name> <value>`` lines of ``<prefix>_vr.h``.
+    blocks
+        The packed vectors of the per-model C (:class:`FmuBlock`): their value-array
+        positions, sizes and field offsets are generated into ``<prefix>_vr.h``.
+    function_aliases
+        ``(Function name, C name)`` pairs: the C name of a Function in the generated
+        argument positions (``<PREFIX>_<C name>_ARG_<input>``); default the Function's
+        name upper-cased without a leading ``ballbot_``.
+    dependencies
+        Continuous outputs and state derivatives -> the knowns (states, inputs) they
+        depend on (:func:`sparsity_dependencies`); with it (or without any continuous
+        unknown) ``ModelStructure`` lists every output's and derivative's dependencies
+        (:func:`output_dependencies`).
     directional_derivatives
         The per-model C supplies ``jacobian`` (``providesDirectionalDerivative``).
     default_experiment
@@ -327,6 +429,9 @@ class FmuSpec:
     extra_sources: tuple[Path, ...] = ()
     interfaces: tuple[str, ...] = ("me", "cs")
     defines: tuple[tuple[str, str], ...] = ()
+    blocks: tuple[FmuBlock, ...] = ()
+    function_aliases: tuple[tuple[str, str], ...] = ()
+    dependencies: tuple[tuple[str, tuple[str, ...]], ...] = ()
     directional_derivatives: bool = False
     default_experiment: tuple[float, float, float] = (0.0, 5.0, 0.005)
     model_name: str = field(default="")

@@ -131,7 +131,7 @@ def test_fmu_carries_sources_and_fmpy_compile_rebuilds_it(plant, tmp_path):
 
     with zipfile.ZipFile(plant.fmu) as zf:
         names = set(zf.namelist())
-    for f in ("fmi2_common.c", "fmi2_common.h", "plant_model.c", "plant_vars.h", "plant_vr.h",
+    for f in ("fmi2_common.c", "fmi2_common.h", "fmu_casadi.c", "fmu_casadi.h", "plant_model.c", "plant_vars.h", "plant_vr.h",
               "fmu_model_info.h", "ballbot_plant_cg.c", "ballbot_plant_cg.h", "ballbot_rng.c",
               "ballbot_rng.h"):
         assert f"sources/{f}" in names
@@ -160,10 +160,18 @@ def test_fmu_carries_sources_and_fmpy_compile_rebuilds_it(plant, tmp_path):
 def test_sources_are_installed_package_data():
     import importlib.resources as res
 
+    from ballbot_casadi.fmi.package import COMMON_SOURCES, TOOLS_DIR
+
     d = fmu_source_dir()
-    assert (d / "fmi2_common.c").is_file() and (d / "plant_model.c").is_file()
+    # one folder per part: the shared layer, each FMU's per-model C, the C tools
+    for rel in (*COMMON_SOURCES, "plant/plant_model.c", "controller/controller_model.c",
+                "reference/reference_model.c", f"{TOOLS_DIR}/host.c",
+                f"{TOOLS_DIR}/controller_host.c", f"{TOOLS_DIR}/fuzz.c",
+                f"{TOOLS_DIR}/fmi2_host.h"):
+        assert (d / rel).is_file(), rel
+    assert not list(d.glob("*.c")) and not list(d.glob("*.h"))  # nothing left at the top
     pkg = res.files("ballbot_casadi.fmu_src")
-    assert pkg.joinpath("fmi2_common.h").is_file()
+    assert pkg.joinpath("layer").joinpath("fmi2_common.h").is_file()
 
 
 def test_generation_is_deterministic(plant):

@@ -16,8 +16,8 @@
 #include "fmi2_host.h"
 #include "plant_vr.h" /* generated: value references */
 
-#define NX PLANT_NX   /* the 12 model states (the wheel angles follow them) */
-#define NOUT PLANT_NY /* continuous outputs */
+#define NX PLANT_XW_PHI /* the 12 model states (the wheel angles follow them) */
+#define NOUT PLANT_Y_N  /* continuous outputs */
 
 int main(int argc, char **argv) {
     void *lib;

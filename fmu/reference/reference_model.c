@@ -3,7 +3,7 @@
  * per-period references (attitude reference q, dq, ddq of the balance-only mode, velocity
  * and heading-rate references, the mode) from the generated table ballbot_reference_table
  * (a CasADi linear interpolant on the grid 0, 1, ..., N-1 evaluated at whole row numbers,
- * which returns the stored row exactly).  Row k is output from t_k = startTime + k Ts
+ * which returns the stored row exactly; its columns are the block REF_OUT of the outputs).  Row k is output from t_k = startTime + k Ts
  * (within REF_GRID_TOL Ts) until the next row; after the last row the last one is held.
  */
 #include <math.h>
@@ -11,13 +11,11 @@
 
 #include "ballbot_reference_cg.h"
 #include "fmi2_common.h"
+#include "fmu_casadi.h"
 #include "ref_vars.h"
 
 typedef struct {
-    const casadi_real *arg[REF_SZ_ARG];
-    casadi_real *res[REF_SZ_RES];
-    casadi_int iw[REF_SZ_IW + 1];
-    casadi_real w[REF_SZ_W + 1];
+    fmu_casadi_work cg;
     double row;
 } ref_work;
 
@@ -25,9 +23,9 @@ typedef struct {
 static int output_row(fmu_instance *inst, fmu_values *v, long k) {
     ref_work *wk = (ref_work *)fmu_model_work(inst);
     wk->row = (double)k;
-    wk->arg[0] = &wk->row;
-    wk->res[0] = v->r + REF_OUT0;
-    if (ballbot_reference_table(wk->arg, wk->res, wk->iw, wk->w, 0) != 0) return 1;
+    wk->cg.arg[REF_REFERENCE_TABLE_ARG_K] = &wk->row;
+    wk->cg.res[REF_REFERENCE_TABLE_RES_ROW] = v->r + REF_OUT_IX;
+    if (fmu_casadi_call(&wk->cg, REF_REFERENCE_TABLE_FN) != 0) return 1;
     v->b[REF_IX_balance_only] = REF_BALANCE_ONLY ? fmi2True : fmi2False;
     v->i[REF_IX_row] = (fmi2Integer)k;
     return 0;
