@@ -3,7 +3,8 @@
 Written from the variable table only: every variable with its value reference, type,
 causality, variability, initial, start value, range and unit; ``ModelStructure`` with
 the outputs, the state derivatives and the initial unknowns (all in ascending index
-order); Model Exchange and/or Co-Simulation elements listing the C sources, so
+order; outputs and derivatives with their ``dependencies``, derived from the CasADi
+Functions' sparsity, :func:`~ballbot_casadi.fmi.spec.output_dependencies`); Model Exchange and/or Co-Simulation elements listing the C sources, so
 ``fmpy compile`` can rebuild the binary.
 """
 
@@ -13,7 +14,7 @@ import math
 from typing import Sequence
 from xml.sax.saxutils import quoteattr
 
-from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, value_range
+from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies, value_range
 
 __all__ = ["model_description_xml"]
 
@@ -107,9 +108,17 @@ def model_description_xml(spec: FmuSpec, guid: str, sources: Sequence[str]) -> s
         ("InitialUnknowns", [v for v in rows if v.causality == "output" and v.kind != "state"
                              or v.kind == "derivative"]),
     )
+    deps = output_dependencies(rows, dict(spec.dependencies) if spec.dependencies else None)
+    index = {v.name: v.vr + 1 for v in rows}
+
+    def unknown(v: FmuVar, tag: str) -> str:
+        if tag == "InitialUnknowns" or deps is None:
+            return f'      <Unknown index="{v.vr + 1}"/>'
+        known = " ".join(str(i) for i in sorted(index[n] for n in deps[v.name]))
+        return f'      <Unknown index="{v.vr + 1}" dependencies="{known}"/>'
+
     for tag, chosen in sections:
         if chosen:
-            out += [f"    <{tag}>", *[f'      <Unknown index="{v.vr + 1}"/>' for v in chosen],
-                    f"    </{tag}>"]
+            out += [f"    <{tag}>", *[unknown(v, tag) for v in chosen], f"    </{tag}>"]
     out += ["  </ModelStructure>", "</fmiModelDescription>"]
     return "\n".join(out) + "\n"

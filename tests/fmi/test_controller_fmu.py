@@ -99,7 +99,7 @@ def test_both_variants_validate_and_share_the_plant_reading_names():
 
 
 def test_the_per_model_file_is_small():
-    lines = (fmu_source_dir() / "controller_model.c").read_text().splitlines()
+    lines = (fmu_source_dir() / "controller" / "controller_model.c").read_text().splitlines()
     assert len(lines) < 220  # the second FMU costs a small per-model file, not a copy
 
 
@@ -159,6 +159,36 @@ def test_refused_step_sizes_are_logged_and_change_nothing():
         assert fmu.fmu.getInteger(fmu.vr("period")) == [0]
     fmu.step(TS)  # the instance is still usable
     assert fmu.fmu.getInteger(fmu.vr("period")) == [1]
+    fmu.free()
+
+
+def test_a_step_within_the_tolerance_of_whole_periods_counts_as_them_zero_included():
+    """Issue 19: an importer whose clock is a running sum ends with a step of 1e-17 ..
+    1e-13 s (OMSimulator at stop times 0.05, 2, 5 s); that is zero periods, not an error."""
+    rng = np.random.default_rng(4)
+    fmu, ref = Controller(), _Reference()
+    fmu.init()
+    fmu.set(v_ref_x=VREF[0], v_ref_y=VREF[1], yaw_rate_ref=VREF[2])
+    meas = _readings(rng)
+    fmu.set_many(READING_NAMES, meas)
+    fmu.step(TS)
+    out = ref.period(meas)
+    c_names = [n for n in fmu.vars if n.startswith("c_")]
+    before = fmu.get(*c_names, "tau0", "tau1", "tau2")
+    for h in (1e-17, 1e-15, 1e-13):
+        assert fmu.raw_step(h) == 0  # fmi2OK, no period run
+        fmu.t += h
+        np.testing.assert_array_equal(fmu.get(*c_names, "tau0", "tau1", "tau2"), before)
+        assert fmu.fmu.getInteger(fmu.vr("period")) == [1]
+    np.testing.assert_allclose(fmu.get("tau0", "tau1", "tau2"), out["tau_lim"], rtol=0, atol=1e-12)
+    # a period plus such a remainder is one period
+    fmu.set_many(READING_NAMES, meas)
+    assert fmu.raw_step(TS + 3e-15) == 0
+    fmu.t += TS + 3e-15
+    out = ref.period(meas)
+    np.testing.assert_allclose(fmu.get("tau0", "tau1", "tau2"), out["tau_lim"], rtol=0, atol=1e-12)
+    assert fmu.fmu.getInteger(fmu.vr("period")) == [2]
+    assert fmu.errors() == []
     fmu.free()
 
 

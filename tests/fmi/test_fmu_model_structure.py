@@ -1,0 +1,74 @@
+"""ModelStructure dependencies (issue 19): derived from the CasADi Functions' sparsity, so
+an engine sees no algebraic loop where there is none (FMI 2.0: no list = "depends on every
+input")."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from fmpy import read_model_description
+
+from ballbot_casadi.core.params import load_params
+from ballbot_casadi.fmi.controller import controller_spec
+from ballbot_casadi.fmi.model_description import model_description_xml
+from ballbot_casadi.fmi.plant import plant_functions, plant_spec
+from ballbot_casadi.fmi.spec import sparsity_dependencies
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+
+
+def _md(spec, tmp_path):
+    p = tmp_path / f"{spec.prefix}.xml"
+    p.write_text(model_description_xml(spec, "{00000000-0000-0000-0000-000000000000}", ["a.c"]))
+    return read_model_description(str(p), validate=True)
+
+
+def _feedthrough(md) -> dict[str, list[str]]:
+    """Output name -> the inputs it depends on directly."""
+    return {u.variable.name: [d.name for d in u.dependencies if d.causality == "input"]
+            for u in md.outputs}
+
+
+def test_only_the_accelerometer_feeds_the_torques_through(tmp_path):
+    md = _md(plant_spec(), tmp_path)
+    through = _feedthrough(md)
+    assert all(u.dependencies is not None for u in md.outputs + md.derivatives)
+    fed = {n: d for n, d in through.items() if d}
+    assert sorted(fed) == ["acc_x", "acc_y", "acc_z"]
+    assert all(set(d) == {"tau0", "tau1", "tau2", "tau_dist0", "tau_dist1", "tau_dist2"}
+               for d in fed.values())
+    assert len(through) - len(fed) == 36  # the states, angles, speeds, gyro, encoders, readings
+    deps = {u.variable.name: [d.name for d in u.dependencies] for u in md.outputs + md.derivatives}
+    assert deps["q0"] == ["q0"] and deps["sensor_acc_x"] == []
+    assert deps["der(x)"] == ["dx"]  # dx/dt = dx only
+    assert "tau0" in deps["der(dq0)"] and "x" not in deps["der(dq0)"]
+
+
+def test_dependencies_match_the_numeric_jacobian():
+    """Independent reference: a finite perturbation of every state and torque changes
+    exactly the outputs the declared sparsity names (a zero in the pattern stays zero)."""
+    out = {f.name(): f for f in plant_functions()}["bbp_out"]
+    rows = [f"y{i}" for i in range(15)]
+    deps = sparsity_dependencies(out, "y", rows, {"x": [(f"x{i}",) for i in range(12)],
+                                                  "tau": [(f"t{i}",) for i in range(3)]})
+    rng = np.random.default_rng(0)
+    x = np.array([0.1, -0.2, 0.99, 0.05, -0.08, 0.03, 0.2, -0.1, 0.01, 0.02, -0.03, 0.04])
+    tau, p = rng.normal(size=3) * 0.1, load_params().to_vector()
+    y0 = np.array(out(x, tau, p)).ravel()
+    for j in range(15):
+        xj, tj = x.copy(), tau.copy()
+        if j < 12:
+            xj[j] += 1e-6
+        else:
+            tj[j - 12] += 1e-6
+        moved = np.abs(np.array(out(xj, tj, p)).ravel() - y0) > 0
+        name = f"x{j}" if j < 12 else f"t{j - 12}"
+        for i, r in enumerate(rows):
+            if moved[i]:
+                assert name in deps[r], (r, name)
+
+
+def test_no_controller_output_depends_on_an_input(tmp_path):
+    md = _md(controller_spec(), tmp_path)
+    assert len(md.outputs) == 53
+    assert all(u.dependencies == [] for u in md.outputs)
