@@ -99,6 +99,17 @@ def make_velocity_model(wheel_speeds: ca.Function, midpoint: bool = False) -> Fi
     the encoder prediction uses the ball velocity at the middle of the period,
     ``v - dt/2 a`` (the tick increment is the integral of the wheel speed over the
     period; the thesis's (5.17) evaluates it at the period's end, half a period late).
+
+    Why minus: the update of period ``k`` runs on the *predicted* state, which the process
+    model (5.9) has advanced from ``t_{k-1}`` to ``t_k``: ``v = v_k``.  The increment it is
+    compared with is ``phi(t_k) - phi(t_{k-1})`` (the encoders are differenced at the
+    samples, :func:`~ballbot_casadi.model.sensors.make_encoders`), i.e.
+    ``integral_{t_{k-1}}^{t_k} dphi(v(t)) dt``.  The wheel speed is linear in the ball
+    velocity at a fixed attitude, so for a constant acceleration ``a`` the integral is
+    exactly ``dt dphi(v(t_k - dt/2)) = dt dphi(v_k - dt/2 a)``: the midpoint lies half a
+    period *before* the state's instant.  Settled on a synthetic constant-acceleration
+    case with exact increments (tests/estimation/test_vukf_midpoint.py): this sign is
+    exact there; without the midpoint the estimate lags by ``dt/2 a``, with ``+`` by ``dt a``.
     """
     _check_wheel_speeds(wheel_speeds)
     x, u, dt, p = ca.MX.sym("x", NX), ca.MX.sym("u", _NU), ca.MX.sym("dt"), ca.MX.sym("p", _NP)
