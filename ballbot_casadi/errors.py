@@ -1,26 +1,52 @@
-"""Error hierarchy of ballbot-casadi.
+"""Error hierarchy of ballbot-casadi, by kind of failure.
 
-Every error raised on bad user input derives from :class:`BallbotError` and from the
+Every error the package raises on purpose derives from :class:`BallbotError` and from the
 matching built-in (``ValueError``, ``TypeError`` or ``RuntimeError``), so callers can
 catch either.  Messages say what was wrong and what is allowed.
+
+Each class carries the exit code of the ``ballbot`` command line (``exit_code``):
+
+* **2, user input** -- a bad argument, parameter, state, scenario or path
+  (:class:`ArgumentError` and its subclasses, :class:`ParameterError`,
+  :class:`StateError`, :class:`ShapeError`, :class:`BallbotTypeError`,
+  :class:`PathError`, :class:`FileFormatError`);
+* **3, the machinery failed** -- the C toolchain (:class:`BuildError`) or a
+  co-simulation engine (:class:`CosimError`), not something the user wrote.
 """
 
 from __future__ import annotations
 
 __all__ = [
     "BallbotError",
+    "EXIT_USER_ERROR",
+    "EXIT_INTERNAL_ERROR",
+    "ArgumentError",
     "ParameterError",
     "StateError",
     "ShapeError",
     "ScenarioError",
+    "ScenarioFileError",
     "BallbotTypeError",
     "BuildError",
+    "CosimError",
     "PathError",
+    "FileFormatError",
 ]
+
+#: Exit code of a user mistake (bad option, path, value): one line on stderr.
+EXIT_USER_ERROR = 2
+#: Exit code of a failure of the machinery (toolchain, co-simulation engine, a bug).
+EXIT_INTERNAL_ERROR = 3
 
 
 class BallbotError(Exception):
-    """Base class of every ballbot-casadi error."""
+    """Base class of every ballbot-casadi error; ``exit_code`` is the command line's."""
+
+    exit_code: int = EXIT_USER_ERROR
+
+
+class ArgumentError(BallbotError, ValueError):
+    """An argument of a library function (gains, estimator name, sample time, ...) is invalid."""
 
 
 class ParameterError(BallbotError, ValueError):
@@ -35,8 +61,28 @@ class ShapeError(BallbotError, ValueError):
     """An array does not have the shape the function requires."""
 
 
-class ScenarioError(BallbotError, ValueError):
-    """A scenario, reference or controller specification is invalid."""
+class ScenarioError(ArgumentError):
+    """A scenario, reference or run specification is invalid.
+
+    ``key`` names the offending scenario-file key (e.g. ``"plant.Mb"``,
+    ``"attitude.roll.frequency_hz"``) when the code that raised it knows it; ``None``
+    otherwise.  Callers that need the key read this field, never the message text.
+    """
+
+    def __init__(self, message: str = "", *, key: str | None = None, reason: str | None = None) -> None:
+        super().__init__(message)
+        self.key = key
+        #: The message without the prefix naming the scenario or file (what a file
+        #: reader prints after the key).
+        self.reason = message if reason is None else reason
+
+    def within(self, prefix: str) -> "ScenarioError":
+        """The same error (key and reason kept) with ``prefix: `` before the message."""
+        return type(self)(f"{prefix}: {self}", key=self.key, reason=self.reason)
+
+
+class ScenarioFileError(ScenarioError):
+    """A scenario file is unreadable or holds an unknown key, a wrong type or an impossible value."""
 
 
 class BallbotTypeError(BallbotError, TypeError):
@@ -44,8 +90,26 @@ class BallbotTypeError(BallbotError, TypeError):
 
 
 class BuildError(BallbotError, RuntimeError):
-    """Generating or compiling C code failed."""
+    """Generating, compiling or loading C code failed (the toolchain, not the user)."""
+
+    exit_code = EXIT_INTERNAL_ERROR
+
+
+class CosimError(BallbotError, RuntimeError):
+    """A co-simulation engine (libcosim, fmpy) refused a value or stopped during a run."""
+
+    exit_code = EXIT_INTERNAL_ERROR
 
 
 class PathError(BallbotError, ValueError):
     """A file or folder path cannot be used (missing, wrong kind, not writable)."""
+
+
+class FileFormatError(BuildError):
+    """A file the user gave (SSP, FMU archive) is malformed: not the format it claims to be.
+
+    A :class:`BuildError` (a damaged cached artefact is one, and callers that rebuild catch
+    those), but a user mistake when the file came from the user: exit code 2.
+    """
+
+    exit_code = EXIT_USER_ERROR

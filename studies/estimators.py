@@ -26,7 +26,7 @@ from ballbot_casadi.analysis.metrics import run_metrics  # noqa: E402
 from ballbot_casadi.core import quaternion as Q  # noqa: E402
 from ballbot_casadi.core.layout import STATE, STATE_DXY, STATE_XY  # noqa: E402
 from ballbot_casadi.sim.log import SimulationLog  # noqa: E402
-from ballbot_casadi.sim.scenario_file import set_value  # noqa: E402
+from ballbot_casadi.sim.scenario import set_value  # noqa: E402
 
 __all__ = ["comparison_expand", "by_run", "full_metrics", "estimators_metrics", "plot_estimates",
            "report_lines"]

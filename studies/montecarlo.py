@@ -37,14 +37,14 @@ from ballbot_casadi.analysis.montecarlo import (
 )
 from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.files import staged_dir
+from ballbot_casadi.core.specs import spec_ok, spec_usage
 from ballbot_casadi.sim.closed_loop import ClosedLoop
-from ballbot_casadi.sim.scenario_file import (
+from ballbot_casadi.sim.scenario import (
     ScenarioFile,
     dump_toml,
     load_scenario_file,
     parse_scenario,
     set_value,
-    spec_ok,
 )
 from ballbot_casadi.studies.formatting import fmt
 from ballbot_casadi.studies.registry import resolve_scenario
@@ -80,22 +80,6 @@ def execute(source: ScenarioFile, runs: Sequence[dict[str, Any]], scheduler: str
             return run_dask(source, runs, client, bar.update)
     finally:
         bar.close()
-
-
-def spec_usage(value: Any, op: str, threshold: Any) -> float | None:
-    """How much of a spec's allowance a value uses: 1 at the threshold, above 1 beyond it
-    (``value / threshold`` for upper bounds, ``threshold / value`` for lower bounds);
-    ``None`` for ``==`` specs, non-numeric values or a zero threshold."""
-    num = (int, float)
-    if (op == "==" or not isinstance(value, num) or isinstance(value, bool)
-            or not isinstance(threshold, num) or isinstance(threshold, bool) or threshold == 0
-            or not math.isfinite(value)):
-        return None
-    if op in ("<", "<="):
-        return value / threshold
-    if op == "abs<=":
-        return abs(value) / abs(threshold)
-    return threshold / value if value > 0 else math.inf
 
 
 def _worst_usage(specs: Sequence[Mapping[str, Any]], metrics: Mapping[str, Any]) -> tuple[float, str | None]:

@@ -1,6 +1,6 @@
 """The registry of studies: scenario files, metrics and specs of each study in one place.
 
-A study's runs are scenario files (:mod:`ballbot_casadi.sim.scenario_file`) shipped in
+A study's runs are scenario files (:mod:`ballbot_casadi.sim.scenario`) shipped in
 ``studies/scenarios/`` (``ballbot study --list`` lists them; copy one, edit it and run it
 with ``ballbot simulate``).  A :class:`Study` names its files (the main run last), the
 metrics it computes across runs, and its specs: the ``[[spec]]`` rows of the main file
@@ -35,17 +35,18 @@ from typing import Any, Callable, Mapping, Sequence
 
 from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.core.params import Params, load_params
+from ballbot_casadi.core.specs import Spec, evaluate_specs, spec_ok
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.log import SimulationLog
-from ballbot_casadi.sim.scenario_file import (
+from ballbot_casadi.sim.scenario import (
+    Scenario,
     ScenarioFile,
     ScenarioFileError,
     load_scenario_file,
     parse_scenario,
     set_value,
-    spec_ok,
 )
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario.scenario import CONTROLLER_CHANGES, PLANT_CHANGES
 from ballbot_casadi.studies import chirp as CH
 from ballbot_casadi.studies import com as COM
 from ballbot_casadi.studies import estimators as E
@@ -57,35 +58,6 @@ __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenar
 
 #: COM offset of thesis §8.4.2 / §9.2: (-2, -3, +3) cm in the body frame.
 COM_CHANGES = MappingProxyType({"com_x": ("set", -0.02), "com_y": ("set", -0.03), "l": ("add", 0.03)})
-
-@dataclass(frozen=True)
-class Spec:
-    """One pass/fail criterion ``metric op threshold``, where the number comes from, and
-    the thesis's own value (shown beside ours in reports)."""
-
-    metric: str
-    op: str
-    threshold: Any
-    source: str
-    thesis: str = ""
-
-    def evaluate(self, metrics: Mapping[str, Any]) -> dict[str, Any]:
-        """The criterion's row: ``metric, value, op, threshold, ok, source, thesis``."""
-        val = metrics.get(self.metric)
-        return {"metric": self.metric, "value": val, "op": self.op, "threshold": self.threshold,
-                "ok": spec_ok(val, self.op, self.threshold), "source": self.source,
-                "thesis": self.thesis}
-
-    @classmethod
-    def from_row(cls, row: Mapping[str, Any]) -> "Spec":
-        """From a scenario file's ``[[spec]]`` row."""
-        return cls(row["metric"], row["op"], row["threshold"], row.get("source", ""), row.get("thesis", ""))
-
-
-def evaluate_specs(specs: Sequence[Spec], metrics: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """Evaluate ``specs`` on ``metrics``: one row per criterion (see :meth:`Spec.evaluate`)."""
-    return [s.evaluate(metrics) for s in specs]
-
 
 # --------------------------------------------------------------------------- scenario files
 
@@ -142,17 +114,8 @@ def rebase_on_params(scenario: Scenario, params: Params) -> Scenario:
     the scenario's own ``scale``/``add`` changes apply on top of the new values."""
     base = load_params().as_dict()
     new = params.as_dict()
-    diff = {k: v for k, v in new.items() if v != base[k]}
-
-    def merge(changes: Mapping[str, Any]) -> dict[str, list]:
-        out = {k: ["set", v] for k, v in diff.items()}
-        for k, (op, v) in changes.items():
-            ref = new[k]
-            out[k] = ["set", v] if op == "set" else ["set", ref * v] if op == "scale" else ["set", ref + v]
-        return out
-
-    return scenario.replace(plant_changes=merge(scenario.plant_changes),
-                            ctrl_changes=merge(scenario.ctrl_changes))
+    return scenario.replace(plant_changes=PLANT_CHANGES.rebased(scenario.plant_changes, new, base),
+                            ctrl_changes=CONTROLLER_CHANGES.rebased(scenario.ctrl_changes, new, base))
 
 
 # --------------------------------------------------------------------------- studies
@@ -207,7 +170,7 @@ class Study:
         return self.expand(tables) if self.expand else tables
 
     def scenario_files(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> list[ScenarioFile]:
-        """The runs as validated :class:`~ballbot_casadi.sim.scenario_file.ScenarioFile`."""
+        """The runs as validated :class:`~ballbot_casadi.sim.scenario.ScenarioFile`."""
         where = {f: str(shipped_scenarios()[f]) for f in self.files}
         out = []
         for i, t in enumerate(self.tables(controller, overrides)):

@@ -44,7 +44,7 @@ from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
-from ballbot_casadi.sim.scenario_file import ScenarioFile, dump_toml
+from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
 from ballbot_casadi.studies.formatting import fmt
 from ballbot_casadi.studies.registry import (
     STUDY_NAMES,

@@ -1,6 +1,6 @@
 """Monte Carlo runs of a scenario file: dispersions, per-run evaluation, serial or on Dask.
 
-A scenario file's ``[montecarlo]`` table (:mod:`ballbot_casadi.sim.scenario_file`)
+A scenario file's ``[montecarlo]`` table (:mod:`ballbot_casadi.sim.scenario`)
 declares the dispersions; a file without one gets :data:`DEFAULT_DISPERSIONS`.  Run
 ``i`` of a set with seed ``s`` draws from ``numpy.random.default_rng([s, i])``: first its
 sensor-noise seed, then one value per dispersion in the declared order.  The drawn
@@ -26,7 +26,8 @@ import numpy as np
 from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.errors import BallbotError, ScenarioError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.scenario_file import ScenarioFile, parse_scenario, spec_ok
+from ballbot_casadi.core.specs import spec_ok
+from ballbot_casadi.sim.scenario import ScenarioFile, parse_scenario
 
 __all__ = ["DEFAULT_DISPERSIONS", "draw_runs", "evaluate_run", "evaluate_batch", "run_serial", "run_dask",
            "summarize", "dispersions_of"]

@@ -50,7 +50,7 @@ from ballbot_casadi.sim.period import (
     control_period,
     rk4_plant,
 )
-from ballbot_casadi.sim.scenarios import Scenario, initial_state
+from ballbot_casadi.sim.scenario import Scenario, initial_state
 
 __all__ = ["bench_control", "mission_inputs"]
 

@@ -33,7 +33,7 @@ from ballbot_casadi.core.toolchain import CFLAGS, Library, build_root, compiler_
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.embedded import controller_layout
-from ballbot_casadi.sim.scenario_file import load_scenario_file
+from ballbot_casadi.sim.scenario import load_scenario_file
 
 __all__ = ["bench_estimation", "c_function_us"]
 

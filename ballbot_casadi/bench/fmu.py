@@ -39,7 +39,7 @@ from ballbot_casadi.fmi.sil import write_sil_ssp
 from ballbot_casadi.model.dynamics import STATE_NAMES
 from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.scenario_file import load_scenario_file
+from ballbot_casadi.sim.scenario import load_scenario_file
 
 __all__ = ["bench_fmu", "build_pythonfmu", "bench_controller_fmu", "bench_sil",
            "FMU_RATIO_TARGET", "CONTROLLER_STEP_TARGET_US"]

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ballbot_casadi.analysis.montecarlo import draw_runs, run_dask, run_serial
 from ballbot_casadi.sim.closed_loop import ClosedLoop
-from ballbot_casadi.sim.scenario_file import load_scenario_file, parse_scenario, set_value
+from ballbot_casadi.sim.scenario import load_scenario_file, parse_scenario, set_value
 
 __all__ = ["bench_montecarlo"]
 

@@ -9,7 +9,9 @@ computation.
 
 Exit codes (also in ``ballbot --help``): 0 success; 1 a study or check ran but missed its
 specification; 2 user error (bad option, path or value: one line on stderr); 3 internal
-failure (one line; the traceback with ``--debug``); 130 interrupted.
+failure: the C toolchain, a co-simulation engine or a bug (one line; the traceback with
+``--debug``); 130 interrupted.  A :class:`~ballbot_casadi.errors.BallbotError` carries its
+own exit code (``exit_code``, by kind of failure).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import traceback
 from typing import NoReturn
 
 from ballbot_casadi.cli import analyze, animate, commands, fmu, montecarlo, simulate, study
-from ballbot_casadi.errors import BallbotError
+from ballbot_casadi.errors import EXIT_INTERNAL_ERROR, EXIT_USER_ERROR, BallbotError
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_SPEC_MISSED", "EXIT_USER_ERROR",
            "EXIT_INTERNAL_ERROR"]
@@ -30,8 +32,6 @@ _COMMAND_MODULES = (commands, study, simulate, montecarlo, animate, analyze, fmu
 
 EXIT_OK = 0
 EXIT_SPEC_MISSED = 1
-EXIT_USER_ERROR = 2
-EXIT_INTERNAL_ERROR = 3
 EXIT_INTERRUPTED = 130
 
 _EPILOG = """\
@@ -39,7 +39,8 @@ exit codes:
   0    success
   1    a study or check ran but missed its specification
   2    user error: bad option, path, parameter or operating point (one line on stderr)
-  3    internal failure (one line on stderr; add --debug for the traceback)
+  3    internal failure: C toolchain, co-simulation engine or a bug (one line on
+       stderr; add --debug for the traceback)
   130  interrupted (Ctrl-C)
 """
 
@@ -97,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.debug:
             traceback.print_exc()
         print(f"{where}: error: {_one_line(exc)}", file=sys.stderr)
-        return EXIT_USER_ERROR
+        return exc.exit_code
     except OSError as exc:  # a path the checks could not foresee (disk full, removed, ...)
         if args.debug:
             traceback.print_exc()

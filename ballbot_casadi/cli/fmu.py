@@ -17,7 +17,7 @@ from ballbot_casadi.fmi.container import CONTAINER_NAME, build_container
 from ballbot_casadi.fmi.controller import controller_spec
 from ballbot_casadi.fmi.package import build_fmu_from_spec
 from ballbot_casadi.fmi.sil import MASTERS, write_sil_ssp
-from ballbot_casadi.sim.scenario_file import load_scenario_file
+from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.sil import SIL_OUTPUTS, run_sil
 

@@ -1,4 +1,4 @@
-"""``ballbot simulate SCENARIO``: run one scenario file (:mod:`ballbot_casadi.sim.scenario_file`)."""
+"""``ballbot simulate SCENARIO``: run one scenario file (:mod:`ballbot_casadi.sim.scenario`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.sim.scenario_file import load_scenario_file
+from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.study import OWNED_OUTPUTS, format_summary, run_file
 

@@ -8,7 +8,7 @@ from pathlib import Path
 from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.sim.scenarios import ESTIMATOR_CHOICES, FEEDFORWARD_MODES
+from ballbot_casadi.sim.scenario import ESTIMATOR_CHOICES, FEEDFORWARD_MODES
 from ballbot_casadi.studies import chirp as chirp_study
 from ballbot_casadi.studies.registry import (
     STUDIES,

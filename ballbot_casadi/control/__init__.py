@@ -49,7 +49,7 @@ from ballbot_casadi.control.velocity import (
     make_velocity_controller,
     velocity_initial_state,
 )
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import ArgumentError
 
 __all__ = [
     "BALANCE_CONTROLLERS",
@@ -90,7 +90,7 @@ _DEFAULT_GAINS = {"flc": FLC_DEFAULT_GAINS, "smc": SMC_DEFAULT_GAINS}
 
 def _check_name(name: str) -> str:
     if not isinstance(name, str) or name not in BALANCE_CONTROLLERS:
-        raise ScenarioError(
+        raise ArgumentError(
             f"unknown balance controller {name!r}; allowed: {', '.join(sorted(BALANCE_CONTROLLERS))}"
         )
     return name
@@ -101,7 +101,7 @@ def default_balance_gains(name: str) -> np.ndarray:
 
     Raises
     ------
-    ScenarioError
+    ArgumentError
         Unknown controller name (the message lists the allowed names).
     """
     return _DEFAULT_GAINS[_check_name(name)].copy()
@@ -112,19 +112,19 @@ def check_gains(name: str, k: object) -> np.ndarray:
 
     Raises
     ------
-    ScenarioError
+    ArgumentError
         Unknown controller, wrong length, non-finite or non-positive entries.
     """
     names = BALANCE_GAIN_NAMES[_check_name(name)]
     try:
         arr = np.asarray(k, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise ScenarioError(f"{name} gains must be numbers, got {k!r}") from None
+        raise ArgumentError(f"{name} gains must be numbers, got {k!r}") from None
     if arr.size != len(names):
-        raise ScenarioError(f"{name} gains need {len(names)} entries {names}, got {arr.size}")
+        raise ArgumentError(f"{name} gains need {len(names)} entries {names}, got {arr.size}")
     bad = [n for n, v in zip(names, arr) if not (math.isfinite(v) and v > 0)]
     if bad:
-        raise ScenarioError(f"{name} gains must be finite and > 0; invalid: {', '.join(bad)}")
+        raise ArgumentError(f"{name} gains must be finite and > 0; invalid: {', '.join(bad)}")
     return arr
 
 

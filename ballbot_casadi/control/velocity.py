@@ -74,9 +74,9 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import THESIS_LIMITS, TS_CONTROL
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import (
+    ArgumentError,
     BallbotTypeError,
     ParameterError,
-    ScenarioError,
     ShapeError,
 )
 
@@ -230,7 +230,7 @@ def design_velocity_lqr(
     """
 
     if not (isinstance(Ts, (int, float)) and math.isfinite(Ts) and Ts > 0):
-        raise ScenarioError(f"Ts must be a finite number > 0, got {Ts!r}")
+        raise ArgumentError(f"Ts must be a finite number > 0, got {Ts!r}")
     Qw = _Q_DEFAULT if Qw is None else np.asarray(Qw, dtype=float).reshape(-1)
     Rw = _R_DEFAULT if Rw is None else np.asarray(Rw, dtype=float).reshape(-1)
     if Qw.shape != (_NX_LQR,) or Rw.shape != (2,):
@@ -266,24 +266,24 @@ def check_velocity_gains(k: Any) -> np.ndarray:
 
     Raises
     ------
-    ScenarioError
+    ArgumentError
         Wrong length, non-finite entries or non-positive limits.
     """
     try:
         arr = np.asarray(k, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise ScenarioError(f"velocity gains must be numbers, got {k!r}") from None
+        raise ArgumentError(f"velocity gains must be numbers, got {k!r}") from None
     if arr.size != VELOCITY_NKV:
-        raise ScenarioError(
+        raise ArgumentError(
             f"velocity gains need {VELOCITY_NKV} entries (2x{_NX_LQR} LQR gain, then "
             f"{', '.join(VELOCITY_LIMIT_NAMES)}), got {arr.size}"
         )
     if not np.all(np.isfinite(arr)):
-        raise ScenarioError("velocity gains must be finite (NaN or inf found)")
+        raise ArgumentError("velocity gains must be finite (NaN or inf found)")
     lim = arr[2 * _NX_LQR:]
     bad = [n for n, v in zip(VELOCITY_LIMIT_NAMES, lim) if not v > 0]
     if bad:
-        raise ScenarioError(f"velocity limits must be > 0; invalid: {', '.join(bad)}")
+        raise ArgumentError(f"velocity limits must be > 0; invalid: {', '.join(bad)}")
     return arr
 
 

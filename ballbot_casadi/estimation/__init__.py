@@ -42,8 +42,8 @@ import numpy as np
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.errors import (
+    ArgumentError,
     BallbotTypeError,
-    ScenarioError,
     ShapeError,
     StateError,
 )
@@ -111,7 +111,7 @@ DEFAULT_TUNING: Mapping[str, Tuning] = MappingProxyType({
 
 def _check_name(name: str) -> None:
     if name not in ESTIMATORS:
-        raise ScenarioError(f"unknown estimator {name!r}; allowed: {', '.join(ESTIMATORS)}")
+        raise ArgumentError(f"unknown estimator {name!r}; allowed: {', '.join(ESTIMATORS)}")
 
 
 def build_estimator(name: str, wheel_speeds: ca.Function | None = None) -> ca.Function:
@@ -119,7 +119,7 @@ def build_estimator(name: str, wheel_speeds: ca.Function | None = None) -> ca.Fu
 
     Raises
     ------
-    ScenarioError
+    ArgumentError
         Unknown name.
     BallbotTypeError
         ``wheel_speeds`` missing for a velocity filter or given to an attitude filter.
@@ -150,7 +150,7 @@ def initial_state(name: str, x0: Any = None) -> tuple[np.ndarray, np.ndarray]:
 
     Raises
     ------
-    ScenarioError, ShapeError, StateError
+    ArgumentError, ShapeError, StateError
         Unknown name, wrong size, or a non-finite / non-unit initial state.
     """
     _check_name(name)

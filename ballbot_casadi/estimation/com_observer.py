@@ -119,7 +119,7 @@ import numpy as np
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import STATE, STATE_DXY, Layout
 from ballbot_casadi.core.params import PARAM_NAMES, Params, ParamView
-from ballbot_casadi.errors import ScenarioError, ShapeError
+from ballbot_casadi.errors import ArgumentError, ShapeError
 
 __all__ = [
     "COM_OBSERVER_STATE",
@@ -240,22 +240,22 @@ def check_com_observer_gains(k: Any) -> np.ndarray:
 
     Raises
     ------
-    ScenarioError
+    ArgumentError
         Wrong length, non-finite or out-of-range entries (the message names them).
     """
     try:
         arr = np.asarray(k, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise ScenarioError(f"COM observer gains must be numbers, got {k!r}") from None
+        raise ArgumentError(f"COM observer gains must be numbers, got {k!r}") from None
     if arr.size != NKO:
-        raise ScenarioError(f"COM observer gains need {NKO} entries {COM_OBSERVER_GAIN_NAMES}, "
+        raise ArgumentError(f"COM observer gains need {NKO} entries {COM_OBSERVER_GAIN_NAMES}, "
                             f"got {arr.size}")
     lower = (0.0, 0.0, 0.0, 0.0)
     strict = (True, True, False, True)
     bad = [f"{n} = {float(v)!r}" for n, v, lo, st in zip(COM_OBSERVER_GAIN_NAMES, arr, lower, strict)
            if not (math.isfinite(v) and (v > lo if st else v >= lo))]
     if bad:
-        raise ScenarioError("COM observer gains out of range (t_obs > 0 s, t_com > 0 s, "
+        raise ArgumentError("COM observer gains out of range (t_obs > 0 s, t_com > 0 s, "
                             f"t_diff >= 0 s, c_max > 0 m): {', '.join(bad)}")
     return arr
 

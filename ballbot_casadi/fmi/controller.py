@@ -61,7 +61,7 @@ Variable names (see :func:`controller_variables`):
   ``period`` (so FMU states, serialisation and reset need no model code).
 
 :func:`controller_values` gives every parameter's value for a
-:class:`~ballbot_casadi.sim.scenarios.Scenario` (the start values are those of a default
+:class:`~ballbot_casadi.sim.scenario.Scenario` (the start values are those of a default
 scenario); the SSP writes them into its parameter set.
 """
 
@@ -99,7 +99,7 @@ from ballbot_casadi.sim.embedded import (
     MEAS,
     controller_layout,
 )
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
     "MODEL_IDENTIFIER",
@@ -259,7 +259,7 @@ def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
 
 def initial_controller_state(inp: Mapping[str, Any], layout: Layout) -> np.ndarray:
     """The embedded software's state at power-on, as the compiled mission starts it, from a
-    scenario's :meth:`~ballbot_casadi.sim.scenarios.Scenario.inputs` ``inp``: velocity
+    scenario's :meth:`~ballbot_casadi.sim.scenario.Scenario.inputs` ``inp``: velocity
     controller, filters (aligned with the initial state) and COM observer."""
     parts = [np.asarray(inp["z0"], float).reshape(-1),
              np.asarray(inp["estimation"]["e0"], float).reshape(-1)]

@@ -25,7 +25,7 @@ from ballbot_casadi.sim.period import (
     PeriodBlocks,
     control_period,
 )
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["cosim_open_loop", "closed_loop_cosim"]
 
@@ -59,7 +59,7 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
     Parameters
     ----------
     scenario
-        A :class:`~ballbot_casadi.sim.scenarios.Scenario` without attitude pushes (an FMU
+        A :class:`~ballbot_casadi.sim.scenario.Scenario` without attitude pushes (an FMU
         in co-simulation cannot have its state set between steps).
     fmu
         The plant FMU (default: build it).

@@ -44,7 +44,7 @@ from ballbot_casadi.core.toolchain import (
     generate_sources,
     run_tool,
 )
-from ballbot_casadi.errors import BuildError
+from ballbot_casadi.errors import BuildError, FileFormatError
 from ballbot_casadi.fmi.cheaders import info_header, vars_header, vr_header
 from ballbot_casadi.fmi.model_description import model_description_xml
 from ballbot_casadi.fmi.spec import FmuSpec
@@ -143,12 +143,12 @@ def _model_identifier(xml: bytes, path: Path) -> str:
     try:
         root = ElementTree.fromstring(xml)
     except ElementTree.ParseError as exc:
-        raise BuildError(f"{path}: modelDescription.xml is not valid XML ({exc})") from None
+        raise FileFormatError(f"{path}: modelDescription.xml is not valid XML ({exc})") from None
     for tag in ("CoSimulation", "ModelExchange"):
         el = root.find(tag)
         if el is not None and el.get("modelIdentifier"):
             return el.get("modelIdentifier")
-    raise BuildError(f"{path}: modelDescription.xml names no modelIdentifier")
+    raise FileFormatError(f"{path}: modelDescription.xml names no modelIdentifier")
 
 
 def validate_fmu_archive(path: str | Path, binary_sha256: str | None = None,
@@ -170,21 +170,21 @@ def validate_fmu_archive(path: str | Path, binary_sha256: str | None = None,
         with zipfile.ZipFile(path) as zf:
             bad = zf.testzip()
             if bad is not None:
-                raise BuildError(f"{path} is corrupt: member {bad} fails its CRC check")
+                raise FileFormatError(f"{path} is corrupt: member {bad} fails its CRC check")
             names = set(zf.namelist())
             if "modelDescription.xml" not in names:
-                raise BuildError(f"{path} lacks modelDescription.xml")
+                raise FileFormatError(f"{path} lacks modelDescription.xml")
             if not require_binary and binary_sha256 is None:
                 return
             member = binary_member(_model_identifier(zf.read("modelDescription.xml"), path))
             if member not in names:
-                raise BuildError(f"{path} lacks {member}")
+                raise FileFormatError(f"{path} lacks {member}")
             if binary_sha256 is not None:
                 if hashlib.sha256(zf.read(member)).hexdigest() != binary_sha256:
-                    raise BuildError(f"{path}: {member} differs from the built binary "
+                    raise FileFormatError(f"{path}: {member} differs from the built binary "
                                      "(SHA-256 mismatch)")
     except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, OSError, ValueError) as exc:
-        raise BuildError(f"{path} is not a valid FMU archive ({exc})") from None
+        raise FileFormatError(f"{path} is not a valid FMU archive ({exc})") from None
 
 
 def _write_zip(root: Path, target: Path) -> None:

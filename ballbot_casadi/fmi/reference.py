@@ -3,7 +3,7 @@
 The SIL system (:mod:`ballbot_casadi.fmi.ssp`) needs the scenario's references as
 signals that any co-simulation engine can connect to the controller FMU.  This FMU plays
 back the per-period rows the compiled mission uses (:meth:`Scenario.inputs
-<ballbot_casadi.sim.scenarios.Scenario.inputs>`: ``q_ref, dq_ref, ddq_ref`` of the
+<ballbot_casadi.sim.scenario.Scenario.inputs>`: ``q_ref, dq_ref, ddq_ref`` of the
 balance-only mode, ``v_ref = [vx, vy, yaw rate]``) and the wheel-torque disturbance
 ``tau_dist0..2`` (added by the plant after its saturation), so they are identical bit
 for bit: the table is a CasADi linear interpolant on the grid ``0, 1, ..., N-1``
@@ -28,8 +28,8 @@ import numpy as np
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.controller import REFERENCE_NAMES
-from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable, block_start
+from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["MODEL_IDENTIFIER", "GRID_TOL", "DISTURBANCE_NAMES", "OUTPUT_NAMES", "reference_table",
            "reference_variables", "reference_spec"]
@@ -49,7 +49,7 @@ _UNITS = {"q": "1", "dq": "1/s", "ddq": "1/s2", "v_ref_x": "m/s", "v_ref_y": "m/
 def reference_table(scenario: Scenario) -> np.ndarray:
     """The per-period inputs of ``scenario``: rows ``[q_ref, dq_ref, ddq_ref, v_ref,
     tau_dist]`` (N, 18, :data:`OUTPUT_NAMES`), as
-    :meth:`~ballbot_casadi.sim.scenarios.Scenario.inputs` gives them.
+    :meth:`~ballbot_casadi.sim.scenario.Scenario.inputs` gives them.
 
     Raises
     ------

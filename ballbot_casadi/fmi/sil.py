@@ -57,7 +57,7 @@ from ballbot_casadi.control import BALANCE_DIAG_NAMES
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.core.sensor_params import SENSOR_VECTOR_NAMES
-from ballbot_casadi.errors import BuildError, ScenarioError
+from ballbot_casadi.errors import BuildError, CosimError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.controller import (
     READING_NAMES,
@@ -73,7 +73,7 @@ from ballbot_casadi.fmi.reference import DISTURBANCE_NAMES, reference_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.ssp import SspComponent, SspConnection, read_ssp, write_ssp
 from ballbot_casadi.sim.log import SimulationLog
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
     "PLANT",
@@ -294,7 +294,7 @@ def _run_libcosim(ssp: Path, system: Any, n: int, step: float, variables: Mappin
             if v.type != "Real":
                 raise BuildError(f"{comp}.{name}: cannot apply a {v.type} start value")
             if not ex.real_initial_value(index[comp], v.valueReference, float(value)):
-                raise BuildError(f"libcosim refused the initial value of {comp}.{name}")
+                raise CosimError(f"libcosim refused the initial value of {comp}.{name}")
     obs = CosimObserver.create_time_series(buffer_size=n + 1)
     last = CosimObserver.create_last_value()
     ex.add_observer(obs)
@@ -305,7 +305,7 @@ def _run_libcosim(ssp: Path, system: Any, n: int, step: float, variables: Mappin
         if v.type in kinds:
             obs.start_time_series(index[comp], v.valueReference, kinds[v.type])
     if not ex.simulate_until(int(round(n * step * 1e9))):
-        raise BuildError(f"libcosim stopped before t = {n * step:g} s (see the FMUs' log above)")
+        raise CosimError(f"libcosim stopped before t = {n * step:g} s (see the FMUs' log above)")
     out = {}
     for comp, name in rec:
         v = variables[comp][name]
@@ -335,7 +335,7 @@ def _samples(obs: Any, slave: int, var: Any, n: int) -> np.ndarray:
                    type(times)]
     got = fn(ptr, slave, var.valueReference, 0, n + 1, vals, steps, times)
     if got != n + 1 or list(steps) != list(range(n + 1)):
-        raise BuildError(f"libcosim returned {got} samples of {var.name} (steps {steps[0]} .. "
+        raise CosimError(f"libcosim returned {got} samples of {var.name} (steps {steps[0]} .. "
                          f"{steps[max(got - 1, 0)]}), expected steps 0 .. {n}")
     return np.array(vals[:], dtype=float)
 

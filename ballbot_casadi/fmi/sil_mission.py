@@ -43,7 +43,7 @@ from ballbot_casadi.sim.embedded import (
     sense,
 )
 from ballbot_casadi.sim.period import PERIOD_OUTPUTS, control_period, rk4_plant
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["make_jacobi_step", "jacobi_mission"]
 

@@ -33,7 +33,7 @@ from xml.sax.saxutils import quoteattr
 
 from fmpy import read_model_description
 
-from ballbot_casadi.errors import BuildError, PathError
+from ballbot_casadi.errors import BuildError, FileFormatError, PathError
 
 __all__ = [
     "SSD_NAME",
@@ -318,8 +318,8 @@ def read_ssp(path: str | Path) -> SspSystem:
     ------
     PathError
         The file does not exist.
-    BuildError
-        Not a zip, no ``SystemStructure.ssd``, or malformed XML.
+    FileFormatError
+        Not a zip, no ``SystemStructure.ssd``, or malformed XML (a user mistake, exit 2).
     """
     path = Path(path)
     if not path.is_file():
@@ -328,16 +328,16 @@ def read_ssp(path: str | Path) -> SspSystem:
         with zipfile.ZipFile(path) as zf:
             names = zf.namelist()
             if SSD_NAME not in names:
-                raise BuildError(f"{path} has no {SSD_NAME}")
+                raise FileFormatError(f"{path} has no {SSD_NAME}")
             root = ElementTree.fromstring(zf.read(SSD_NAME))
             ssv = {n: zf.read(n) for n in names if n.endswith(".ssv")}
     except (zipfile.BadZipFile, OSError) as exc:
-        raise BuildError(f"{path} is not a readable SSP archive ({exc})") from None
+        raise FileFormatError(f"{path} is not a readable SSP archive ({exc})") from None
     except ElementTree.ParseError as exc:
-        raise BuildError(f"{path}: {SSD_NAME} is not valid XML ({exc})") from None
+        raise FileFormatError(f"{path}: {SSD_NAME} is not valid XML ({exc})") from None
     system = root.find("ssd:System", NS)
     if system is None:
-        raise BuildError(f"{path}: {SSD_NAME} has no ssd:System")
+        raise FileFormatError(f"{path}: {SSD_NAME} has no ssd:System")
     components: dict[str, str] = {}
     parameters: dict[str, dict[str, Value]] = {}
     for comp in system.iterfind("ssd:Elements/ssd:Component", NS):
@@ -351,7 +351,7 @@ def read_ssp(path: str | Path) -> SspSystem:
                 pset = (ElementTree.fromstring(ssv[src]) if src is not None
                         else binding.find("ssd:ParameterValues/ssv:ParameterSet", NS))
             except KeyError:
-                raise BuildError(f"{path}: parameter set {src} of {cname} is missing") from None
+                raise FileFormatError(f"{path}: parameter set {src} of {cname} is missing") from None
             for p in pset.iterfind("ssv:Parameters/ssv:Parameter", NS) if pset is not None else ():
                 values[p.get("name", "")] = _value(list(p)[0])
         parameters[cname] = values

@@ -78,7 +78,7 @@ from ballbot_casadi.sim.period import (
     controller_part,
     rk4_plant,
 )
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
     "make_closed_loop_step",
@@ -691,7 +691,7 @@ class ClosedLoop:
 
 def run_scenario(scenario: Any, sim: ClosedLoop | None = None, log_every: int = 1,
                  segment_periods: int | None = None) -> SimulationLog:
-    """Run a :class:`~ballbot_casadi.sim.scenarios.Scenario` and return its log.
+    """Run a :class:`~ballbot_casadi.sim.scenario.Scenario` and return its log.
 
     Parameters
     ----------

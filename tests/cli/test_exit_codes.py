@@ -14,7 +14,7 @@ from ballbot_casadi import cli
 from ballbot_casadi.cli import analyze as cli_analyze
 from ballbot_casadi.cli import commands as cli_commands
 from ballbot_casadi.cli import study as cli_study
-from ballbot_casadi.errors import BuildError
+from ballbot_casadi.errors import ArgumentError, BuildError, CosimError, FileFormatError, ScenarioError
 
 
 def _never(*_a, **_k):
@@ -160,12 +160,12 @@ def test_internal_failure_is_exit_3_with_traceback_only_under_debug(monkeypatch,
         assert err.strip().count("\n") == 0 and "--debug" in err
 
 
-def test_multiline_user_error_is_one_line(monkeypatch, capsys):
+def test_toolchain_failure_is_one_line_and_exit_3(monkeypatch, capsys):
     def fail(*_a, **_k):
         raise BuildError("compiling x failed (gcc ...):\nx.c:1: error: oops\nmore")
 
     monkeypatch.setattr(cli_commands, "run_codegen", fail)
-    assert cli.main(["codegen"]) == 2
+    assert cli.main(["codegen"]) == 3
     err = _one_error_line(capsys, "codegen", "compiling x failed", "--debug")
     assert "oops" not in err
 
@@ -184,3 +184,19 @@ def test_operating_point_where_the_model_overflows_is_refused(capsys, tmp_path):
                      "--at", "dx=1e300"]) == 2
     _one_error_line(capsys, "analyze", "operating point", "above 10 m/s")
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("error, code", [
+    (CosimError("libcosim stopped before t = 1 s"), 3),
+    (BuildError("gcc failed"), 3),
+    (FileFormatError("x.ssp is not a readable SSP archive"), 2),
+    (ScenarioError("scenario 'x': duration must be > 0", key="duration_s"), 2),
+    (ArgumentError("flc gains need 6 entries"), 2),
+])
+def test_each_error_kind_exits_with_its_own_code(monkeypatch, capsys, error, code):
+    def fail(*_a, **_k):
+        raise error
+
+    monkeypatch.setattr(cli_commands, "run_codegen", fail)
+    assert cli.main(["codegen"]) == code
+    _one_error_line(capsys, "codegen", str(error).splitlines()[0])

@@ -23,7 +23,7 @@ from ballbot_casadi.control.quaternion_error import (
     shortest_path_sign,
 )
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.errors import BallbotTypeError, ScenarioError
+from ballbot_casadi.errors import ArgumentError, BallbotTypeError
 from ballbot_casadi.model.integrators import make_rk4_n
 from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.sim.references import rpy_reference, sine
@@ -216,13 +216,13 @@ def test_robust_to_mass_and_inertia_error(flc, model_functions, default_params):
 
 
 def test_bad_inputs_raise_clear_errors(model_functions):
-    with pytest.raises(ScenarioError, match="allowed: flc, smc"):
+    with pytest.raises(ArgumentError, match="allowed: flc, smc"):
         default_balance_gains("pid")
-    with pytest.raises(ScenarioError, match="allowed"):
+    with pytest.raises(ArgumentError, match="allowed"):
         make_balance_controller("lqr", model_functions["affine"])
-    with pytest.raises(ScenarioError, match="finite"):
+    with pytest.raises(ArgumentError, match="finite"):
         check_gains("flc", [1.0, np.nan, 1, 1, 1, 1])
-    with pytest.raises(ScenarioError, match="6 entries"):
+    with pytest.raises(ArgumentError, match="6 entries"):
         check_gains("flc", [1.0, 2.0])
     np.testing.assert_array_equal(check_gains("flc", default_balance_gains("flc")),
                                   default_balance_gains("flc"))

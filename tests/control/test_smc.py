@@ -20,7 +20,7 @@ from ballbot_casadi.control.quaternion_error import (
     shortest_path_sign,
 )
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import ArgumentError
 from ballbot_casadi.model.integrators import make_rk4_n
 from ballbot_casadi.model.numeric import make_state
 
@@ -38,9 +38,9 @@ def test_interface_and_defaults(smc):
     np.testing.assert_array_equal(
         default_balance_gains("smc"), [15, 15, 6, 6, 6, 3, 0.5, 0.5, 0.2]
     )
-    with pytest.raises(ScenarioError, match="9 entries"):
+    with pytest.raises(ArgumentError, match="9 entries"):
         check_gains("smc", default_balance_gains("flc"))
-    with pytest.raises(ScenarioError, match="finite"):
+    with pytest.raises(ArgumentError, match="finite"):
         check_gains("smc", [15, 15, np.inf, 6, 6, 3, 0.5, 0.5, 0.2])
 
 

@@ -21,7 +21,7 @@ from ballbot_casadi.control import (
 )
 from ballbot_casadi.control.velocity import design_model, measured_tilt
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.errors import BallbotTypeError, ScenarioError, ShapeError
+from ballbot_casadi.errors import ArgumentError, BallbotTypeError, ShapeError
 from ballbot_casadi.model.integrators import make_rk4_n
 from ballbot_casadi.model.numeric import make_state
 
@@ -153,15 +153,15 @@ def test_velocity_step_is_tracked(vel, kv, model_functions, default_params):
 def test_bad_inputs(model_functions, default_params, kv):
     bad = kv.copy()
     bad[3] = np.nan
-    with pytest.raises(ScenarioError, match="finite"):
+    with pytest.raises(ArgumentError, match="finite"):
         check_velocity_gains(bad)
-    with pytest.raises(ScenarioError, match="entries"):
+    with pytest.raises(ArgumentError, match="entries"):
         check_velocity_gains(kv[:-1])
     bad = kv.copy()
     bad[-8] = 0.0
-    with pytest.raises(ScenarioError, match="tilt_max"):
+    with pytest.raises(ArgumentError, match="tilt_max"):
         check_velocity_gains(bad)
-    with pytest.raises(ScenarioError, match="Ts"):
+    with pytest.raises(ArgumentError, match="Ts"):
         design_velocity_lqr(model_functions["jac"], default_params.to_vector(), -1.0)
     with pytest.raises(BallbotTypeError, match="jac"):
         design_velocity_lqr(model_functions["affine"], default_params.to_vector(), TS)

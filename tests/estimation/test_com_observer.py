@@ -9,7 +9,7 @@ import pytest
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import PARAM_NAMES, load_params
-from ballbot_casadi.errors import ScenarioError, ShapeError
+from ballbot_casadi.errors import ArgumentError, ShapeError
 from ballbot_casadi.estimation.com_observer import (
     COM_OBSERVER_DEFAULT_GAINS,
     COM_OBSERVER_STATE as O,
@@ -171,7 +171,7 @@ def test_initial_state_is_bumpless_for_a_robot_at_rest(observer):
                                       ([0.3, np.nan, 0.1, 0.1], "t_com = nan"),
                                       ("fast", "must be numbers")])
 def test_gain_checks_name_what_is_wrong(bad, msg):
-    with pytest.raises(ScenarioError, match=msg):
+    with pytest.raises(ArgumentError, match=msg):
         check_com_observer_gains(bad)
     np.testing.assert_array_equal(check_com_observer_gains(COM_OBSERVER_DEFAULT_GAINS),
                                   COM_OBSERVER_DEFAULT_GAINS)

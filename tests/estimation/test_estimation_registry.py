@@ -7,8 +7,8 @@ import pytest
 
 import ballbot_casadi.estimation as E
 from ballbot_casadi.errors import (
+    ArgumentError,
     BallbotTypeError,
-    ScenarioError,
     ShapeError,
     StateError,
 )
@@ -57,7 +57,7 @@ def test_qekf_initial_covariance_follows_the_quaternion():
 
 
 @pytest.mark.parametrize("name,x0,err", [
-    ("ukf", None, ScenarioError),
+    ("ukf", None, ArgumentError),
     ("qukf", np.zeros(6), ShapeError),
     ("qukf", np.r_[1.0, 0, 0, 0, np.nan, 0, 0], StateError),
     ("qukf", np.r_[1.1, 0, 0, 0, 0, 0, 0], StateError),
@@ -68,7 +68,7 @@ def test_initial_state_rejects_bad_input(name, x0, err):
 
 
 def test_build_estimator_errors():
-    with pytest.raises(ScenarioError, match="allowed"):
+    with pytest.raises(ArgumentError, match="allowed"):
         E.build_estimator("kalman")
     with pytest.raises(BallbotTypeError):
         E.build_estimator("qukf", wheel_speeds=E.build_estimator("qukf"))

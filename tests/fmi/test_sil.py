@@ -26,7 +26,7 @@ from ballbot_casadi.fmi.sil import read_scenario, run_ssp, sil_log, write_sil_ss
 from ballbot_casadi.fmi.sil_mission import jacobi_mission
 from ballbot_casadi.fmi.ssp import NS, SSD_NAME, read_ssp
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.scenario_file import load_scenario_file
+from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
 
 pytestmark = [pytest.mark.needs_cc, pytest.mark.fmi_extra]

@@ -15,8 +15,8 @@ from ballbot_casadi.estimation.com_observer import com_observer_initial_state, m
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.sim.closed_loop import ClosedLoop, make_closed_loop_step, make_estimating_step, run_scenario
 from ballbot_casadi.sim.embedded import estimator_blocks, make_embedded_step
-from ballbot_casadi.sim.scenario_file import load_scenario_file, parse_scenario
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario import load_scenario_file, parse_scenario
+from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.studies.registry import shipped_scenarios, study_scenarios
 
 OFFSET = {"com_x": ["set", -0.02], "com_y": ["set", -0.03], "l": ["add", 0.03]}

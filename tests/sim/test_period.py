@@ -26,7 +26,7 @@ from ballbot_casadi.sim.period import (
     control_period,
     rk4_plant,
 )
-from ballbot_casadi.sim.scenarios import Scenario, initial_state
+from ballbot_casadi.sim.scenario import Scenario, initial_state
 
 TAU_MAX = PARAM_NAMES.index("tau_max")
 

@@ -13,7 +13,7 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError, StateError
 from ballbot_casadi.sim import references as R
-from ballbot_casadi.sim.scenarios import Scenario, apply_changes, initial_state
+from ballbot_casadi.sim.scenario import Scenario, apply_changes, initial_state
 
 
 def test_unknown_controller_rejected_with_allowed_names():

@@ -23,7 +23,7 @@ from ballbot_casadi.sim.closed_loop import (
     run_scenario,
     save_log,
 )
-from ballbot_casadi.sim.scenarios import Scenario, initial_state
+from ballbot_casadi.sim.scenario import Scenario, initial_state
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ from ballbot_casadi.analysis.montecarlo import draw_runs, run_serial, summarize
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.scenario_file import load_scenario_file
+from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import shipped_scenarios
 from ballbot_casadi.studies.study import run_study
 

@@ -15,7 +15,7 @@ from ballbot_casadi.core.params import load_params
 from ballbot_casadi.estimation import DEFAULT_TUNING, initial_state, make_qukf
 from ballbot_casadi.model.dynamics import make_wheel_speeds
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.scenario_file import load_scenario_file
+from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import shipped_scenarios
 
 #: The noise model that follows from the robot (the two tests below derive it).

@@ -11,7 +11,7 @@ import pytest
 from ballbot_casadi.analysis.montecarlo import DEFAULT_DISPERSIONS, draw_runs, run_serial
 from ballbot_casadi.cli import main
 from ballbot_casadi.sim.closed_loop import ClosedLoop
-from ballbot_casadi.sim.scenario_file import load_scenario_file, parse_scenario, set_value
+from ballbot_casadi.sim.scenario import load_scenario_file, parse_scenario, set_value
 from ballbot_casadi.studies import montecarlo as montecarlo_study
 from ballbot_casadi.studies.montecarlo import run_montecarlo, spec_usage
 from ballbot_casadi.studies.registry import shipped_scenarios

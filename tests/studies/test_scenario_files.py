@@ -9,13 +9,13 @@ import pytest
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.sim.scenario_file import (
+from ballbot_casadi.sim.scenario import (
     ScenarioFileError,
     dump_toml,
     load_scenario_file,
     parse_scenario,
 )
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.studies.registry import STUDIES, get_study, shipped_scenarios
 
 
@@ -75,7 +75,12 @@ BASE = 'duration_s = 1.0\n'
     (BASE + "[[spec]]\nmetric = 'x'\nop = '~'\nthreshold = 1\n", "spec[0].op", "allowed"),
     (BASE + "[montecarlo]\n[[montecarlo.dispersion]]\nparam = 'plant.nope'\ndist = 'normal'\nsd = 1\n",
      "montecarlo.dispersion[0].param", "unknown target"),
-    (BASE + "[gains]\nk_bal = [1.0, 2.0]\n", "gains", "gain"),
+    (BASE + "[gains]\nk_bal = [1.0, 2.0]\n", "gains.k_bal", "gain"),
+    (BASE + "[gains]\nk_obs = [1.0, 2.0]\n", "gains.k_obs", "COM observer gains"),
+    (BASE + "[sensors]\ngyro_noise_var = { scale = -1 }\n", "sensors.gyro_noise_var", "gyro_noise_var"),
+    (BASE + "[attitude.roll]\ntype = 'chirp'\namplitude_deg = 1\nf0_hz = 0.1\nf1_hz = 1\nsweep_s = 0\n",
+     "attitude.roll.sweep_s", "must be > 0"),
+    (BASE + "[[velocity]]\nt_s = 0.0\nvx_mps = 5.0\n", "velocity", "exceeds"),
 ])
 def test_malformed_files_name_file_key_and_reason(tmp_path, text, key, reason):
     path = tmp_path / "bad.toml"

@@ -22,9 +22,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ballbot_casadi import control as controllers
 from ballbot_casadi.control import (
     BALANCE_CONTROLLERS,
+    BALANCE_DIAG_NAMES,
     VELOCITY_NKV,
     check_gains,
     default_balance_gains,
@@ -35,20 +35,18 @@ from ballbot_casadi.control.velocity import VELOCITY_DEFAULT_LIMITS
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import DISTURBANCE
-from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
+from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.core.rng import NoiseStream
-from ballbot_casadi.core.sensor_params import (
-    SENSOR_PARAM_NAMES,
-    SensorParams,
-    load_sensor_params,
-)
+from ballbot_casadi.core.sensor_params import SensorParams, load_sensor_params
 from ballbot_casadi.core.validation import check_state
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import ArgumentError, ScenarioError
 from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS, check_com_observer_gains
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.model.sensors import NOISE_STREAMS
 from ballbot_casadi.sim import references as R
+from ballbot_casadi.sim.scenario.changes import ParamChanges
+from ballbot_casadi.sim.scenario.signals import attitude_reference, check_attitude
 from ballbot_casadi.sim.embedded import (
     ESTIMATOR_FILTERS,
     NOISE,
@@ -63,10 +61,12 @@ __all__ = [
     "ESTIMATOR_TUNING_KEYS",
     "ESTIMATOR_TUNING_TARGETS",
     "initial_state",
-    "apply_changes",
+    "PLANT_CHANGES",
+    "CONTROLLER_CHANGES",
+    "ESTIMATOR_CHANGES",
+    "SENSOR_CHANGES",
 ]
 
-_SIGNAL_TYPES = ("const", "sine", "step", "chirp")
 #: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
 FEEDFORWARD_MODES = ("exact", "none")
 #: What the controllers read: the true state, or estimates from noisy sensors.
@@ -81,122 +81,19 @@ ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
 })
 #: Keys of Scenario.estimator_tuning.
 ESTIMATOR_TUNING_KEYS = tuple(ESTIMATOR_TUNING_TARGETS)
-_CHANGE_OPS = ("set", "scale", "add")
+
+
+#: The four parameter-change sections of a scenario (file table names as error keys).
+PLANT_CHANGES = ParamChanges("plant")
+CONTROLLER_CHANGES = ParamChanges("controller_model")
+ESTIMATOR_CHANGES = ParamChanges("estimator_model")
+SENSOR_CHANGES = ParamChanges("sensors", sensors=True)
 
 
 def initial_state(roll_deg: float = 0.0, pitch_deg: float = 0.0, yaw_deg: float = 0.0) -> tuple:
     """Upright-at-rest state rotated by ZYX angles in degrees, as a 12-tuple."""
     q = Q.from_rpy(math.radians(roll_deg), math.radians(pitch_deg), math.radians(yaw_deg))
     return tuple(float(v) for v in np.concatenate([[0.0, 0.0], q, np.zeros(6)]))
-
-
-def apply_changes(base: Params, changes: Mapping[str, Any], what: str) -> Params:
-    """Apply ``{name: [op, value]}`` changes (op ``set``, ``scale`` or ``add``) to ``base``."""
-    values = base.as_dict()
-    for name, change in changes.items():
-        if name not in PARAM_NAMES:
-            raise ScenarioError(
-                f"{what}: unknown parameter {name!r}; allowed: {', '.join(PARAM_NAMES)}"
-            )
-        try:
-            op, value = change
-            value = float(value)
-        except (TypeError, ValueError):
-            raise ScenarioError(
-                f"{what}: change of {name!r} must be [op, number] with op in {_CHANGE_OPS}, "
-                f"got {change!r}"
-            ) from None
-        if op not in _CHANGE_OPS or not math.isfinite(value):
-            raise ScenarioError(
-                f"{what}: change of {name!r} must be [op, finite number] with op in "
-                f"{_CHANGE_OPS}, got {change!r}"
-            )
-        values[name] = value if op == "set" else values[name] * value if op == "scale" else values[name] + value
-    return base.replace(**values)
-
-
-#: Keys of each attitude signal type: (required, optional).
-_SIGNAL_KEYS: Mapping[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "const": ((), ("value_deg",)),
-    "sine": (("amplitude_deg", "frequency_hz"), ("phase_rad", "offset_deg")),
-    "step": (("amplitude_deg",), ("t_step", "rise_time", "offset_deg")),
-    "chirp": (("amplitude_deg", "f0_hz", "f1_hz", "duration"), ("offset_deg",)),
-}
-
-
-def _sensor_params(changes: Mapping[str, Any], what: str) -> SensorParams:
-    """Sensor parameters with ``{name: [op, value]}`` changes (vector values for ``set``)."""
-    base = load_sensor_params()
-    values: dict[str, Any] = {}
-    for name, change in changes.items():
-        if name not in SENSOR_PARAM_NAMES:
-            raise ScenarioError(f"{what}: unknown sensor parameter {name!r}; allowed: "
-                                f"{', '.join(SENSOR_PARAM_NAMES)}")
-        try:
-            op, value = change
-            current = np.asarray(getattr(base, name), float)
-            value = np.broadcast_to(np.asarray(value, float), current.shape)
-        except (TypeError, ValueError):
-            raise ScenarioError(f"{what}: change of {name!r} must be [op, number or list of "
-                                f"{np.size(getattr(base, name))}], got {change!r}") from None
-        if op not in _CHANGE_OPS or not np.all(np.isfinite(value)):
-            raise ScenarioError(f"{what}: change of {name!r} must be [op, finite value] with op in "
-                                f"{_CHANGE_OPS}, got {change!r}")
-        new = value if op == "set" else current * value if op == "scale" else current + value
-        values[name] = [float(v) for v in np.ravel(new)]
-    return base.replace(**values) if values else base
-
-
-def _check_signal(axis: str, spec: Mapping[str, Any], Ts: float = TS_CONTROL) -> None:
-    """Validate one attitude signal: type, required and known keys, finite numbers, and
-    frequencies below the Nyquist frequency ``1 / (2 Ts)`` of the control loop (a faster
-    reference is aliased by the 200 Hz sampling, thesis §7.1)."""
-    if not isinstance(spec, Mapping) or spec.get("type") not in _SIGNAL_TYPES:
-        raise ScenarioError(
-            f"reference {axis!r}: must be a dict with 'type' in {_SIGNAL_TYPES}, got {spec!r}"
-        )
-    for key, val in spec.items():
-        if key == "type":
-            continue
-        if not isinstance(val, (int, float)) or isinstance(val, bool) or not math.isfinite(val):
-            raise ScenarioError(
-                f"reference {axis!r}: {key} = {val!r} is not a finite number; references must be finite"
-            )
-    required, optional = _SIGNAL_KEYS[spec["type"]]
-    missing = [k for k in required if k not in spec]
-    unknown = sorted(set(spec) - {"type", *required, *optional})
-    if missing or unknown:
-        raise ScenarioError(
-            f"reference {axis!r} ({spec['type']}): "
-            + (f"missing {', '.join(missing)}" if missing else f"unknown key(s) {', '.join(unknown)}")
-            + f"; needs {', '.join(required) or 'nothing'}, may have {', '.join(optional)}")
-    nyquist = 0.5 / Ts
-    for key in ("frequency_hz", "f0_hz", "f1_hz"):
-        if key in spec and not 0 <= spec[key] < nyquist:
-            raise ScenarioError(
-                f"reference {axis!r}: {key} = {spec[key]!r} must be >= 0 and below the Nyquist "
-                f"frequency {nyquist:g} Hz of the {1 / Ts:g} Hz control loop")
-    if spec["type"] == "chirp" and not spec["duration"] > 0:
-        raise ScenarioError(f"reference {axis!r}: chirp duration must be > 0, got {spec['duration']!r}")
-    if spec["type"] == "step" and spec.get("rise_time", 0.0) < 0:
-        raise ScenarioError(f"reference {axis!r}: step rise_time must be >= 0, got {spec['rise_time']!r}")
-
-
-def _signal(spec: Mapping[str, Any], t: np.ndarray) -> R.Signal:
-    """Angle signal (rad) from a JSON spec with angles in degrees."""
-    d = math.radians
-    kind = spec["type"]
-    if kind == "const":
-        v = d(spec.get("value_deg", 0.0))
-        return R.Signal(np.full(t.size, v), np.zeros(t.size), np.zeros(t.size))
-    if kind == "sine":
-        return R.sine(t, d(spec["amplitude_deg"]), spec["frequency_hz"], spec.get("phase_rad", 0.0),
-                      d(spec.get("offset_deg", 0.0)))
-    if kind == "step":
-        return R.step(t, d(spec["amplitude_deg"]), spec.get("t_step", 0.0), spec.get("rise_time", 0.0),
-                      d(spec.get("offset_deg", 0.0)))
-    return R.chirp(t, d(spec["amplitude_deg"]), spec["f0_hz"], spec["f1_hz"], spec["duration"],
-                   d(spec.get("offset_deg", 0.0)))
 
 
 @dataclass(frozen=True)
@@ -313,91 +210,80 @@ class Scenario:
     description: str = ""
 
     def __post_init__(self) -> None:
+        try:
+            self._validate()
+        except ScenarioError as exc:
+            raise exc.within(f"scenario {self.name!r}") from None
+
+    def _validate(self) -> None:
+        """Check every field; each error is a :class:`ScenarioError` keyed by the file key."""
         if self.controller not in BALANCE_CONTROLLERS:
-            raise ScenarioError(
-                f"scenario {self.name!r}: unknown controller {self.controller!r}; "
-                f"allowed: {', '.join(BALANCE_CONTROLLERS)}"
-            )
+            raise ScenarioError(f"unknown controller {self.controller!r}; allowed: "
+                                f"{', '.join(BALANCE_CONTROLLERS)}", key="controller")
         if self.k_bal:
-            check_gains(self.controller, self.k_bal)
+            _argument(check_gains, "gains.k_bal", self.controller, self.k_bal)
         if self.k_vel and len(self.k_vel) != VELOCITY_NKV:
-            raise ScenarioError(
-                f"scenario {self.name!r}: k_vel needs {VELOCITY_NKV} entries, got {len(self.k_vel)}"
-            )
-        for key in ("duration", "Ts"):
-            v = getattr(self, key)
+            raise ScenarioError(f"k_vel needs {VELOCITY_NKV} entries, got {len(self.k_vel)}", key="gains.k_vel")
+        for name, key in (("duration", "duration_s"), ("Ts", "control_period_s")):
+            v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ScenarioError(f"scenario {self.name!r}: {key} must be a finite number > 0, got {v!r}")
+                raise ScenarioError(f"{name} must be a finite number > 0, got {v!r}", key=key)
         if round(self.duration / self.Ts) < 1:
-            raise ScenarioError(f"scenario {self.name!r}: duration shorter than one control period")
-        if not isinstance(self.n_sub, int) or isinstance(self.n_sub, bool) or self.n_sub < 1:
-            raise ScenarioError(f"scenario {self.name!r}: n_sub must be an int >= 1, got {self.n_sub!r}")
-        if self.feedforward not in FEEDFORWARD_MODES:
-            raise ScenarioError(f"scenario {self.name!r}: feedforward {self.feedforward!r} unknown; "
-                                f"allowed: {', '.join(FEEDFORWARD_MODES)}")
-        if self.estimator not in ESTIMATOR_CHOICES:
-            raise ScenarioError(f"scenario {self.name!r}: estimator {self.estimator!r} unknown; "
-                                f"allowed: {', '.join(ESTIMATOR_CHOICES)}")
-        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or not 0 <= self.seed < 2**32:
-            raise ScenarioError(f"scenario {self.name!r}: seed must be an int in [0, 2^32), got {self.seed!r}")
-        if not isinstance(self.noise, bool):
-            raise ScenarioError(f"scenario {self.name!r}: noise must be true or false, got {self.noise!r}")
-        if not isinstance(self.com_observer, bool):
-            raise ScenarioError(f"scenario {self.name!r}: com_observer must be true or false, "
-                                f"got {self.com_observer!r}")
+            raise ScenarioError(f"duration shorter than one control period ({self.Ts:g} s)", key="duration_s")
+        if not _is_int(self.n_sub) or self.n_sub < 1:
+            raise ScenarioError(f"n_sub must be an int >= 1, got {self.n_sub!r}", key="rk4_substeps")
+        for name, allowed in (("feedforward", FEEDFORWARD_MODES), ("estimator", ESTIMATOR_CHOICES)):
+            if getattr(self, name) not in allowed:
+                raise ScenarioError(f"{name} {getattr(self, name)!r} unknown; allowed: {', '.join(allowed)}",
+                                    key=name)
+        if not _is_int(self.seed) or not 0 <= self.seed < 2**32:
+            raise ScenarioError(f"seed must be an int in [0, 2^32), got {self.seed!r}", key="seed")
+        for name in ("noise", "com_observer", "cascade"):
+            if not isinstance(getattr(self, name), bool):
+                raise ScenarioError(f"{name} must be true or false, got {getattr(self, name)!r}", key=name)
         if self.k_obs:
-            try:
-                check_com_observer_gains(self.k_obs)
-            except ScenarioError as exc:
-                raise ScenarioError(f"scenario {self.name!r}: {exc}") from None
+            _argument(check_com_observer_gains, "gains.k_obs", self.k_obs)
         drops = []
-        for row in self.sensor_dropouts:
+        for i, row in enumerate(self.sensor_dropouts):
             ok = (isinstance(row, (list, tuple)) and len(row) == 3 and row[2] in VALID.fields
                   and all(isinstance(v, (int, float)) and math.isfinite(v) for v in row[:2])
                   and 0 <= row[0] < row[1])
             if not ok:
-                raise ScenarioError(
-                    f"scenario {self.name!r}: sensor dropout {row!r} must be (t_start, t_end, sensor) "
-                    f"with 0 <= t_start < t_end and sensor in {VALID.fields}")
+                raise ScenarioError(f"sensor dropout {row!r} must be (t_start, t_end, sensor) "
+                                    f"with 0 <= t_start < t_end and sensor in {VALID.fields}",
+                                    key=f"sensor_dropout[{i}]")
             drops.append((float(row[0]), float(row[1]), str(row[2])))
         object.__setattr__(self, "sensor_dropouts", tuple(drops))
         for key, val in self.estimator_tuning.items():
             if key not in ESTIMATOR_TUNING_KEYS:
-                raise ScenarioError(f"scenario {self.name!r}: estimator_tuning key {key!r} unknown; "
-                                    f"allowed: {', '.join(ESTIMATOR_TUNING_KEYS)}")
-            if (not isinstance(val, (int, float)) or isinstance(val, bool) or not math.isfinite(val)
-                    or val <= 0):
-                raise ScenarioError(f"scenario {self.name!r}: estimator_tuning {key} must be a "
-                                    f"finite number > 0, got {val!r}")
-        _sensor_params(self.sensor_changes, f"scenario {self.name!r} sensor_changes")
+                raise ScenarioError(f"estimator_tuning key {key!r} unknown; allowed: "
+                                    f"{', '.join(ESTIMATOR_TUNING_KEYS)}", key=f"estimator_tuning.{key}")
+            if not isinstance(val, (int, float)) or isinstance(val, bool) or not math.isfinite(val) or val <= 0:
+                raise ScenarioError(f"estimator_tuning {key} must be a finite number > 0, got {val!r}",
+                                    key=f"estimator_tuning.{key}")
+        SENSOR_CHANGES.check(self.sensor_changes)
         object.__setattr__(self, "x0", tuple(float(v) for v in check_state(self.x0, "initial state x0")))
-        unknown = sorted(set(self.attitude) - {"roll", "pitch", "yaw"})
-        if unknown:
-            raise ScenarioError(f"scenario {self.name!r}: attitude axes {unknown} unknown; allowed roll, pitch, yaw")
-        for axis, spec in self.attitude.items():
-            _check_signal(axis, spec, self.Ts)
-        for what in ("velocity_keyframes", "pushes", "torque_disturbances", "k_bal", "k_vel", "k_obs"):
-            arr = np.asarray(getattr(self, what), dtype=float)
+        check_attitude(self.attitude, self.Ts)
+        for name, key in (("velocity_keyframes", "velocity"), ("pushes", "push"),
+                          ("torque_disturbances", "torque_disturbance"), ("k_bal", "gains.k_bal"),
+                          ("k_vel", "gains.k_vel"), ("k_obs", "gains.k_obs")):
+            arr = np.asarray(getattr(self, name), dtype=float)
             if not np.all(np.isfinite(arr)):
-                raise ScenarioError(f"scenario {self.name!r}: {what} contains NaN or Inf")
-            object.__setattr__(self, what, _freeze(getattr(self, what)))
-        for row in self.pushes:
+                raise ScenarioError(f"{name} contains NaN or Inf", key=key)
+            object.__setattr__(self, name, _freeze(getattr(self, name)))
+        for i, row in enumerate(self.pushes):
             if len(row) != 4 or not 0 <= row[0] < self.duration:
-                raise ScenarioError(
-                    f"scenario {self.name!r}: push {row!r} must be (t, roll_deg, pitch_deg, "
-                    f"yaw_deg) with 0 <= t < duration"
-                )
-        for row in self.torque_disturbances:
+                raise ScenarioError(f"push {row!r} must be (t, roll_deg, pitch_deg, yaw_deg) with "
+                                    f"0 <= t < duration", key=f"push[{i}]")
+        for i, row in enumerate(self.torque_disturbances):
             if len(row) != 5 or not 0 <= row[0] < row[1]:
-                raise ScenarioError(
-                    f"scenario {self.name!r}: torque disturbance {row!r} must be (t_start, t_end, "
-                    f"tau0, tau1, tau2) with 0 <= t_start < t_end"
-                )
+                raise ScenarioError(f"torque disturbance {row!r} must be (t_start, t_end, tau0, tau1, "
+                                    f"tau2) with 0 <= t_start < t_end", key=f"torque_disturbance[{i}]")
         if self.velocity_keyframes:
-            R.velocity_profile(np.zeros(1), self.velocity_keyframes)  # validates
-        apply_changes(load_params(), self.plant_changes, f"scenario {self.name!r} plant_changes")
-        apply_changes(load_params(), self.ctrl_changes, f"scenario {self.name!r} ctrl_changes")
-        apply_changes(load_params(), self.est_changes, f"scenario {self.name!r} est_changes")
+            _argument(R.velocity_profile, "velocity", np.zeros(1), self.velocity_keyframes)
+        PLANT_CHANGES.check(self.plant_changes)
+        CONTROLLER_CHANGES.check(self.ctrl_changes)
+        ESTIMATOR_CHANGES.check(self.est_changes)
 
     # -- derived quantities ------------------------------------------------------------
     @property
@@ -421,18 +307,17 @@ class Scenario:
 
     def plant_params(self, base: Params | None = None) -> Params:
         """Plant parameters: ``base`` (default thesis App. A) with :attr:`plant_changes`."""
-        return apply_changes(base or load_params(), self.plant_changes, "plant_changes")
+        return PLANT_CHANGES.apply(base or load_params(), self.plant_changes)
 
     def controller_params(self, base: Params | None = None) -> Params:
         """Controller internal-model parameters (``base`` with :attr:`ctrl_changes`)."""
-        return apply_changes(base or load_params(), self.ctrl_changes, "ctrl_changes")
+        return CONTROLLER_CHANGES.apply(base or load_params(), self.ctrl_changes)
 
     def attitude_reference(self, periods: tuple[int, int] | None = None
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``q, dq, ddq`` (N, 4) sampled at the control instants (analytic derivatives)."""
         t = self.time(periods)
-        sig = {ax: _signal(self.attitude.get(ax, {"type": "const"}), t) for ax in ("roll", "pitch", "yaw")}
-        return R.rpy_reference(sig["roll"], sig["pitch"], sig["yaw"])
+        return attitude_reference(self.attitude, t)
 
     def velocity_reference(self, periods: tuple[int, int] | None = None) -> np.ndarray:
         """``[vx, vy, yaw_rate]`` (N, 3) at the control instants."""
@@ -458,8 +343,7 @@ class Scenario:
 
     def diag_names(self) -> tuple[str, ...]:
         """Names of the balance controller's diagnostic outputs."""
-
-        return tuple(getattr(controllers, "BALANCE_DIAG_NAMES", ()))
+        return tuple(BALANCE_DIAG_NAMES)
 
     def inputs(self, base: Params | None = None, periods: tuple[int, int] | None = None) -> dict[str, Any]:
         """Keyword arguments of :meth:`~ballbot_casadi.sim.closed_loop.ClosedLoop.simulate`.
@@ -506,11 +390,11 @@ class Scenario:
 
     def estimator_params(self, base: Params | None = None) -> Params:
         """The estimators' internal-model parameters (``base`` with :attr:`est_changes`)."""
-        return apply_changes(base or load_params(), self.est_changes, "est_changes")
+        return ESTIMATOR_CHANGES.apply(base or load_params(), self.est_changes)
 
     def sensor_params(self) -> SensorParams:
         """The plant's sensor parameters (defaults with :attr:`sensor_changes`)."""
-        return _sensor_params(self.sensor_changes, "sensor_changes")
+        return SENSOR_CHANGES.apply(load_sensor_params(), self.sensor_changes)
 
     def estimation_inputs(self, base: Params | None = None, periods: tuple[int, int] | None = None
                           ) -> dict[str, Any]:
@@ -573,6 +457,20 @@ class Scenario:
     def replace(self, **changes: Any) -> "Scenario":
         """Copy with some fields changed (validated)."""
         return Scenario.from_dict({**self.to_dict(), **changes})
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _argument(check: Any, key: str, *args: Any) -> Any:
+    """``check(*args)``; a library's :class:`ArgumentError` becomes a keyed :class:`ScenarioError`."""
+    try:
+        return check(*args)
+    except ScenarioError as exc:
+        raise ScenarioError(str(exc), key=exc.key or key, reason=exc.reason) from None
+    except ArgumentError as exc:
+        raise ScenarioError(str(exc), key=key) from None
 
 
 def _freeze(value: Any) -> Any:

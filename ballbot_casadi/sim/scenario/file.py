@@ -98,7 +98,7 @@ Format (every key optional unless marked; units in the names)::
     relative = true                 # sd/low/high as fractions of the nominal value
 
 :func:`load_scenario_file` reads and validates a file into a :class:`ScenarioFile`
-(the validated table, the :class:`~ballbot_casadi.sim.scenarios.Scenario`, specs and
+(the validated table, the :class:`~ballbot_casadi.sim.scenario.Scenario`, specs and
 dispersions); :func:`dump_toml` writes such a table back (e.g. a Monte Carlo run's
 scenario, rerunnable alone with ``ballbot simulate``).
 """
@@ -116,42 +116,36 @@ from typing import Any, Mapping
 import numpy as np
 
 from ballbot_casadi.control import BALANCE_CONTROLLERS
-from ballbot_casadi.core.params import PARAM_NAMES, load_params
-from ballbot_casadi.core.sensor_params import SENSOR_PARAM_NAMES
-from ballbot_casadi.errors import BallbotError, ScenarioError
+from ballbot_casadi.core.params import PARAM_NAMES
+from ballbot_casadi.core.specs import SPEC_OPS
+from ballbot_casadi.errors import ScenarioError, ScenarioFileError
 from ballbot_casadi.sim import references as R
-from ballbot_casadi.sim.scenarios import (
+from ballbot_casadi.sim.scenario.scenario import (
+    CONTROLLER_CHANGES,
+    ESTIMATOR_CHANGES,
     ESTIMATOR_CHOICES,
     ESTIMATOR_TUNING_KEYS,
     FEEDFORWARD_MODES,
+    PLANT_CHANGES,
+    SENSOR_CHANGES,
     Scenario,
-    apply_changes,
     initial_state,
 )
+from ballbot_casadi.sim.scenario.signals import attitude_reference, signal_from_file
 
 __all__ = [
     "ScenarioFileError",
     "ScenarioFile",
-    "SPEC_OPS",
     "DISPERSION_TARGETS",
     "load_scenario_file",
     "parse_scenario",
-    "dump_toml",
-    "set_value",
-    "spec_ok",
 ]
 
-#: Comparison operators of ``[[spec]]`` rows.
-SPEC_OPS = ("<", "<=", ">", ">=", "==", "abs<=")
 #: Initial-state quantities a Monte Carlo dispersion may target (besides ``plant.<name>``).
 DISPERSION_TARGETS = ("initial.roll_deg", "initial.pitch_deg", "initial.yaw_deg")
 _DISTS = ("normal", "uniform")
 
 _NUM = (int, float)
-
-
-class ScenarioFileError(ScenarioError):
-    """A scenario file is unreadable or holds an unknown key, a wrong type or an impossible value."""
 
 
 @dataclass(frozen=True)
@@ -269,66 +263,12 @@ _TOP = ("name", "description", "study", "controller", "duration_s", "cascade", "
         "push", "torque_disturbance", "plant", "controller_model", "gains", "spec", "montecarlo",
         "noise", "estimator_model", "sensors", "sensor_dropout", "estimator_tuning", "com_observer")
 _INITIAL = ("roll_deg", "pitch_deg", "yaw_deg", "x_m", "y_m", "vx_mps", "vy_mps", "on_reference")
-#: friendly signal key -> Scenario signal key, per type
-_SIGNAL = {
-    "const": {"value_deg": "value_deg"},
-    "sine": {"amplitude_deg": "amplitude_deg", "frequency_hz": "frequency_hz", "phase_rad": "phase_rad",
-             "offset_deg": "offset_deg"},
-    "step": {"amplitude_deg": "amplitude_deg", "t_step_s": "t_step", "rise_time_s": "rise_time",
-             "offset_deg": "offset_deg"},
-    "chirp": {"amplitude_deg": "amplitude_deg", "f0_hz": "f0_hz", "f1_hz": "f1_hz", "sweep_s": "duration",
-              "offset_deg": "offset_deg"},
-}
-_SIGNAL_REQUIRED = {"const": (), "sine": ("amplitude_deg", "frequency_hz"), "step": ("amplitude_deg",),
-                    "chirp": ("amplitude_deg", "f0_hz", "f1_hz", "sweep_s")}
-
-
-def _changes(c: _Checker, table: Any, key: str) -> dict[str, list]:
-    table = c.keys(table, key, PARAM_NAMES)
-    out: dict[str, list] = {}
-    for name, v in table.items():
-        full = f"{key}.{name}"
-        if isinstance(v, _NUM) and not isinstance(v, bool):
-            op, val = "set", v
-        elif isinstance(v, Mapping) and len(v) == 1 and next(iter(v)) in ("set", "scale", "add"):
-            op, val = next(iter(v.items()))
-        else:
-            raise c.fail(full, f"expected a number or one of {{ set = v }}, {{ scale = f }}, "
-                               f"{{ add = d }}, got {v!r}")
-        val = c.num({op: val}, op, f"{full}.{op}")
-        out[name] = [op, val]
+def _section(c: _Checker, parse: Any, *args: Any) -> Any:
+    """``parse(*args)`` of a section; its keyed :class:`ScenarioError` becomes a file error."""
     try:
-        apply_changes(load_params(), out, key)
-    except BallbotError as exc:  # e.g. a negative mass after the change
-        msg = str(exc)
-        name = next((n for n in out if f"{n!r}" in msg or n in msg), next(iter(out), key))
-        raise c.fail(f"{key}.{name}", msg.split(": ", 1)[-1]) from None
-    return out
-
-
-def _sensor_changes(c: _Checker, table: Any) -> dict[str, list]:
-    table = c.keys(table, "sensors", SENSOR_PARAM_NAMES)
-    out: dict[str, list] = {}
-    for name, v in table.items():
-        full = f"sensors.{name}"
-        if isinstance(v, (list, tuple)) or (isinstance(v, _NUM) and not isinstance(v, bool)):
-            op, val = "set", v
-        elif isinstance(v, Mapping) and len(v) == 1 and next(iter(v)) in ("set", "scale", "add"):
-            op, val = next(iter(v.items()))
-        else:
-            raise c.fail(full, f"expected a list, a number or one of {{ set = v }}, {{ scale = f }}, "
-                               f"{{ add = d }}, got {v!r}")
-        if isinstance(val, (list, tuple)):
-            val = list(c.vector({op: val}, op, f"{full}.{op}", 3))
-        else:
-            val = c.num({op: val}, op, f"{full}.{op}")
-        out[name] = [op, val]
-    try:
-        Scenario("check", sensor_changes=out)
-    except BallbotError as exc:
-        name = next((n for n in out if n in str(exc)), next(iter(out), "sensors"))
-        raise c.fail(f"sensors.{name}", str(exc).split(": ", 1)[-1]) from None
-    return out
+        return parse(*args)
+    except ScenarioError as exc:
+        raise c.fail(exc.key or "scenario", exc.reason) from None
 
 
 def _interval(c: _Checker, row: Any, key: str, field: str) -> tuple[float, float]:
@@ -350,33 +290,6 @@ def _dropouts(c: _Checker, table: Mapping[str, Any]) -> list[tuple]:
     return rows
 
 
-def _signal(c: _Checker, table: Any, key: str, Ts: float) -> dict[str, Any]:
-    if not isinstance(table, Mapping):
-        raise c.fail(key, f"expected a table with 'type', got {table!r}")
-    kind = c.choice(table, "type", f"{key}.type", "", tuple(_SIGNAL))
-    if not kind:
-        raise c.fail(f"{key}.type", f"missing; one of {', '.join(_SIGNAL)}")
-    names = _SIGNAL[kind]
-    c.keys(table, key, ("type", *names), _SIGNAL_REQUIRED[kind])
-    out: dict[str, Any] = {"type": kind}
-    nyq = 0.5 / Ts
-    for friendly, internal in names.items():
-        if friendly in ("frequency_hz", "f0_hz", "f1_hz"):
-            v = c.num(table, friendly, f"{key}.{friendly}", lo=0.0)
-            if v is not None and v >= nyq:
-                raise c.fail(f"{key}.{friendly}", f"{v:g} Hz is not below the Nyquist frequency "
-                                                  f"{nyq:g} Hz of the {1 / Ts:g} Hz control loop")
-        elif friendly in ("sweep_s",):
-            v = c.num(table, friendly, f"{key}.{friendly}", lo=0.0, lo_open=True)
-        elif friendly in ("rise_time_s", "t_step_s"):
-            v = c.num(table, friendly, f"{key}.{friendly}", lo=0.0)
-        else:
-            v = c.num(table, friendly, f"{key}.{friendly}")
-        if v is not None:
-            out[internal] = v
-    return out
-
-
 def _initial(c: _Checker, table: Any, attitude: Mapping[str, Any], Ts: float) -> tuple:
     table = c.keys(table, "initial", _INITIAL)
     ang = {k: c.num(table, k, f"initial.{k}", 0.0, lo=-180.0, hi=180.0)
@@ -390,8 +303,7 @@ def _initial(c: _Checker, table: Any, attitude: Mapping[str, Any], Ts: float) ->
     on_ref = c.boolean(table, "on_reference", "initial.on_reference", False)
     x0 = np.array(initial_state(ang["roll_deg"], ang["pitch_deg"], ang["yaw_deg"]))
     if on_ref:
-        probe = Scenario("probe", duration=Ts, attitude=dict(attitude), Ts=Ts)
-        q, dq, _ = probe.attitude_reference()
+        q, dq, _ = attitude_reference(attitude, np.zeros(1))
         x0[2:6], x0[8:12] = q[0], dq[0]
     x0[0], x0[1], x0[6], x0[7] = pos["x_m"], pos["y_m"], pos["vx_mps"], pos["vy_mps"]
     return tuple(float(v) for v in x0)
@@ -449,7 +361,7 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
     if round(duration / Ts) < 1:
         raise c.fail("duration_s", f"shorter than one control period ({Ts:g} s)")
     att_table = c.keys(table.get("attitude", {}), "attitude", ("roll", "pitch", "yaw"))
-    attitude = {ax: _signal(c, spec, f"attitude.{ax}", Ts) for ax, spec in att_table.items()}
+    attitude = {ax: _section(c, signal_from_file, ax, spec, Ts) for ax, spec in att_table.items()}
     x0 = _initial(c, table.get("initial", {}), attitude, Ts)
     keyframes = []
     for i, row in enumerate(c.rows(table, "velocity")):
@@ -487,8 +399,8 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         cascade=c.boolean(table, "cascade", "cascade", False),
         attitude=attitude, velocity_keyframes=tuple(keyframes), pushes=tuple(pushes),
         torque_disturbances=tuple(dists),
-        plant_changes=_changes(c, table.get("plant", {}), "plant"),
-        ctrl_changes=_changes(c, table.get("controller_model", {}), "controller_model"),
+        plant_changes=_section(c, PLANT_CHANGES.parse, table.get("plant", {})),
+        ctrl_changes=_section(c, CONTROLLER_CHANGES.parse, table.get("controller_model", {})),
         k_bal=c.vector(gains, "k_bal", "gains.k_bal"), k_vel=c.vector(gains, "k_vel", "gains.k_vel"),
         com_observer=c.boolean(table, "com_observer", "com_observer", False),
         k_obs=c.vector(gains, "k_obs", "gains.k_obs"),
@@ -497,8 +409,8 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         estimator=c.choice(table, "estimator", "estimator", "true", ESTIMATOR_CHOICES),
         seed=c.integer(table, "seed", "seed", 0, 0),
         noise=c.boolean(table, "noise", "noise", True),
-        est_changes=_changes(c, table.get("estimator_model", {}), "estimator_model"),
-        sensor_changes=_sensor_changes(c, table.get("sensors", {})),
+        est_changes=_section(c, ESTIMATOR_CHANGES.parse, table.get("estimator_model", {})),
+        sensor_changes=_section(c, SENSOR_CHANGES.parse, table.get("sensors", {})),
         sensor_dropouts=tuple(_dropouts(c, table)),
         estimator_tuning={k: c.num(table["estimator_tuning"], k, f"estimator_tuning.{k}", lo=0.0, lo_open=True)
                           for k in c.keys(table.get("estimator_tuning", {}), "estimator_tuning",
@@ -509,14 +421,19 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         raise c.fail("seed", f"must be below 2^32, got {fields['seed']}")
     if fields["n_sub"] > 100:
         raise c.fail("rk4_substeps", f"at most 100, got {fields['n_sub']}")
-    try:
-        scenario = Scenario(**fields)
-    except BallbotError as exc:  # a check only the whole scenario can make (e.g. gain count)
-        key = "gains" if "k_bal" in str(exc) or "k_vel" in str(exc) or "gain" in str(exc) else "scenario"
-        raise c.fail(key, str(exc)) from None
+    scenario = _scenario(c, fields)
     specs = _specs(c, c.rows(table, "spec"))
     mc = _montecarlo(c, table["montecarlo"]) if "montecarlo" in table else None
     return ScenarioFile(where, copy.deepcopy(table), scenario, specs, mc)
+
+
+def _scenario(c: _Checker, fields: Mapping[str, Any]) -> Scenario:
+    """The :class:`Scenario` of the checked fields (checks only the whole run can make, e.g.
+    the gain count of the chosen controller, fail here under their own key)."""
+    try:
+        return Scenario(**fields)
+    except ScenarioError as exc:
+        raise c.fail(exc.key or "scenario", exc.reason) from None
 
 
 def load_scenario_file(path: str | Path) -> ScenarioFile:
@@ -538,97 +455,3 @@ def load_scenario_file(path: str | Path) -> ScenarioFile:
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioFileError(f"{path}: not valid TOML ({exc})") from None
     return parse_scenario(table, str(path), path.stem)
-
-
-def set_value(table: Mapping[str, Any], dotted: str, value: Any) -> dict[str, Any]:
-    """Copy of ``table`` with ``dotted`` (e.g. ``"plant.Mb"``, ``"attitude.roll.amplitude_deg"``) set."""
-    out = copy.deepcopy(dict(table))
-    node = out
-    parts = dotted.split(".")
-    for p in parts[:-1]:
-        nxt = node.get(p)
-        if not isinstance(nxt, dict):
-            nxt = {}
-            node[p] = nxt
-        node = nxt
-    node[parts[-1]] = value
-    return out
-
-
-# --------------------------------------------------------------------------- writing
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if not math.isfinite(v):
-            raise ScenarioFileError(f"cannot write the non-finite number {v!r} to TOML")
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(e) for e in v) + "]"
-    if isinstance(v, Mapping):
-        return "{ " + ", ".join(f"{_key(k)} = {_toml_value(e)}" for k, e in v.items()) + " }"
-    raise ScenarioFileError(f"cannot write {type(v).__name__} to TOML")
-
-
-def _key(k: str) -> str:
-    return k if k.replace("_", "").replace("-", "").isalnum() else json.dumps(k)
-
-
-def _is_table_array(v: Any) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(e, Mapping) for e in v)
-
-
-def _emit(table: Mapping[str, Any], prefix: str, lines: list[str], inline_depth: bool = False) -> None:
-    scalars = {k: v for k, v in table.items() if not isinstance(v, Mapping) and not _is_table_array(v)}
-    for k, v in scalars.items():
-        lines.append(f"{_key(k)} = {_toml_value(v)}")
-    for k, v in table.items():
-        if isinstance(v, Mapping):
-            name = f"{prefix}{_key(k)}"
-            # a parameter change ({ scale = f }) is written inline
-            if prefix.rstrip(".") in ("plant", "controller_model", "estimator_model", "sensors"):
-                continue
-            lines += ["", f"[{name}]"]
-            inner = {kk: vv for kk, vv in v.items()}
-            if k in ("plant", "controller_model", "estimator_model", "sensors"):
-                for kk, vv in inner.items():
-                    lines.append(f"{_key(kk)} = {_toml_value(vv)}")
-            else:
-                _emit(inner, f"{name}.", lines)
-        elif _is_table_array(v):
-            for row in v:
-                lines += ["", f"[[{prefix}{_key(k)}]]"]
-                _emit(row, f"{prefix}{_key(k)}.", lines)
-
-
-def dump_toml(table: Mapping[str, Any], header: str = "") -> str:
-    """TOML text of a scenario table (inverse of ``tomllib.loads`` for these files)."""
-    lines = [f"# {line}" if line else "#" for line in header.splitlines()]
-    _emit(table, "", lines)
-    return "\n".join(lines).lstrip("\n") + "\n"
-
-
-_SPEC_FUNCS = {
-    "<": lambda a, b: a < b,
-    "<=": lambda a, b: a <= b,
-    ">": lambda a, b: a > b,
-    ">=": lambda a, b: a >= b,
-    "==": lambda a, b: a == b,
-    "abs<=": lambda a, b: abs(a) <= b,
-}
-
-
-def spec_ok(value: Any, op: str, threshold: Any) -> bool:
-    """``value op threshold`` of a ``[[spec]]`` row; ``None``, NaN or an incomparable value fails."""
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return False
-    try:
-        return bool(_SPEC_FUNCS[op](value, threshold))
-    except TypeError:
-        return False
