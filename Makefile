@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all venv codegen test demo bench fmu sil clean distclean
+.PHONY: all venv codegen test demo bench fmu sil firmware clean distclean
 
 all: codegen
 
@@ -39,6 +39,12 @@ fmu: $(STAMP)
 ## build/fmu/BallbotSIL.ssp; run it with: ballbot fmu cosim build/fmu/BallbotSIL.ssp --out DIR
 sil: $(STAMP)
 	$(PY) -m ballbot_casadi.cli fmu ssp --scenario full_sine --out build/fmu/BallbotSIL.ssp
+
+## Cortex-M7 firmware library of the embedded software (FLC + QUKF + VUKF), verified in QEMU
+## (needs gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm).
+firmware: $(STAMP)
+	$(PY) -m ballbot_casadi.cli firmware --precision double --verify 200
+	$(PY) -m ballbot_casadi.cli firmware --precision single --verify 200
 
 clean:
 	rm -rf build

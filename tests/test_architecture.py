@@ -20,6 +20,7 @@ LAYERS = {
     "analysis": 5,
     "codegen": 5,
     "fmi": 5,
+    "firmware": 5,
     "studies": 6,
     "bench": 6,
     "cli": 7,

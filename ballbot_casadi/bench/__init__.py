@@ -19,6 +19,7 @@ import numpy as np
 
 from ballbot_casadi.bench.control import bench_control
 from ballbot_casadi.bench.estimation import bench_estimation
+from ballbot_casadi.bench.firmware import bench_firmware
 from ballbot_casadi.bench.fmu import bench_fmu
 from ballbot_casadi.bench.montecarlo import bench_montecarlo
 from ballbot_casadi.codegen.libraries import model_library
@@ -83,6 +84,7 @@ BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
     "control": bench_control,
     "estimation": bench_estimation,
     "montecarlo": bench_montecarlo,
+    "firmware": bench_firmware,
 })
 
 

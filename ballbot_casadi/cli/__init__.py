@@ -21,14 +21,14 @@ import sys
 import traceback
 from typing import NoReturn
 
-from ballbot_casadi.cli import analyze, animate, commands, fmu, montecarlo, simulate, study
+from ballbot_casadi.cli import analyze, animate, commands, firmware, fmu, montecarlo, simulate, study
 from ballbot_casadi.errors import EXIT_INTERNAL_ERROR, EXIT_USER_ERROR, BallbotError
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_SPEC_MISSED", "EXIT_USER_ERROR",
            "EXIT_INTERNAL_ERROR"]
 
 #: Modules that register subcommands, in ``--help`` order.
-_COMMAND_MODULES = (commands, study, simulate, montecarlo, animate, analyze, fmu)
+_COMMAND_MODULES = (commands, study, simulate, montecarlo, animate, analyze, fmu, firmware)
 
 EXIT_OK = 0
 EXIT_SPEC_MISSED = 1

@@ -1,0 +1,69 @@
+"""``ballbot firmware``: the Cortex-M7 firmware library of the embedded software, optionally
+verified in QEMU against the host (issue 21)."""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ballbot_casadi.core.files import check_output_dir
+from ballbot_casadi.firmware.build import build_firmware
+from ballbot_casadi.firmware.cost import firmware_cost
+from ballbot_casadi.firmware.replay import REPLAY_ATOL, record_log, replay_scenario, run_host, run_qemu
+from ballbot_casadi.firmware.toolchain import PRECISIONS, ToolchainMissing
+from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS
+
+__all__ = ["add_parser"]
+
+
+def _cmd_firmware(args: argparse.Namespace) -> int:
+    if args.out is not None:
+        check_output_dir(args.out, "--out")
+    try:
+        fw = build_firmware(args.controller, args.estimator, args.precision)
+        print(f"{fw.library}  ({fw.status})\n  headers {fw.include}\n  example {fw.example_elf}")
+        if args.out is not None:
+            out = Path(args.out)
+            shutil.copytree(fw.include, out / "include", dirs_exist_ok=True)
+            for p in (fw.library, fw.folder / "src" / "example_main.c"):
+                shutil.copy2(p, out / p.name)
+            print(f"  copied to {out}")
+        if not args.verify:
+            return 0
+        rec = record_log(replay_scenario(args.verify))
+        double = build_firmware(args.controller, args.estimator, "double")
+        host = run_host(double, rec)
+        qemu = run_qemu(fw, rec)
+    except ToolchainMissing as exc:
+        print(f"ballbot firmware: error: {exc}", file=sys.stderr)
+        return 3
+    err = float(np.max(np.abs(qemu.tau - host.tau)))
+    tol = REPLAY_ATOL[args.precision]
+    c = firmware_cost(fw, qemu)
+    print(f"QEMU replay of {rec.n} periods: max |tau_qemu - tau_host(double)| = {err:.3g} N m "
+          f"(tolerance {tol:g}); host replay vs compiled mission "
+          f"{float(np.max(np.abs(host.tau - rec.tau_mission))):.3g} N m")
+    print(f"cost: {c.step_instructions_max:.0f} instructions per period (worst), "
+          f"{c.step_us:.0f} us at 400 MHz and 1 IPC ({100 * c.period_fraction:.1f} % of 5 ms); "
+          f"RAM {c.ram_bytes} B (context {c.context_bytes}, stack {c.stack_bytes}); "
+          f"flash {c.image_flash_bytes} B (library {c.library_flash_bytes})")
+    return 0 if err <= tol else 1
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register ``firmware``."""
+    p = sub.add_parser("firmware", help="cross-compile the embedded software for Cortex-M7 "
+                       "(static library, C API header, 200 Hz example); --verify: QEMU replay")
+    p.add_argument("--controller", default="flc", help="balance controller (default flc)")
+    p.add_argument("--estimator", default="ukf", choices=list(ESTIMATOR_FILTERS),
+                   help="filters (default ukf: QUKF + VUKF)")
+    p.add_argument("--precision", default="double", choices=list(PRECISIONS),
+                   help="casadi_real: double (fpv5-d16) or single (float, fpv5-sp-d16)")
+    p.add_argument("--out", help="also copy the library, headers and example into this folder")
+    p.add_argument("--verify", type=int, default=0, metavar="N",
+                   help="replay N periods of a recorded mission in QEMU and compare with the host")
+    p.set_defaults(func=_cmd_firmware)

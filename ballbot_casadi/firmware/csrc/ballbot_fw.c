@@ -1,0 +1,104 @@
+/*
+ * ballbot_fw.c - the C API of ballbot_fw.h around the generated period BALLBOT_FW_EMBEDDED.
+ *
+ * A reading that is NaN or Inf is passed on as NaN: its filter predicts only for that
+ * sensor, as in the host step.  The encoder readings of period 0 are missing (there is no
+ * previous count to difference), as in the controller FMU.  A period whose result is not
+ * finite is rejected: the torques are 0, the state is kept, the fault is counted.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "ballbot_fw.h"
+
+static int all_finite(const ballbot_fw_real *v, int n) {
+    int i;
+    for (i = 0; i < n; ++i)
+        if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+void ballbot_fw_default_params(ballbot_fw_params *params) {
+    if (params != NULL) *params = ballbot_fw_default_params_data;
+}
+
+void ballbot_fw_default_state(ballbot_fw_real c0[BALLBOT_FW_NC]) {
+    if (c0 != NULL) memcpy(c0, ballbot_fw_default_c0, sizeof ballbot_fw_default_c0);
+}
+
+int ballbot_fw_check_params(const ballbot_fw_params *p) {
+    int i;
+    if (p == NULL) return BALLBOT_FW_EARG;
+#define BALLBOT_FW_CHECK_FINITE(name, n) \
+    if (!all_finite(p->name, n)) return BALLBOT_FW_EPARAM;
+    BALLBOT_FW_PARAM_FIELDS(BALLBOT_FW_CHECK_FINITE)
+#undef BALLBOT_FW_CHECK_FINITE
+#define BALLBOT_FW_CHECK_COV(name, n) \
+    for (i = 0; i < (n); ++i)         \
+        if (!(p->name[i * (n) + i] >= 0)) return BALLBOT_FW_EPARAM;
+    BALLBOT_FW_COV_FIELDS(BALLBOT_FW_CHECK_COV)
+#undef BALLBOT_FW_CHECK_COV
+    if (!(p->Ts[0] > 0)) return BALLBOT_FW_EPARAM;
+    (void)i;
+    return BALLBOT_FW_OK;
+}
+
+int ballbot_fw_set_params(ballbot_fw_ctx *ctx, const ballbot_fw_params *params) {
+    int rc;
+    if (ctx == NULL || params == NULL) return BALLBOT_FW_EARG;
+    rc = ballbot_fw_check_params(params);
+    if (rc == BALLBOT_FW_OK) ctx->params = *params;
+    return rc;
+}
+
+int ballbot_fw_init(ballbot_fw_ctx *ctx, const ballbot_fw_params *params,
+                    const ballbot_fw_real *c0) {
+    int rc;
+    if (ctx == NULL || params == NULL) return BALLBOT_FW_EARG;
+    rc = ballbot_fw_check_params(params);
+    if (rc != BALLBOT_FW_OK) return rc;
+    memset(ctx, 0, sizeof *ctx);
+    ctx->params = *params;
+    if (c0 == NULL) c0 = ballbot_fw_default_c0;
+    if (!all_finite(c0, BALLBOT_FW_NC)) return BALLBOT_FW_EPARAM;
+    memcpy(ctx->c, c0, sizeof ctx->c);
+    return BALLBOT_FW_OK;
+}
+
+int ballbot_fw_step(ballbot_fw_ctx *ctx, const ballbot_fw_real *readings,
+                    const ballbot_fw_references *refs, ballbot_fw_real torques[3]) {
+    int i, rc = BALLBOT_FW_OK;
+    if (torques == NULL) return BALLBOT_FW_EARG;
+    torques[0] = torques[1] = torques[2] = 0;
+    if (ctx == NULL || readings == NULL || refs == NULL) return BALLBOT_FW_EARG;
+    for (i = 0; i < BALLBOT_FW_N_READINGS; ++i) {
+        int fresh = isfinite(readings[i]) &&
+                    !(ctx->period == 0 && i >= BALLBOT_FW_READING_ENC &&
+                      i < BALLBOT_FW_READING_ENC + BALLBOT_FW_N_ENC);
+        ctx->meas[i] = fresh ? readings[i] : (ballbot_fw_real)NAN;
+        if (!fresh) rc = BALLBOT_FW_PREDICT_ONLY;
+    }
+    ctx->cascade = refs->balance_only ? 0 : 1;
+    ctx->arg[BALLBOT_FW_ARG_c] = ctx->c;
+    ctx->arg[BALLBOT_FW_ARG_meas] = ctx->meas;
+    ctx->arg[BALLBOT_FW_ARG_cascade] = &ctx->cascade;
+#define BALLBOT_FW_WIRE_REF(name, n) ctx->arg[BALLBOT_FW_ARG_##name] = refs->name;
+    BALLBOT_FW_REFERENCE_FIELDS(BALLBOT_FW_WIRE_REF)
+#undef BALLBOT_FW_WIRE_REF
+#define BALLBOT_FW_WIRE_PAR(name, n) ctx->arg[BALLBOT_FW_ARG_##name] = ctx->params.name;
+    BALLBOT_FW_PARAM_FIELDS(BALLBOT_FW_WIRE_PAR)
+#undef BALLBOT_FW_WIRE_PAR
+#define BALLBOT_FW_WIRE_RES(name, n) ctx->res[BALLBOT_FW_RES_##name] = ctx->out.name;
+    BALLBOT_FW_OUTPUT_FIELDS(BALLBOT_FW_WIRE_RES)
+#undef BALLBOT_FW_WIRE_RES
+    ctx->res[BALLBOT_FW_RES_c_next] = ctx->c_next;
+    ctx->period++;
+    if (BALLBOT_FW_EMBEDDED(ctx->arg, ctx->res, ctx->iw, ctx->w, 0) != 0 ||
+        !all_finite(ctx->c_next, BALLBOT_FW_NC) || !all_finite(ctx->out.tau_lim, 3)) {
+        ctx->faults++;
+        return BALLBOT_FW_EFAULT;
+    }
+    memcpy(ctx->c, ctx->c_next, sizeof ctx->c);
+    for (i = 0; i < 3; ++i) torques[i] = ctx->out.tau_lim[i];
+    return rc;
+}

@@ -1,0 +1,160 @@
+/*
+ * replay_main.c - replays a recorded sensor log through the firmware library and writes the
+ * torques back.  The same file runs on the host (stdio; argv: input output) and in QEMU
+ * (BALLBOT_FW_TARGET: semihosting files fw_replay_in.bin / fw_replay_out.bin in QEMU's
+ * working directory, instruction counting with SysTick, stack high-water mark by painting).
+ *
+ * Input (little-endian doubles): n_steps, n_params, nc, balance_only, calib_loops; the
+ * parameters (ballbot_fw_params as a flat array); the power-on state c0 (nc); per period
+ * the readings (BALLBOT_FW_N_READINGS, NaN = missing) and the references q_ref, dq_ref,
+ * ddq_ref, v_ref.
+ * Output (doubles): a header of OUT_HEADER values (n_steps, stack bytes of one step,
+ * SysTick ticks of the calibration loop, its instruction count, sizeof(ballbot_fw_ctx),
+ * sizeof(ballbot_fw_real)); per period tau[3], the step's SysTick ticks, the return code.
+ */
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "ballbot_fw.h"
+
+#define OUT_HEADER 6
+#define N_REF 15
+#define N_PAR ((int)(sizeof(ballbot_fw_params) / sizeof(ballbot_fw_real)))
+
+static ballbot_fw_ctx ctx; /* the caller-owned context */
+static ballbot_fw_params params;
+
+#ifdef BALLBOT_FW_TARGET
+#define SYST_CSR (*(volatile uint32_t *)0xE000E010u)
+#define SYST_RVR (*(volatile uint32_t *)0xE000E014u)
+#define SYST_CVR (*(volatile uint32_t *)0xE000E018u)
+#define PAINT 0xA5A5A5A5u
+extern uint32_t __stack_bottom;
+
+static uint32_t ticks(void) { return SYST_CVR; }
+static uint32_t elapsed(uint32_t t0, uint32_t t1) { return (t0 - t1) & 0xFFFFFFu; }
+static uintptr_t stack_pointer(void) {
+    uintptr_t sp;
+    __asm volatile("mov %0, sp" : "=r"(sp));
+    return sp;
+}
+/* 1 + 2 n instructions (mov, then subs + bne per loop). */
+static void calib_loop(uint32_t n) {
+    __asm volatile("mov r0, %0\n1:\n\tsubs r0, r0, #1\n\tbne 1b" : : "r"(n) : "r0", "cc");
+}
+#else
+static uint32_t ticks(void) { return 0; }
+static uint32_t elapsed(uint32_t t0, uint32_t t1) { return t0 - t1; }
+#endif
+
+static int read_doubles(FILE *f, double *v, int n) {
+    return (int)fread(v, sizeof(double), (size_t)n, f) == n ? 0 : 1;
+}
+
+static int write_doubles(FILE *f, const double *v, int n) {
+    return (int)fwrite(v, sizeof(double), (size_t)n, f) == n ? 0 : 1;
+}
+
+static int replay(FILE *in, FILE *out) {
+    double hdr[5], buf[BALLBOT_FW_NC > 64 ? BALLBOT_FW_NC : 64], oh[OUT_HEADER] = {0};
+    ballbot_fw_real c0[BALLBOT_FW_NC], meas[BALLBOT_FW_N_READINGS], tau[3];
+    ballbot_fw_real *pflat = (ballbot_fw_real *)&params;
+    ballbot_fw_references refs;
+    long k, n;
+    int i, rc;
+    unsigned long stack_max = 0;
+    if (read_doubles(in, hdr, 5) || (int)hdr[1] != N_PAR || (int)hdr[2] != BALLBOT_FW_NC) {
+        fprintf(stderr, "replay: input header does not match the library (%d params, nc %d)\n",
+                N_PAR, BALLBOT_FW_NC);
+        return 2;
+    }
+    n = (long)hdr[0];
+    for (i = 0; i < N_PAR; ++i) {
+        if (read_doubles(in, buf, 1)) return 2;
+        pflat[i] = (ballbot_fw_real)buf[0];
+    }
+    if (read_doubles(in, buf, BALLBOT_FW_NC)) return 2;
+    for (i = 0; i < BALLBOT_FW_NC; ++i) c0[i] = (ballbot_fw_real)buf[i];
+    rc = ballbot_fw_init(&ctx, &params, c0);
+    if (rc != BALLBOT_FW_OK) {
+        fprintf(stderr, "replay: ballbot_fw_init returned %d\n", rc);
+        return 2;
+    }
+    refs.balance_only = hdr[3] != 0;
+#ifdef BALLBOT_FW_TARGET
+    SYST_RVR = 0xFFFFFFu;
+    SYST_CVR = 0;
+    SYST_CSR = 5u; /* enable, processor clock, no interrupt */
+    {
+        uint32_t t0 = ticks();
+        calib_loop((uint32_t)hdr[4]);
+        oh[2] = (double)elapsed(t0, ticks());
+        oh[3] = 1 + 2 * hdr[4];
+    }
+#endif
+    oh[0] = (double)n;
+    oh[4] = (double)sizeof(ballbot_fw_ctx);
+    oh[5] = (double)sizeof(ballbot_fw_real);
+    if (write_doubles(out, oh, OUT_HEADER)) return 3;
+    for (k = 0; k < n; ++k) {
+        double row[5];
+        uint32_t t0, t1;
+        if (read_doubles(in, buf, BALLBOT_FW_N_READINGS + N_REF)) return 2;
+        for (i = 0; i < BALLBOT_FW_N_READINGS; ++i) meas[i] = (ballbot_fw_real)buf[i];
+        for (i = 0; i < 4; ++i) {
+            refs.q_ref[i] = (ballbot_fw_real)buf[BALLBOT_FW_N_READINGS + i];
+            refs.dq_ref[i] = (ballbot_fw_real)buf[BALLBOT_FW_N_READINGS + 4 + i];
+            refs.ddq_ref[i] = (ballbot_fw_real)buf[BALLBOT_FW_N_READINGS + 8 + i];
+        }
+        for (i = 0; i < 3; ++i) refs.v_ref[i] = (ballbot_fw_real)buf[BALLBOT_FW_N_READINGS + 12 + i];
+#ifdef BALLBOT_FW_TARGET
+        uintptr_t sp = stack_pointer() - 16u, a;
+        if (k < 8)
+            for (a = (uintptr_t)&__stack_bottom; a < sp; a += 4) *(volatile uint32_t *)a = PAINT;
+#endif
+        t0 = ticks();
+        rc = ballbot_fw_step(&ctx, meas, &refs, tau);
+        t1 = ticks();
+#ifdef BALLBOT_FW_TARGET
+        if (k < 8) {
+            for (a = (uintptr_t)&__stack_bottom; a < sp; a += 4)
+                if (*(volatile uint32_t *)a != PAINT) break;
+            if (sp - a > stack_max) stack_max = (unsigned long)(sp - a);
+        }
+#endif
+        for (i = 0; i < 3; ++i) row[i] = (double)tau[i];
+        row[3] = (double)elapsed(t0, t1);
+        row[4] = (double)rc;
+        if (write_doubles(out, row, 5)) return 3;
+    }
+    oh[1] = (double)stack_max;
+    if (fseek(out, 0, SEEK_SET) != 0 || write_doubles(out, oh, OUT_HEADER)) return 3;
+    return 0;
+}
+
+#ifdef BALLBOT_FW_TARGET
+int main(void) {
+    const char *in_name = "fw_replay_in.bin", *out_name = "fw_replay_out.bin";
+#else
+int main(int argc, char **argv) {
+    const char *in_name = argc > 1 ? argv[1] : "fw_replay_in.bin";
+    const char *out_name = argc > 2 ? argv[2] : "fw_replay_out.bin";
+#endif
+    FILE *in = fopen(in_name, "rb"), *out;
+    int rc;
+    if (in == NULL) {
+        fprintf(stderr, "replay: cannot open %s\n", in_name);
+        return 2;
+    }
+    out = fopen(out_name, "wb");
+    if (out == NULL) {
+        fclose(in);
+        fprintf(stderr, "replay: cannot open %s\n", out_name);
+        return 2;
+    }
+    rc = replay(in, out);
+    fclose(in);
+    if (fclose(out) != 0 && rc == 0) rc = 3;
+    return rc;
+}
