@@ -93,6 +93,7 @@ from ballbot_casadi.sim.embedded import embedded_software, estimator_layout, sof
 from ballbot_casadi.sim.ports import (
     EMBEDDED_INPUTS,
     EMBEDDED_OUTPUTS,
+    MODEL_CONSTANTS,
     OBSERVER_CONSTANTS,
     OBSERVER_OUTPUTS,
 )
@@ -357,7 +358,7 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
     for arg, names in _parameter_groups(embedded, controller, estimator):
         for n in names:
             unit, rule, desc = None, None, f"{arg} entry {n}"
-            if arg in ("p_ctrl", "p_est"):
+            if arg in MODEL_CONSTANTS:
                 base = n.split("_", 1)[1]
                 unit, pdesc, rule = PARAM_INFO[base]
                 who = "controllers'" if arg == "p_ctrl" else "filters'"

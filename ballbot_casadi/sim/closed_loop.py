@@ -323,7 +323,7 @@ class ClosedLoop:
             "v_ref": seqs["v_ref"],
             "w": seqs["w"],
             "diag": out["diag"],
-            "xz_final": xz_next[-1].copy(),
+            "xz_final": xz_next[-1, :].copy(),
         }
         if with_obs:
             log.update({k: out[k] for k in OBSERVER_OUTPUTS})

@@ -78,6 +78,8 @@ __all__ = [
     "GUIDANCE_OUTPUTS",
     "EMBEDDED_INPUTS",
     "EMBEDDED_OUTPUTS",
+    "MODEL_CONSTANTS",
+    "GAIN_CONSTANTS",
     "N_WHEEL",
     "HELD_COMMAND",
 ]
@@ -110,6 +112,10 @@ OBSERVER_OUTPUTS = ("com_hat",)
 GUIDANCE_CONSTANTS = ("k_guid",)
 #: Output of the guidance block: the velocity reference the velocity controller followed.
 GUIDANCE_OUTPUTS = ("v_ref_used",)
+#: The model-parameter constants: the plant's, the controllers' and the filters' models.
+MODEL_CONSTANTS = ("p_plant", "p_ctrl", "p_est")
+#: The gain constants (balance, velocity, COM observer): a scenario file's ``[gains]`` keys.
+GAIN_CONSTANTS = ("k_bal", "k_vel", "k_obs")
 #: Inputs of the embedded software's period (its state ``c`` and the readings first).
 EMBEDDED_INPUTS = ("c", "meas", *REFERENCE_SEQUENCES, "p_ctrl", "p_est", "k_bal", "k_vel", "Ts",
                    "cascade", "feedforward", "Qa", "Ra", "Qv", "Rv")
