@@ -4,8 +4,9 @@ The FMU runs the embedded software's period, the CasADi Function
 ``ballbot_embedded_<ctrl>_<est>`` of :func:`~ballbot_casadi.sim.embedded.make_embedded_step`
 (attitude and velocity filters, velocity controller, balance controller, torque limit),
 taken from the Functions the compiled mission exports
-(:func:`~ballbot_casadi.sim.closed_loop.closed_loop_functions`): the FMU's C and the
-mission's C are generated from the same Function, so there is one implementation.  The
+(:func:`~ballbot_casadi.sim.embedded.embedded_software`, built without any mission): the
+FMU's C and the mission's C are generated from the same Function, so there is one
+implementation.  The
 per-model C file is ``fmu/controller_model.c``; the FMI layer is the plant's
 (``fmu/fmi2_common.c`` and its parts), the table below generates ``modelDescription.xml`` and the C
 headers.

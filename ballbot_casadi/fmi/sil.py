@@ -26,7 +26,7 @@ state at ``t_k`` before the plant leaves ``t_k``).  Therefore:
 
 * ``master="libcosim"`` (default; the SSP as any engine runs it) equals, bit for bit
   up to rounding, the compiled mission of the same scenario with that one-period delay
-  (:mod:`ballbot_casadi.fmi.sil_mission`);
+  (``run_scenario(..., actuation_delay=True)``, :mod:`ballbot_casadi.sim.steps`);
 * ``master="gauss-seidel"`` (fmpy, the same SSP and FMUs) steps the controller first
   and the plant after it at every ``t_k``, which is the compiled mission itself.
 
