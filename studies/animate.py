@@ -74,12 +74,12 @@ def animate(run: str | Path, out: str | Path, fps: float = 15.0, max_frames: int
     def draw(k: int) -> None:
         ax.cla()
         px, py = x[k, STATE.index("x")], x[k, STATE.index("y")]
-        c = np.array([px, py, rk])
+        ball = np.array([px, py, rk])
         Rm = np.asarray(Q.rotation_matrix(x[k, STATE["q"]] / np.linalg.norm(x[k, STATE["q"]])))
-        ax.plot_wireframe(sphere[0] + c[0], sphere[1] + c[1], sphere[2] + c[2], color="0.6", lw=0.4)
+        ax.plot_wireframe(sphere[0] + ball[0], sphere[1] + ball[1], sphere[2] + ball[2], color="0.6", lw=0.4)
         for j, (col, length) in enumerate((("r", 0.5 * l), ("g", 0.5 * l), ("b", l))):
-            e = c + length * Rm[:, j]
-            ax.plot([c[0], e[0]], [c[1], e[1]], [c[2], e[2]], color=col, lw=2.5 if j == 2 else 1.5)
+            e = ball + length * Rm[:, j]
+            ax.plot([ball[0], e[0]], [ball[1], e[1]], [ball[2], e[2]], color=col, lw=2.5 if j == 2 else 1.5)
         head = Rm[:, 0].copy()
         head[2] = 0.0
         if np.linalg.norm(head) > 1e-9:

@@ -14,7 +14,7 @@ folder is replaced as a whole):
   ``sil``: master, steps, wall time and, when the SSP carries its scenario, the largest
   difference of states and torques from the compiled mission that the master reproduces
   (``libcosim``: the mission with the Jacobi master's one period of actuation delay,
-  :mod:`ballbot_casadi.fmi.sil_mission`; ``gauss-seidel``: the mission itself);
+  :func:`run_scenario` with ``actuation_delay``; ``gauss-seidel``: the mission itself);
 * ``plot.png`` (attitude, speed, torques, tracking error), ``sil_compare.png`` (the
   differences from that mission over time) and ``report.md``.
 """
@@ -36,7 +36,6 @@ from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.sil import SilRun, run_ssp, sil_log
-from ballbot_casadi.fmi.sil_mission import jacobi_mission
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import save_log
 from ballbot_casadi.studies.registry import Spec, evaluate_specs
@@ -51,7 +50,7 @@ SIL_OUTPUTS = (*OWNED_OUTPUTS, "connections.csv")
 def mission_difference(run: SilRun, log_arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     """Largest differences of the run from the compiled mission its master reproduces.
 
-    ``libcosim`` (Jacobi) is compared with :func:`~ballbot_casadi.fmi.sil_mission.jacobi_mission`,
+    ``libcosim`` (Jacobi) is compared with the compiled mission with ``actuation_delay`` (:func:`run_scenario`),
     ``gauss-seidel`` with the compiled mission itself (:func:`run_scenario`), over the
     periods the run covers.  Returns ``reference``, ``state_max``, ``tau_max``,
     ``tau_cmd_max``, ``x_hat_max`` and the per-period differences ``state_diff``,
@@ -63,7 +62,8 @@ def mission_difference(run: SilRun, log_arrays: dict[str, np.ndarray]) -> dict[s
     n = log_arrays["tau"].shape[0]
     sc = sc.replace(duration=n * sc.Ts) if sc.n_periods != n else sc
     if run.master == "libcosim":
-        ref, what = jacobi_mission(sc), "compiled mission with one period of actuation delay (Jacobi)"
+        ref = run_scenario(sc, ClosedLoop(), actuation_delay=True).arrays
+        what = "compiled mission with one period of actuation delay (Jacobi)"
     else:
         ref, what = run_scenario(sc, ClosedLoop()).arrays, "compiled mission"
     ds = np.max(np.abs(log_arrays["state"] - ref["state"]), axis=1)

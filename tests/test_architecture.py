@@ -85,3 +85,92 @@ def test_public_api_at_the_top():
 
     for name in ("load_params", "BallbotModel", "make_state", "ClosedLoop", "run_scenario"):
         assert callable(getattr(bc, name)), name
+
+
+# ------------------------------------------------------------------ one home per concept
+
+#: The modules that define the packed vectors' layouts and the period's ports.
+LAYOUT_HOMES = {ROOT / "ballbot_casadi" / "core" / "layout.py",
+                ROOT / "ballbot_casadi" / "sim" / "ports.py"}
+#: The parts that pack and unpack the period's vectors (control and estimation name their
+#: Functions' own inputs and outputs).
+PACKING_PARTS = {"sim", "fmi", "bench", "analysis", "studies", "cli"}
+#: Names that hold packed vectors (mission state, controller state, estimate, filter
+#: states, readings, the filters' initial state): indexed only through their layouts.
+PACKED = {"xz", "xz0", "xz_next", "xz_final", "c", "c0", "c_next", "c_final", "cs", "x_hat",
+          "xa", "xv", "xa0", "xv0", "xv_prev", "meas", "e0", "zn", "s_state"}
+
+
+def _port_names() -> set[str]:
+    from ballbot_casadi.sim import ports
+
+    return {n for k, v in vars(ports).items() if k.isupper() and isinstance(v, tuple)
+            for n in v if isinstance(n, str)}
+
+
+def _int_literal(node: ast.AST | None) -> bool:
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        node = node.operand
+    return isinstance(node, ast.Constant) and type(node.value) is int
+
+
+def _positional(index: ast.AST) -> bool:
+    """An index into the vector made of integer literals: ``v[3]``, ``v[2:4]``, ``v[:6]``;
+    for a log (one row per period) the last axis: ``v[k, 6:9]``."""
+    if isinstance(index, ast.Tuple):
+        return bool(index.elts) and _positional(index.elts[-1])
+    if isinstance(index, ast.Slice):
+        return _int_literal(index.lower) or _int_literal(index.upper)
+    return _int_literal(index)
+
+
+def _packed_indexing(tree: ast.AST) -> list[str]:
+    bad = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Subscript):
+            continue
+        v = node.value
+        name = v.id if isinstance(v, ast.Name) else v.attr if isinstance(v, ast.Attribute) else None
+        if name in PACKED and _positional(node.slice):
+            bad.append(f"line {node.lineno}: {ast.unparse(node)}")
+    return bad
+
+
+def _port_tuples(tree: ast.AST, ports: set[str]) -> list[str]:
+    bad = []
+    for node in ast.walk(tree):
+        if not isinstance(node, (ast.Tuple, ast.List)) or len(node.elts) < 2:
+            continue
+        if all(isinstance(e, ast.Constant) and isinstance(e.value, str) and e.value in ports
+               for e in node.elts):
+            bad.append(f"line {node.lineno}: {ast.unparse(node)}")
+    return bad
+
+
+@pytest.mark.parametrize("part,path", _modules(), ids=lambda v: str(v).split("/work/main/")[-1])
+def test_packed_vectors_are_indexed_by_name(part, path):
+    """A literal index into a packed vector outside its layout's definition is a second
+    definition of that layout: slice it by field name (``layout["xa"]``)."""
+    if path in LAYOUT_HOMES or part not in PACKING_PARTS:
+        return
+    bad = _packed_indexing(ast.parse(path.read_text()))
+    assert not bad, f"{path}: positional index into a packed vector: {'; '.join(bad)}"
+
+
+@pytest.mark.parametrize("part,path", _modules(), ids=lambda v: str(v).split("/work/main/")[-1])
+def test_port_tuples_live_in_the_port_list(part, path):
+    """A tuple of the period's port names outside ``sim/ports.py`` is a second port list:
+    use the named tuples of :mod:`ballbot_casadi.sim.ports`."""
+    if path in LAYOUT_HOMES or part not in PACKING_PARTS:
+        return
+    bad = _port_tuples(ast.parse(path.read_text()), _port_names())
+    assert not bad, f"{path}: port tuple outside sim/ports.py: {'; '.join(bad)}"
+
+
+def test_the_checks_catch_what_they_are_for():
+    """The two checks above flag the patterns they exist for, and not a named slice."""
+    ports = _port_names()
+    assert len(_packed_indexing(ast.parse("a = c[3:5] + xz[:12] + x_hat[2] + meas[0, 6:9]"))) == 4
+    assert len(_packed_indexing(ast.parse("a = c[C['xa']] + xz[nx:] + q[0:4] + xz[-1, X['c']]"))) == 0
+    assert _port_tuples(ast.parse("NAMES = ('q_ref', 'dq_ref', 'w')"), ports)
+    assert not _port_tuples(ast.parse("NAMES = ('time', 'state', 'q_ref')"), ports)

@@ -41,15 +41,11 @@ from ballbot_casadi.control import (
 from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, run_tool
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.model.dynamics import make_affine, make_ode
+from ballbot_casadi.bench.exports import control_bench_library
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.closed_loop import ClosedLoop
-from ballbot_casadi.sim.period import (
-    CONSTANT_INPUTS,
-    SEQUENCE_INPUTS,
-    PeriodBlocks,
-    control_period,
-    rk4_plant,
-)
+from ballbot_casadi.sim.period import control_period, rk4_plant
+from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES, PeriodBlocks
 from ballbot_casadi.sim.scenario import Scenario, initial_state
 
 __all__ = ["bench_control", "mission_inputs"]
@@ -91,14 +87,14 @@ def _python_loop_period_s(sim: ClosedLoop, inputs: dict, n: int) -> float:
     values (the same definition as the compiled step) with the RK4 plant Function.
     """
     blocks = PeriodBlocks(make_balance_controller("flc", make_affine()), make_velocity_controller())
-    const = {k: inputs[k] for k in CONSTANT_INPUTS}
+    const = {k: inputs[k] for k in PERIOD_CONSTANTS}
     plant = rk4_plant(make_ode(), sim.n_sub, const["p_plant"], const["Ts"])
     x, z = inputs["x0"].copy(), inputs["z0"].copy()
     best = float("inf")
     for rep in range(3):  # best of 3 blocks: the machine may be shared
         t0 = time.perf_counter()
         for k in range(rep * n, (rep + 1) * n):
-            out = control_period(blocks, x, z, {key: inputs[key][k] for key in SEQUENCE_INPUTS},
+            out = control_period(blocks, x, z, {key: inputs[key][k] for key in PERIOD_SEQUENCES},
                                  const, plant)
             x, z = out["x_next"], out["z_next"]
         best = min(best, (time.perf_counter() - t0) / n)
@@ -110,7 +106,7 @@ def bench_control(n_calls: int = 100000, repeats: int = 3) -> dict[str, float]:
 
     sim = ClosedLoop(compiled=True)
     sc, inputs = mission_inputs(100.0)
-    data = _c_bench(sim.library, inputs, n_calls)
+    data = _c_bench(control_bench_library(), inputs, n_calls)
     n = sc.n_periods
     t0 = time.perf_counter()
     sim.mission("flc", n)

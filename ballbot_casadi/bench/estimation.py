@@ -5,8 +5,8 @@ Keys
 ``estimator_step_us``
     One period of the estimation: the QUKF, the VUKF, the velocity-aided tilt
     correction and the COM observer (``ballbot_qukf`` + ``ballbot_vukf`` +
-    ``ballbot_tilt_correction`` + ``ballbot_com_observer``, exported by the estimating
-    closed-loop library) in generated C, each timed by the C driver
+    ``ballbot_tilt_correction`` + ``ballbot_com_observer``, exported by
+    :func:`~ballbot_casadi.bench.exports.estimation_bench_library`) in generated C, each timed by the C driver
     ``csrc/bench_function.c`` on a realistic operating point.  Target <= 10 us (the
     loop period is 5000 us).  Also the parts ``qukf_step_us``, ``vukf_step_us``,
     ``tilt_correction_step_us``, ``com_observer_step_us`` and ``embedded_step_us``
@@ -30,9 +30,12 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.core.toolchain import CFLAGS, Library, build_root, compiler_command, run_tool
+from ballbot_casadi.bench.exports import estimation_bench_library
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
-from ballbot_casadi.sim.embedded import controller_layout
+from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
+from ballbot_casadi.sim.embedded import MEAS, software_layout
+from ballbot_casadi.sim.ports import REFERENCE_SEQUENCES
 from ballbot_casadi.sim.scenario import load_scenario_file
 
 __all__ = ["bench_estimation", "c_function_us"]
@@ -83,24 +86,24 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
         raise BuildError("the complete-system benchmark mission diverged")
     data = {"mission_full_100s_s": best, "mission_full_100s_with_inputs_s": best + t_inputs,
             "mission_full_100s_target_s": 0.5}
-    variant = sim._variant(sc.n_sub, sc.estimator)
-    lib = variant.library
+    lib, names = estimation_bench_library(sc.controller, sc.estimator)
     est = inputs["estimation"]
     # a realistic operating point: the filters' state in the middle of the run
     k = log["x_hat"].shape[0] // 2
     c = log["c_final"]
-    names = {f.name(): f for f in variant.exported}
     qukf, vukf = names["ballbot_qukf"], names["ballbot_vukf"]
     tilt, observer = names["ballbot_tilt_correction"], names["ballbot_com_observer"]
     embedded = names[f"ballbot_embedded_{sc.controller}_{sc.estimator}"]
-    C = controller_layout(sc.estimator, np.size(inputs["z0"]), observer.numel_in(2))
+    C = software_layout(embedded, sc.estimator)
     xa, Pa, xv, Pv, obs = (c[C[f]] for f in ("xa", "Pa", "xv", "Pv", "obs"))
     meas = log["meas"][k]
     p = est["p_est"]
-    q_in = [xa, Pa, meas[:6], est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
-    v_in = [xv, Pv, np.r_[meas[6:9] * inputs["Ts"], meas[:3]], xa, np.eye(3) * 1e-8, est["Qv"],
+    acc, gyro, enc = (meas[MEAS[f]] for f in ("acc", "gyro", "enc"))
+    XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
+    q_in = [xa, Pa, np.r_[acc, gyro], est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
+    v_in = [xv, Pv, np.r_[enc * inputs["Ts"], acc], xa, np.eye(3) * 1e-8, est["Qv"],
             est["Rv"], inputs["Ts"], p]
-    t_in = [xa[:4], xv[2:4], xv[4:7], p]
+    t_in = [xa[XA["q"]], xv[XV["a"]], xv[XV["b_acc"]], p]
     x_hat = log["x_hat"][k]
     o_in = [x_hat, np.zeros(3), obs, inputs["p_ctrl"], inputs["k_obs"], inputs["Ts"]]
     data["qukf_step_us"] = c_function_us(lib, qukf, q_in, n_calls)
@@ -109,12 +112,11 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
     data["com_observer_step_us"] = c_function_us(lib, observer, o_in, n_calls)
     data["estimator_step_us"] = sum(data[f"{k}_step_us"] for k in ("qukf", "vukf", "tilt_correction",
                                                                    "com_observer"))
-    e_in = [c, meas, *(inputs[s][k] for s in ("q_ref", "dq_ref", "ddq_ref", "v_ref")),
-            inputs["p_ctrl"], p, inputs["k_bal"], inputs["k_vel"], inputs["Ts"],
-            1.0 if inputs["cascade"] else 0.0, 1.0 if inputs["feedforward"] else 0.0,
-            est["Qa"], est["Ra"], est["Qv"], est["Rv"]]
-    if embedded.n_in() > len(e_in):  # with the COM observer: its switch and gains
-        e_in += [1.0 if inputs["com_observer"] else 0.0, inputs["k_obs"]]
+    values = {"c": c, "meas": meas, **{r: inputs[r][k] for r in REFERENCE_SEQUENCES},
+              **inputs, **est, "cascade": 1.0 if inputs["cascade"] else 0.0,
+              "feedforward": 1.0 if inputs["feedforward"] else 0.0,
+              "com_observer": 1.0 if inputs.get("com_observer") else 0.0}
+    e_in = [values[n] for n in embedded.name_in()]
     data["embedded_step_us"] = c_function_us(lib, embedded, e_in, n_calls)
     data["estimator_step_target_us"] = 10.0
     return data

@@ -1,7 +1,8 @@
 """Named layouts of the package's vectors: every index is defined here once and used by name.
 
-A :class:`Layout` is an ordered list of named fields with sizes; ``L["q"]`` is the slice
-of field ``q``, ``L.index("dx")`` the index of a scalar field, ``L.names`` the element
+A :class:`Layout` is an ordered list of named fields with sizes (a field may itself be a
+layout: ``L["c.xa"]``); ``L["q"]`` (or ``L.slice("q")``) is the slice of field ``q``,
+``L.offset("q")`` its first index, ``L.index("dx")`` the index of a scalar field, ``L.names`` the element
 names (``q0..q3`` for a 4-vector ``q``).  Slices work on numpy arrays and CasADi
 SX/MX/DM alike.
 
@@ -19,6 +20,9 @@ Layouts
     Per-period disturbance ``w = [push, tau_dist]``: attitude jump rotation vector in
     {K} (thesis §8.4.3) and a wheel-torque disturbance added after the plant's
     saturation.
+:data:`ATTITUDE_FILTER_STATE`, :data:`VELOCITY_FILTER_STATE`
+    The filters' states ``xa = [q, omega]`` (thesis 4.1) and ``xv = [v, a, b_acc]``
+    (thesis 5.1).
 :data:`VELOCITY_CONTROLLER_STATE`
     Velocity controller state ``z = [theta_r, dtheta_r, p_e, psi_r, r_r]`` (thesis §7.3):
     tilt reference and its rate, position error (integral of the velocity error),
@@ -28,10 +32,13 @@ Layouts
 from __future__ import annotations
 
 from types import MappingProxyType
-from typing import Iterable, Mapping
+from typing import Any, Iterable, Mapping
+
+import numpy as np
 
 __all__ = [
     "Layout",
+    "c_layout_defines",
     "STATE",
     "REDUCED_STATE",
     "DISTURBANCE",
@@ -53,21 +60,28 @@ class Layout:
         field, ``<field>0..`` otherwise).
     """
 
-    __slots__ = ("name", "_slices", "size", "names")
+    __slots__ = ("name", "_slices", "_parts", "size", "names")
 
-    def __init__(self, name: str, fields: Iterable[tuple[str, int]],
+    def __init__(self, name: str, fields: Iterable[tuple[str, "int | Layout"]],
                  element_names: Iterable[str] | None = None) -> None:
         slices: dict[str, slice] = {}
+        parts: dict[str, Layout] = {}
         names: list[str] = []
         start = 0
-        for field, n in fields:
-            if field in slices or n < 1:
-                raise ValueError(f"layout {name}: field {field!r} repeated or of size {n}")
+        for field, size in fields:
+            n = size.size if isinstance(size, Layout) else int(size)
+            if field in slices or n < 1 or "." in field:
+                raise ValueError(f"layout {name}: field {field!r} repeated, dotted or of size {n}")
             slices[field] = slice(start, start + n)
-            names += [field] if n == 1 else [f"{field}{i}" for i in range(n)]
+            if isinstance(size, Layout):
+                parts[field] = size
+                names += [f"{field}.{e}" for e in size.names]
+            else:
+                names += [field] if n == 1 else [f"{field}{i}" for i in range(n)]
             start += n
         self.name = name
         self._slices: Mapping[str, slice] = MappingProxyType(slices)
+        self._parts: Mapping[str, Layout] = MappingProxyType(parts)
         self.size = start
         self.names = tuple(element_names) if element_names is not None else tuple(names)
         if len(self.names) != self.size:
@@ -79,10 +93,45 @@ class Layout:
         return tuple(self._slices)
 
     def __getitem__(self, field: str) -> slice:
+        """Slice of ``field``; ``"c.xa"`` is field ``xa`` of the nested layout ``c``."""
+        head, _, rest = field.partition(".")
         try:
-            return self._slices[field]
+            s = self._slices[head]
         except KeyError:
-            raise KeyError(f"{self.name} has no field {field!r}; fields: {', '.join(self._slices)}") from None
+            raise KeyError(f"{self.name} has no field {head!r}; fields: {', '.join(self._slices)}") from None
+        if not rest:
+            return s
+        inner = self.part(head)[rest]
+        return slice(s.start + inner.start, s.start + inner.stop)
+
+    def slice(self, field: str) -> slice:
+        """Slice of ``field`` (same as ``layout[field]``; dotted paths reach nested layouts)."""
+        return self[field]
+
+    def offset(self, field: str) -> int:
+        """Index of the first entry of ``field``."""
+        return self[field].start
+
+    def size_of(self, field: str) -> int:
+        """Number of entries of ``field``."""
+        s = self[field]
+        return s.stop - s.start
+
+    def part(self, field: str) -> "Layout":
+        """The nested layout of ``field`` (a field given as a :class:`Layout`)."""
+        try:
+            return self._parts[field]
+        except KeyError:
+            raise KeyError(f"{self.name} field {field!r} is not a nested layout; nested: "
+                           f"{', '.join(self._parts) or 'none'}") from None
+
+    def has(self, field: str) -> bool:
+        """Whether ``field`` (dotted paths allowed) exists."""
+        try:
+            self[field]
+        except KeyError:
+            return False
+        return True
 
     def index(self, field: str) -> int:
         """Index of a scalar field."""
@@ -91,11 +140,58 @@ class Layout:
             raise KeyError(f"{self.name} field {field!r} has {s.stop - s.start} entries, not one")
         return s.start
 
+    def pack(self, parts: Mapping[str, Any]) -> np.ndarray:
+        """The vector from its fields by name (dotted paths reach nested fields); every
+        entry must be given exactly once."""
+        out = np.full(self.size, np.nan)
+        given = np.zeros(self.size, dtype=int)
+        for field, value in parts.items():
+            v = np.asarray(value, float).reshape(-1)
+            if v.size != self.size_of(field):
+                raise ValueError(f"{self.name}: field {field!r} has {v.size} entries, "
+                                 f"expected {self.size_of(field)}")
+            out[self[field]] = v
+            given[self[field]] += 1
+        if np.any(given != 1):
+            bad = [f for f, o, n in self.flat() if np.any(given[o:o + n] != 1)]
+            raise ValueError(f"{self.name}: fields {', '.join(bad)} not given exactly once")
+        return out
+
+    def flat(self) -> tuple[tuple[str, int, int], ...]:
+        """``(dotted field name, offset, size)`` of every field, nested layouts expanded
+        after their own entry."""
+        out: list[tuple[str, int, int]] = []
+        for f, s in self._slices.items():
+            out.append((f, s.start, s.stop - s.start))
+            if f in self._parts:
+                out += [(f"{f}.{g}", s.start + o, n) for g, o, n in self._parts[f].flat()]
+        return tuple(out)
+
     def __len__(self) -> int:
         return self.size
 
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Layout) and self.flat() == other.flat()
+
+    def __hash__(self) -> int:
+        return hash(self.flat())
+
     def __repr__(self) -> str:
         return f"Layout({self.name!r}, {[(f, s.stop - s.start) for f, s in self._slices.items()]})"
+
+
+def c_layout_defines(prefix: str, layouts: Mapping[str, Layout]) -> str:
+    """C ``#define`` lines naming every field of ``layouts`` (block name -> layout):
+    ``<PREFIX>_<BLOCK>_<FIELD>`` (offset) and ``<PREFIX>_<BLOCK>_<FIELD>_N`` (size),
+    nested fields joined by ``_``, plus ``<PREFIX>_<BLOCK>_SIZE``; upper case."""
+    lines = []
+    for block, layout in layouts.items():
+        base = f"{prefix}_{block}".upper()
+        lines.append(f"#define {base}_SIZE {layout.size}")
+        for field, off, n in layout.flat():
+            name = f"{base}_{field.replace('.', '_')}".upper()
+            lines += [f"#define {name} {off}", f"#define {name}_N {n}"]
+    return "\n".join(lines) + "\n"
 
 
 STATE = Layout(
@@ -126,4 +222,12 @@ VELOCITY_CONTROLLER_STATE = Layout(
     ("theta_rx", "theta_ry", "dtheta_rx", "dtheta_ry", "p_ex", "p_ey", "psi_r", "r_r"),
 )
 
+#: Attitude filter state ``xa = [q, omega]`` (thesis 4.1; QUKF and QEKF).
+ATTITUDE_FILTER_STATE = Layout("attitude filter state xa", [("q", 4), ("omega", 3)])
+
+#: Velocity filter state ``xv = [v, a, b_acc]`` (thesis 5.1; VUKF and VEKF): ball velocity,
+#: ball acceleration and the accelerometer bias.
+VELOCITY_FILTER_STATE = Layout("velocity filter state xv", [("v", 2), ("a", 2), ("b_acc", 3)])
+
+__all__ += ["ATTITUDE_FILTER_STATE", "VELOCITY_FILTER_STATE"]
 __all__ += ["STATE_XY", "STATE_DXY", "REDUCED_TILT", "GENERALISED"]

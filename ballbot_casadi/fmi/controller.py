@@ -4,10 +4,11 @@ The FMU runs the embedded software's period, the CasADi Function
 ``ballbot_embedded_<ctrl>_<est>`` of :func:`~ballbot_casadi.sim.embedded.make_embedded_step`
 (attitude and velocity filters, velocity controller, balance controller, torque limit),
 taken from the Functions the compiled mission exports
-(:func:`~ballbot_casadi.sim.closed_loop.closed_loop_functions`): the FMU's C and the
-mission's C are generated from the same Function, so there is one implementation.  The
-per-model C file is ``fmu/controller/controller_model.c``; the FMI layer is the plant's
-(``fmu/layer/fmi2_common.c`` and its parts), the table below generates ``modelDescription.xml`` and the C
+(:func:`~ballbot_casadi.sim.embedded.embedded_software`, built without any mission): the
+FMU's C and the mission's C are generated from the same Function, so there is one
+implementation.  The per-model C file is ``fmu/controller/controller_model.c``; the FMI
+layer is the plant's (``fmu/layer/fmi2_common.c`` and its parts), the table below
+generates ``modelDescription.xml`` and the C
 headers.
 
 Variants: :func:`controller_spec` builds any balance controller with any estimator;
@@ -92,12 +93,13 @@ from ballbot_casadi.estimation.com_observer import (
 from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.estimation.velocity import VELOCITY_STATE
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
-from ballbot_casadi.sim.closed_loop import closed_loop_functions
-from ballbot_casadi.sim.embedded import (
+from ballbot_casadi.sim.embedded import MEAS, embedded_software, estimator_layout, software_layout
+from ballbot_casadi.sim.ports import (
     EMBEDDED_INPUTS,
     EMBEDDED_OUTPUTS,
-    MEAS,
-    controller_layout,
+    MODEL_CONSTANTS,
+    OBSERVER_CONSTANTS,
+    OBSERVER_OUTPUTS,
 )
 from ballbot_casadi.sim.scenario import Scenario
 
@@ -140,8 +142,6 @@ REFERENCE_USED = Layout("references used", [("q", 4), ("dq", 4), ("ddq", 4)])
 XHAT_NAMES = ("pos_hat_x", "pos_hat_y", "q_hat0", "q_hat1", "q_hat2", "q_hat3", "v_hat_x",
               "v_hat_y", "dq_hat0", "dq_hat1", "dq_hat2", "dq_hat3")
 _XHAT_UNITS = ("m", "m", "1", "1", "1", "1", "m/s", "m/s", "1/s", "1/s", "1/s", "1/s")
-_OBSERVER_INPUTS = ("com_observer", "k_obs")
-_OBSERVER_OUTPUTS = ("com_hat",)
 _READING_DESC = {
     "acc": ("m/s2", "accelerometer reading along IMU axis {c} (the plant FMU's output of that "
                     "name); NaN = missing (the filters predict only)"),
@@ -162,8 +162,9 @@ def model_identifier(controller: str, estimator: str) -> str:
 
 
 def embedded_function(controller: str = "flc", estimator: str = "ukf") -> ca.Function:
-    """The embedded software's period ``ballbot_embedded_<controller>_<estimator>``, as the
-    compiled mission exports it (:func:`~ballbot_casadi.sim.closed_loop.closed_loop_functions`).
+    """The embedded software's period ``ballbot_embedded_<controller>_<estimator>``
+    (:func:`~ballbot_casadi.sim.embedded.embedded_software`, the Function the compiled
+    mission calls), checked against what the per-model C reads.  Builds no mission.
 
     Raises
     ------
@@ -175,38 +176,25 @@ def embedded_function(controller: str = "flc", estimator: str = "ukf") -> ca.Fun
     if estimator == "true":
         raise ScenarioError("the controller FMU needs an estimator ('ukf' or 'ekf'); the true "
                             "state is not available to the embedded software")
-    _, exported = closed_loop_functions(N_SUB, estimator)
-    name = f"ballbot_embedded_{controller}_{estimator}"
-    found = [f for f in exported if f.name() == name]
-    if not found:
-        allowed = sorted(f.name().removeprefix("ballbot_embedded_").rsplit("_", 1)[0]
-                         for f in exported if f.name().startswith("ballbot_embedded_"))
-        raise ScenarioError(f"unknown controller {controller!r}; allowed: {', '.join(allowed)}")
-    f = found[0]
+    f = embedded_software(controller, estimator)
+    name = f.name()
     ins, outs = tuple(f.name_in()), tuple(f.name_out())
-    if ins not in (EMBEDDED_INPUTS, (*EMBEDDED_INPUTS, *_OBSERVER_INPUTS)) or outs not in (
-            EMBEDDED_OUTPUTS, (*EMBEDDED_OUTPUTS, *_OBSERVER_OUTPUTS)):
+    if ins not in (EMBEDDED_INPUTS, (*EMBEDDED_INPUTS, *OBSERVER_CONSTANTS)) or outs not in (
+            EMBEDDED_OUTPUTS, (*EMBEDDED_OUTPUTS, *OBSERVER_OUTPUTS)):
         raise BuildError(f"{name} has inputs {ins} and outputs {outs}; the controller FMU reads "
-                         f"{EMBEDDED_INPUTS} (+ {_OBSERVER_INPUTS}) -> {EMBEDDED_OUTPUTS} "
-                         f"(+ {_OBSERVER_OUTPUTS})")
+                         f"{EMBEDDED_INPUTS} (+ {OBSERVER_CONSTANTS}) -> {EMBEDDED_OUTPUTS} "
+                         f"(+ {OBSERVER_OUTPUTS})")
     return f
 
 
 def _has_observer(embedded: ca.Function) -> bool:
-    return _OBSERVER_INPUTS[0] in embedded.name_in()
+    return OBSERVER_CONSTANTS[0] in embedded.name_in()
 
 
 def controller_state_layout(embedded: ca.Function, estimator: str) -> Layout:
     """Layout of the embedded software's state ``c``
-    (:func:`~ballbot_casadi.sim.embedded.controller_layout`, with the COM observer's state
-    ``obs`` last when the Function has one)."""
-    base = controller_layout(estimator, VELOCITY_NZ)
-    n_obs = embedded.size1_in(0) - base.size
-    fields = [(f, base[f].stop - base[f].start) for f in base.fields]
-    if n_obs < 0 or (n_obs > 0) != _has_observer(embedded):
-        raise BuildError(f"{embedded.name()}: state of {embedded.size1_in(0)} entries does not "
-                         f"match the layout {base}")
-    return Layout("controller state c", fields + ([("obs", n_obs)] if n_obs else []))
+    (:func:`~ballbot_casadi.sim.embedded.software_layout`)."""
+    return software_layout(embedded, estimator)
 
 
 def default_scenario(controller: str = "flc", estimator: str = "ukf") -> Scenario:
@@ -257,18 +245,21 @@ def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
     return groups
 
 
-def initial_controller_state(inp: Mapping[str, Any], layout: Layout) -> np.ndarray:
+def initial_controller_state(inp: Mapping[str, Any], layout: Layout, estimator: str) -> np.ndarray:
     """The embedded software's state at power-on, as the compiled mission starts it, from a
     scenario's :meth:`~ballbot_casadi.sim.scenario.Scenario.inputs` ``inp``: velocity
     controller, filters (aligned with the initial state) and COM observer."""
-    parts = [np.asarray(inp["z0"], float).reshape(-1),
-             np.asarray(inp["estimation"]["e0"], float).reshape(-1)]
+    e0 = np.asarray(inp["estimation"]["e0"], float).reshape(-1)
+    E = estimator_layout(estimator)
+    if e0.size != E.size:
+        raise BuildError(f"initial filter state has {e0.size} entries, the layout {E.size}")
+    parts = {"z": inp["z0"], **{f: e0[E[f]] for f in E.fields}}
     if "obs" in layout.fields:
-        parts.append(com_observer_initial_state(inp["x0"], inp["p_ctrl"]))
-    c0 = np.concatenate(parts)
-    if c0.size != layout.size:
-        raise BuildError(f"initial controller state has {c0.size} entries, the layout {layout.size}")
-    return c0
+        parts["obs"] = com_observer_initial_state(inp["x0"], inp["p_ctrl"])
+    try:
+        return layout.pack(parts)
+    except ValueError as e:
+        raise BuildError(f"initial controller state: {e}") from None
 
 
 def controller_values(scenario: Scenario, embedded: ca.Function | None = None
@@ -302,9 +293,9 @@ def controller_values(scenario: Scenario, embedded: ca.Function | None = None
         out.update({n: float(v) for n, v in zip(names, vals, strict=True)})
     if _has_observer(embedded):
         out["com_observer"] = bool(inp["com_observer"])
-    c0 = initial_controller_state(inp, layout)
+    c0 = initial_controller_state(inp, layout, scenario.estimator)
     names = [n for f in layout.fields
-             for n in _element_names(f"c0_{f}", layout[f].stop - layout[f].start)]
+             for n in _element_names(f"c0_{f}", layout.size_of(f))]
     out.update({n: float(v) for n, v in zip(names, c0, strict=True)})
     return out
 
@@ -376,7 +367,7 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
     for arg, names in _parameter_groups(embedded, controller, estimator):
         for n in names:
             unit, rule, desc = None, None, f"{arg} entry {n}"
-            if arg in ("p_ctrl", "p_est"):
+            if arg in MODEL_CONSTANTS:
                 base = n.split("_", 1)[1]
                 unit, pdesc, rule = PARAM_INFO[base]
                 who = "controllers'" if arg == "p_ctrl" else "filters'"
@@ -389,12 +380,12 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
         t.add("com_observer", "parameter", "the controllers use the COM observer's estimate as "
               "their internal model", type="Boolean", start=bool(start["com_observer"]))
     for f in layout.fields:
-        n = layout[f].stop - layout[f].start
+        n = layout.size_of(f)
         for name in _element_names(f"c0_{f}", n):
             t.add(name, "parameter", f"state of the embedded software at power-on, field {f}",
                   start=float(start[name]))
     for f in layout.fields:
-        n = layout[f].stop - layout[f].start
+        n = layout.size_of(f)
         for name in _element_names(f"c_{f}", n):
             t.add(name, "local", f"state of the embedded software, field {f}")
     t.add("balance_only", "discrete_input", "mode: true = the balance controller follows the "
@@ -419,7 +410,7 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
 
     def field_names(prefix: str) -> tuple[str, ...]:
         return tuple(n for f in layout.fields
-                     for n in _element_names(f"{prefix}_{f}", layout[f].stop - layout[f].start))
+                     for n in _element_names(f"{prefix}_{f}", layout.size_of(f)))
 
     for f, sub in (("xa", ATTITUDE_STATE), ("xv", VELOCITY_STATE)):
         if layout[f].stop - layout[f].start != sub.size:

@@ -19,12 +19,8 @@ from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.build import MODEL_IDENTIFIER, build_fmu
 from ballbot_casadi.model.dynamics import make_affine
-from ballbot_casadi.sim.period import (
-    CONSTANT_INPUTS,
-    SEQUENCE_INPUTS,
-    PeriodBlocks,
-    control_period,
-)
+from ballbot_casadi.sim.period import control_period
+from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES, PeriodBlocks
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["cosim_open_loop", "closed_loop_cosim"]
@@ -91,7 +87,7 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
     sx = [vr[n] for n in STATE.names]
     su = [vr[f"tau{i}"] for i in range(3)]
     sd = [vr[f"tau_dist{i}"] for i in range(3)]
-    const = {k: inp[k] for k in CONSTANT_INPUTS}
+    const = {k: inp[k] for k in PERIOD_CONSTANTS}
     Ts = float(const["Ts"])
     n = w.shape[0]
     plant = FMU2Slave(guid=md.guid, unzipDirectory=str(unzipped),
@@ -121,7 +117,7 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
 
         x = np.array(plant.getReal(sx))
         for k in range(n):
-            seq = {key: inp[key][k] for key in SEQUENCE_INPUTS}
+            seq = {key: inp[key][k] for key in PERIOD_SEQUENCES}
             out = control_period(blocks, x, z, seq, const, fmu_plant)
             states[k], tau_cmd[k], tau[k] = out["x"], out["tau_cmd"], out["tau"]
             x, z = out["x_next"], out["z_next"]

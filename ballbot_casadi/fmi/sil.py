@@ -26,7 +26,7 @@ state at ``t_k`` before the plant leaves ``t_k``).  Therefore:
 
 * ``master="libcosim"`` (default; the SSP as any engine runs it) equals, bit for bit
   up to rounding, the compiled mission of the same scenario with that one-period delay
-  (:mod:`ballbot_casadi.fmi.sil_mission`);
+  (``run_scenario(..., actuation_delay=True)``, :mod:`ballbot_casadi.sim.steps`);
 * ``master="gauss-seidel"`` (fmpy, the same SSP and FMUs) steps the controller first
   and the plant after it at every ``t_k``, which is the compiled mission itself.
 
@@ -72,6 +72,7 @@ from ballbot_casadi.fmi.plant import WHEEL_ANGLE_NAMES
 from ballbot_casadi.fmi.reference import DISTURBANCE_NAMES, reference_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.ssp import SspComponent, SspConnection, read_ssp, write_ssp
+from ballbot_casadi.sim.embedded import MEAS
 from ballbot_casadi.sim.log import SimulationLog
 from ballbot_casadi.sim.scenario import Scenario
 
@@ -491,7 +492,7 @@ def sil_log(run: SilRun, scenario: Scenario | None = None) -> SimulationLog:
     dist = cols(PLANT, DISTURBANCE_NAMES)[:n] if f"{PLANT}.tau_dist0" in s else np.zeros((n, 3))
     tau = np.clip(tau_in, -params.tau_max, params.tau_max) + dist
     meas = cols(PLANT, READING_NAMES)[:n].copy()
-    meas[0, 6:9] = np.nan  # the controller takes the first encoder reading as missing
+    meas[0, MEAS["enc"]] = np.nan  # the controller takes the first encoder reading as missing
     ctrl = {k: cols(CONTROLLER, names)[1:] for k, names in (
         ("tau_cmd", [f"tau_cmd{i}" for i in range(3)]), ("x_hat", XHAT_NAMES),
         ("q_ref", [f"q_ref_used{i}" for i in range(4)]),

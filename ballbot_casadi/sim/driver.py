@@ -1,6 +1,6 @@
 """Zero-copy C entry point for closed-loop missions: one C call runs a whole mission.
 
-The CasADi mission Function (:func:`ballbot_casadi.sim.closed_loop.make_mission`) is the
+The CasADi mission Function (:func:`ballbot_casadi.sim.mission.make_mission`) is the
 reference implementation; calling it from Python converts every input and output
 element between numpy and ``casadi.DM`` (~80 ns per element, a third of a 100 s
 mission's wall time).  This module generates a few lines of C glue,

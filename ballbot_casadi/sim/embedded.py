@@ -38,15 +38,26 @@ parameters ``s``); the filters run on their own model parameters ``p_est``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, Mapping
 
 import casadi as ca
 import numpy as np
 
+from ballbot_casadi.control import BALANCE_CONTROLLERS, make_velocity_controller
+from ballbot_casadi.control.velocity import VELOCITY_NZ
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.core.layout import STATE, STATE_DXY, STATE_XY, Layout
+from ballbot_casadi.core.layout import (
+    ATTITUDE_FILTER_STATE,
+    STATE,
+    STATE_DXY,
+    STATE_XY,
+    VELOCITY_CONTROLLER_STATE,
+    VELOCITY_FILTER_STATE,
+    Layout,
+)
 from ballbot_casadi.core.params import PARAM_NAMES
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.estimation import (
     DEFAULT_TUNING,
     initial_state,
@@ -56,8 +67,16 @@ from ballbot_casadi.estimation import (
     make_vekf,
     make_vukf,
 )
+from ballbot_casadi.estimation.com_observer import make_com_observer
+from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.model.sensors import make_encoders, make_gyro_bias_step, make_imu
-from ballbot_casadi.sim.period import PeriodBlocks, check_blocks, controller_part
+from ballbot_casadi.sim.period import controller_part
+from ballbot_casadi.sim.ports import (
+    OBSERVER_CONSTANTS,
+    PeriodBlocks,
+    controller_state,
+    embedded_ports,
+)
 
 __all__ = [
     "ESTIMATOR_FILTERS",
@@ -65,17 +84,15 @@ __all__ = [
     "VALID",
     "MEAS",
     "SENSOR_STATE",
-    "N_WHEEL",
-    "EMBEDDED_INPUTS",
-    "EMBEDDED_OUTPUTS",
-    "OBSERVER_INPUTS",
-    "OBSERVER_OUTPUTS",
     "EstimatorBlocks",
     "estimator_blocks",
     "estimator_layout",
     "controller_layout",
+    "software_layout",
+    "software_blocks",
     "sense",
     "make_embedded_step",
+    "embedded_software",
     "initial_estimator_state",
 ]
 
@@ -89,17 +106,6 @@ VALID = Layout("sensor availability", [("acc", 1), ("gyro", 1), ("enc", 1)])
 MEAS = Layout("sensor readings", [("acc", 3), ("gyro", 3), ("enc", 3)])
 #: Plant-side sensor state: torque of the previous period, gyro bias, wheel angles at the last sample.
 SENSOR_STATE = Layout("sensor state", [("tau_prev", 3), ("bias", 3), ("phi_prev", 3)])
-#: Wheel angles appended to the plant state.
-N_WHEEL = 3
-#: Inputs of the embedded step (besides the controller state ``c`` and the readings ``meas``).
-EMBEDDED_INPUTS = ("c", "meas", "q_ref", "dq_ref", "ddq_ref", "v_ref", "p_ctrl", "p_est", "k_bal",
-                   "k_vel", "Ts", "cascade", "feedforward", "Qa", "Ra", "Qv", "Rv")
-#: Outputs of the embedded step.
-EMBEDDED_OUTPUTS = ("c_next", "tau_lim", "tau_cmd", "x_hat", "q_ref_used", "dq_ref_used",
-                    "ddq_ref_used", "diag", "nis", "repairs")
-#: Further inputs and outputs of an embedded step with the COM observer (after the others).
-OBSERVER_INPUTS = ("com_observer", "k_obs")
-OBSERVER_OUTPUTS = ("com_hat",)
 
 
 @dataclass(frozen=True)
@@ -118,6 +124,9 @@ class EstimatorBlocks:
         ``ballbot_tilt_correction`` (:mod:`~ballbot_casadi.estimation.tilt_aiding`).
     name
         ``"ukf"`` or ``"ekf"``.
+    ode, wheel_speeds
+        The model Functions the sensors and filters were built on (the plant of a
+        mission with these sensors uses the same ones).
     """
 
     imu: ca.Function
@@ -127,6 +136,8 @@ class EstimatorBlocks:
     velocity: ca.Function
     name: str
     tilt_correction: ca.Function
+    ode: ca.Function | None = None
+    wheel_speeds: ca.Function | None = None
 
 
 def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function) -> EstimatorBlocks:
@@ -137,7 +148,7 @@ def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function
     attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
     velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True)
     return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
-                           velocity, estimator, make_tilt_correction())
+                           velocity, estimator, make_tilt_correction(), ode, wheel_speeds)
 
 
 def estimator_layout(estimator: str) -> Layout:
@@ -145,16 +156,42 @@ def estimator_layout(estimator: str) -> Layout:
     if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
     att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[estimator])
-    return Layout("estimator state", [("xa", att.x0.size), ("Pa", att.P0.size),
-                                      ("xv", vel.x0.size), ("Pv", vel.P0.size), ("pos", 2)])
+    if (att.x0.size, vel.x0.size) != (ATTITUDE_FILTER_STATE.size, VELOCITY_FILTER_STATE.size):
+        raise BuildError(f"estimator {estimator!r}: filter states of {att.x0.size} and "
+                         f"{vel.x0.size} entries do not match the layouts {ATTITUDE_FILTER_STATE} "
+                         f"and {VELOCITY_FILTER_STATE}")
+    return Layout("estimator state", [("xa", ATTITUDE_FILTER_STATE), ("Pa", att.P0.size),
+                                      ("xv", VELOCITY_FILTER_STATE), ("Pv", vel.P0.size),
+                                      ("pos", 2)])
 
 
-def controller_layout(estimator: str, nz: int, n_obs: int = 0) -> Layout:
-    """Layout of the embedded software's state ``c``: velocity controller, then filters,
-    then (``n_obs > 0``) the COM observer's state ``obs``."""
+def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0) -> Layout:
+    """Layout of the embedded software's state ``c``: velocity controller ``z``, then the
+    filters, then (``n_obs > 0``) the COM observer's state ``obs``, then (``n_guide > 0``)
+    the guidance block's state ``guide``."""
     e = estimator_layout(estimator)
-    return Layout("controller state c", [("z", nz), *((f, e[f].stop - e[f].start) for f in e.fields),
-                                         *((("obs", n_obs),) if n_obs else ())])
+    z = VELOCITY_CONTROLLER_STATE if nz == VELOCITY_CONTROLLER_STATE.size else nz
+    return Layout("controller state c", [
+        ("z", z), *((f, e.part(f) if f in ("xa", "xv") else e.size_of(f)) for f in e.fields),
+        *((("obs", n_obs),) if n_obs else ()), *((("guide", n_guide),) if n_guide else ())])
+
+
+def software_layout(embedded: ca.Function, estimator: str) -> Layout:
+    """The controller-state layout of an embedded-software Function (with the COM
+    observer's state ``obs`` last when the Function has the observer's inputs).
+
+    Raises
+    ------
+    BuildError
+        The Function's state size does not match the layout.
+    """
+    has_obs = OBSERVER_CONSTANTS[0] in embedded.name_in()
+    base = controller_layout(estimator, VELOCITY_NZ)
+    n_obs = embedded.size1_in(0) - base.size
+    if n_obs < 0 or (n_obs > 0) != has_obs:
+        raise BuildError(f"{embedded.name()}: state of {embedded.size1_in(0)} entries does not "
+                         f"match the layout {base}")
+    return controller_layout(estimator, VELOCITY_NZ, n_obs)
 
 
 def _drop(y: Any, ok: Any) -> Any:
@@ -185,47 +222,41 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                        observer: ca.Function | None = None) -> ca.Function:
     """The embedded software's period ``ballbot_embedded_<ctrl>_<est>`` (module docstring, 2.).
 
-    Inputs :data:`EMBEDDED_INPUTS`: the controller state ``c``
+    Inputs :data:`~ballbot_casadi.sim.ports.EMBEDDED_INPUTS`: the controller state ``c``
     (:func:`controller_layout`), the readings ``meas`` (:data:`MEAS`), the references
     ``q_ref, dq_ref, ddq_ref`` (balance-only mode) and ``v_ref`` (cascade), the
     controllers' and the filters' model parameters, gains, ``Ts``, the ``cascade`` and
     ``feedforward`` switches and the filter covariances (column-major).  Outputs
-    :data:`EMBEDDED_OUTPUTS`: ``c_next``, ``tau_lim`` (the wheel torque command after
+    :data:`~ballbot_casadi.sim.ports.EMBEDDED_OUTPUTS`: ``c_next``, ``tau_lim`` (the wheel torque command after
     the direction-preserving limit), ``tau_cmd``, ``x_hat`` (the estimate the
     controllers read), the references used, ``diag``, ``nis`` (attitude, velocity) and
     ``repairs`` (covariance repairs this period).
 
     With ``observer`` (``ballbot_com_observer``,
     :mod:`ballbot_casadi.estimation.com_observer`, a called Function) ``c`` ends with the
-    observer's state (field ``obs``), the inputs end with :data:`OBSERVER_INPUTS`
-    (``com_observer`` switch, ``k_obs`` gains) and the outputs with
-    :data:`OBSERVER_OUTPUTS` (``com_hat``, the estimate); the observer reads ``x_hat``
+    observer's state (field ``obs``), the inputs end with
+    :data:`~ballbot_casadi.sim.ports.OBSERVER_CONSTANTS` (``com_observer`` switch,
+    ``k_obs`` gains) and the outputs with :data:`~ballbot_casadi.sim.ports.OBSERVER_OUTPUTS`
+    (``com_hat``, the estimate); the observer reads ``x_hat``
     (:func:`~ballbot_casadi.sim.period.controller_part`).
     """
-    blocks = PeriodBlocks(balance, velocity)
-    sz = check_blocks(blocks, len(PARAM_NAMES))
-    n_obs = observer.numel_in(2) if observer is not None else 0
-    C = controller_layout(est.name, sz["nz"], n_obs)
-    na = int(round(np.sqrt(C["Pa"].stop - C["Pa"].start)))
-    nv = int(round(np.sqrt(C["Pv"].stop - C["Pv"].start)))
+    blocks = PeriodBlocks(balance, velocity, observer)
     NP = len(PARAM_NAMES)
-    MX = ca.MX.sym
-    sym = {"c": MX("c", C.size), "meas": MX("meas", MEAS.size), "q_ref": MX("q_ref", 4),
-           "dq_ref": MX("dq_ref", 4), "ddq_ref": MX("ddq_ref", 4), "v_ref": MX("v_ref", 3),
-           "p_ctrl": MX("p_ctrl", NP), "p_est": MX("p_est", NP), "k_bal": MX("k_bal", sz["nk"]),
-           "k_vel": MX("k_vel", sz["nkv"]), "Ts": MX("Ts"), "cascade": MX("cascade"),
-           "feedforward": MX("feedforward"), "Qa": MX("Qa", 36), "Ra": MX("Ra", 36),
-           "Qv": MX("Qv", nv * nv), "Rv": MX("Rv", 36)}
-    if observer is not None:
-        sym.update({"com_observer": MX("com_observer"), "k_obs": MX("k_obs", observer.numel_in(4))})
+    Z = controller_state(blocks, NP)
+    C = controller_layout(est.name, Z.size_of("z"), Z.size_of("obs") if Z.has("obs") else 0)
+    na = int(round(np.sqrt(C.size_of("Pa"))))
+    nv = int(round(np.sqrt(C.size_of("Pv"))))
+    ports = embedded_ports(blocks, NP, C, MEAS.size, {"Qa": 36, "Ra": 36, "Qv": nv * nv, "Rv": 36})
+    sym = ports.symbols()
     c, meas, Ts, p_est = sym["c"], sym["meas"], sym["Ts"], sym["p_est"]
     acc, gyro, enc = meas[MEAS["acc"]], meas[MEAS["gyro"]], meas[MEAS["enc"]]
+    XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
 
     # the velocity filter's last acceleration estimate compensates the accelerometer
     xv_prev = c[C["xv"]]
     att = est.attitude(xhat=c[C["xa"]], P=ca.reshape(c[C["Pa"]], na, na), z=ca.vertcat(acc, gyro),
                        Q=ca.reshape(sym["Qa"], 6, 6), R=ca.reshape(sym["Ra"], 6, 6), dt=Ts, p=p_est,
-                       a=ca.vertcat(xv_prev[2:4], 0))
+                       a=ca.vertcat(xv_prev[XV["a"]], 0))
     xa = att["xhat_next"]
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
                        att=xa, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
@@ -233,23 +264,77 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     xv = vel["xhat_next"]
     # the velocity filter's horizontal accelerometer bias is the attitude filter's slow
     # tilt error (velocity-aided tilt, estimation.tilt_aiding): the controllers read q_c
-    q_hat = est.tilt_correction(q=xa[0:4], a=xv[2:4], b_acc=xv[4:7], p=p_est)["q_c"]
-    w_hat, v_hat = xa[4:7], xv[0:2]
+    q_hat = est.tilt_correction(q=xa[XA["q"]], a=xv[XV["a"]], b_acc=xv[XV["b_acc"]], p=p_est)["q_c"]
+    w_hat, v_hat = xa[XA["omega"]], xv[XV["v"]]
     pos = c[C["pos"]] + Ts * v_hat
-    x_hat = ca.vertcat(pos, q_hat, v_hat, 0.5 * Q.mul(q_hat, ca.vertcat(0, w_hat)))
+    x_hat = ca.vertcat(pos, q_hat, v_hat, 0.5 * Q.mul(q_hat, ca.vertcat(0, w_hat)))  # STATE layout
 
-    z_ctrl = c[C["z"]] if observer is None else ca.vertcat(c[C["z"]], c[C["obs"]])
-    ctrl = controller_part(blocks, x_hat, z_ctrl, sym, sym, observer)
-    z_next, obs_next = ctrl["z_next"], []
-    if observer is not None:
-        z_next, obs_next = z_next[:sz["nz"]], [z_next[sz["nz"]:]]
-    c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos, *obs_next)
+    z_parts = [c[C[f]] for f in Z.fields]
+    z_ctrl = z_parts[0] if len(z_parts) == 1 else ca.vertcat(*z_parts)
+    ctrl = controller_part(blocks, x_hat, z_ctrl, sym, sym)
+    z_next = ctrl["z_next"]
+    if len(Z.fields) > 1:
+        z_next = z_next[Z["z"]]
+    after = [ctrl["z_next"][Z[f]] for f in Z.fields[1:]]
+    c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos, *after)
     outs = {"c_next": c_next, "x_hat": x_hat, "nis": ca.vertcat(att["nis"], vel["nis"]),
             "repairs": att["n_repair"] + vel["n_repair"], **ctrl}
-    names_in = list(EMBEDDED_INPUTS) + (list(OBSERVER_INPUTS) if observer is not None else [])
-    names_out = list(EMBEDDED_OUTPUTS) + (list(OBSERVER_OUTPUTS) if observer is not None else [])
-    return ca.Function(f"ballbot_embedded_{blocks.name}_{est.name}",
-                       [sym[k] for k in names_in], [outs[k] for k in names_out], names_in, names_out)
+    return ports.function(f"ballbot_embedded_{blocks.name}_{est.name}", sym, outs)
+
+
+@lru_cache(maxsize=None)
+def _shared_controllers() -> tuple[ca.Function, ca.Function, ca.Function]:
+    """The input-affine model, the velocity controller and the COM observer, built once
+    (every embedded Function and mission step shares them: one copy each in C)."""
+    return make_affine(), make_velocity_controller(), make_com_observer()
+
+
+@lru_cache(maxsize=None)
+def _estimator(estimator: str) -> EstimatorBlocks:
+    return estimator_blocks(estimator, make_ode(), make_wheel_speeds())
+
+
+def software_blocks(controller: str, estimator: str, observer: bool = True
+                    ) -> tuple[PeriodBlocks, EstimatorBlocks]:
+    """The controller blocks and the estimator Functions of the package's embedded
+    software (built once per process and shared).
+
+    Raises
+    ------
+    ScenarioError
+        Unknown controller or estimator (the message lists the allowed ones).
+    """
+    if controller not in BALANCE_CONTROLLERS:
+        raise ScenarioError(f"unknown controller {controller!r}; allowed: "
+                            f"{', '.join(BALANCE_CONTROLLERS)}")
+    if estimator not in ESTIMATOR_FILTERS:
+        raise ScenarioError(f"unknown estimator {estimator!r}; the embedded software reads "
+                            f"sensors: allowed {', '.join(ESTIMATOR_FILTERS)}")
+    _, velocity, obs = _shared_controllers()
+    balance = _balance(controller)
+    return PeriodBlocks(balance, velocity, obs if observer else None), _estimator(estimator)
+
+
+@lru_cache(maxsize=None)
+def _balance(controller: str) -> ca.Function:
+    return BALANCE_CONTROLLERS[controller](_shared_controllers()[0])
+
+
+@lru_cache(maxsize=None)
+def embedded_software(controller: str = "flc", estimator: str = "ukf",
+                      observer: bool = True) -> ca.Function:
+    """The package's embedded software ``ballbot_embedded_<controller>_<estimator>``
+    (:func:`make_embedded_step`, with the COM observer unless ``observer`` is false),
+    built once per process: the compiled mission and the controller FMU use this one
+    Function, and asking for it builds no mission.
+
+    Raises
+    ------
+    ScenarioError
+        Unknown controller or estimator (the message lists the allowed ones).
+    """
+    blocks, est = software_blocks(controller, estimator, observer)
+    return make_embedded_step(blocks.balance, blocks.velocity, est, blocks.observer)
 
 
 def initial_estimator_state(estimator: str, x0: np.ndarray) -> np.ndarray:
@@ -268,7 +353,7 @@ def initial_estimator_state(estimator: str, x0: np.ndarray) -> np.ndarray:
     xa0, Pa0 = initial_state(att, np.concatenate([q, omega]))
     xv0, Pv0 = initial_state(vel)
     xv0 = xv0.copy()
-    xv0[0:2] = x0[STATE_DXY]
+    xv0[VELOCITY_FILTER_STATE["v"]] = x0[STATE_DXY]
     e = np.zeros(L.size)
     e[L["xa"]] = xa0
     e[L["Pa"]] = np.asarray(Pa0, float).ravel(order="F")

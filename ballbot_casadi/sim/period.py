@@ -22,7 +22,8 @@ The sequence of one period ``[t_k, t_k + Ts)`` is
 7. **plant** - the resulting torque is held over the period (zero-order hold) while the
    plant advances by ``Ts``.
 
-:func:`control_period` is that sequence, written once.  It evaluates on CasADi
+:func:`control_period` is that sequence, written once; its inputs and outputs are the
+ports of :mod:`ballbot_casadi.sim.ports`.  It evaluates on CasADi
 symbols (the compiled mission's step Function, :mod:`ballbot_casadi.sim.closed_loop`)
 and on numpy values (the FMU co-simulation master :mod:`ballbot_casadi.fmi.cosim` and
 the Python-loop benchmark), with the plant supplied by the caller: classical RK4 on the
@@ -31,7 +32,6 @@ model's ODE (:func:`rk4_plant`), or an FMU stepped by ``fmi2DoStep``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
 import casadi as ca
@@ -41,78 +41,19 @@ from ballbot_casadi.control import saturate_torques
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import DISTURBANCE, STATE
 from ballbot_casadi.core.params import PARAM_NAMES
-from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.model.integrators import make_rk4_n
+from ballbot_casadi.sim.ports import PeriodBlocks, controller_state
 
 __all__ = [
-    "SEQUENCE_INPUTS",
-    "CONSTANT_INPUTS",
-    "PeriodBlocks",
-    "check_blocks",
     "apply_push",
     "actuate",
     "controller_part",
     "control_period",
     "rk4_plant",
-    "PERIOD_OUTPUTS",
 ]
-
-#: Per-period input sequences of a period, in order (sizes: 4, 4, 4, 3, 6).
-SEQUENCE_INPUTS = ("q_ref", "dq_ref", "ddq_ref", "v_ref", "w")
-#: Inputs constant over a mission, in order.
-CONSTANT_INPUTS = ("p_plant", "p_ctrl", "k_bal", "k_vel", "Ts", "cascade", "feedforward")
-#: Per-period outputs of :func:`control_period` besides the next plant and controller states.
-PERIOD_OUTPUTS = ("x", "tau_cmd", "tau", "q_ref_used", "dq_ref_used", "ddq_ref_used", "diag")
 
 _TAU_MAX = PARAM_NAMES.index("tau_max")
 _SYMBOLIC = (ca.SX, ca.MX)
-
-
-@dataclass(frozen=True)
-class PeriodBlocks:
-    """The controller blocks of a period (CasADi Functions).
-
-    Attributes
-    ----------
-    balance
-        ``(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)``.
-    velocity
-        ``(x, v_ref, z, p, k, Ts) -> (q_ref, dq_ref, ddq_ref, z_next)``.
-    """
-
-    balance: ca.Function
-    velocity: ca.Function
-
-    @property
-    def name(self) -> str:
-        """The balance controller's name without the ``ballbot_`` prefix (``flc``, ``smc``)."""
-        return self.balance.name().removeprefix("ballbot_")
-
-
-def check_blocks(blocks: PeriodBlocks, n_p: int) -> dict[str, int]:
-    """Check the controller signatures and return the sizes ``nk, nd, nz, nkv``."""
-    balance, velocity = blocks.balance, blocks.velocity
-    if not isinstance(balance, ca.Function) or balance.n_in() != 6 or balance.n_out() != 2:
-        raise ScenarioError(
-            "balance controller must be a CasADi Function "
-            "(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)"
-        )
-    if not isinstance(velocity, ca.Function) or velocity.n_in() != 6 or velocity.n_out() != 4:
-        raise ScenarioError(
-            "velocity controller must be a CasADi Function "
-            "(x, v_ref, z, p, k, Ts) -> (q_ref, dq_ref, ddq_ref, z_next)"
-        )
-    want_b = [STATE.size, 4, 4, 4, n_p]
-    got_b = [balance.numel_in(i) for i in range(5)]
-    if got_b != want_b or balance.numel_out(0) != 3:
-        raise ScenarioError(f"balance controller input sizes {got_b} (expected {want_b} + gains)")
-    nz = velocity.numel_in(2)
-    want_v = [STATE.size, 3, nz, n_p]
-    got_v = [velocity.numel_in(i) for i in range(4)]
-    if got_v != want_v or [velocity.numel_out(i) for i in range(4)] != [4, 4, 4, nz]:
-        raise ScenarioError(f"velocity controller sizes {got_v} do not match {want_v}")
-    return {"nk": balance.numel_in(5), "nd": balance.numel_out(1), "nz": nz,
-            "nkv": velocity.numel_in(4)}
 
 
 def _symbolic(*args: Any) -> bool:
@@ -160,36 +101,45 @@ def controller_part(
     z: Any,
     seq: Mapping[str, Any],
     const: Mapping[str, Any],
-    observer: ca.Function | None = None,
 ) -> dict[str, Any]:
-    """The robot's controllers for one period: velocity controller, balance controller and
-    the direction-preserving torque limit (steps 2-4 of the module docstring).
+    """The robot's controllers for one period: guidance (if any), velocity controller,
+    balance controller and the direction-preserving torque limit (steps 2-4 of the module
+    docstring).
 
-    ``x_seen`` is what the controllers read (the true state or an estimate).  Returns
-    ``z_next``, ``tau_cmd`` (balance controller output), ``tau_lim`` (after the limit at
-    the controller's ``tau_max``), the references used and ``diag``.
+    ``x_seen`` is what the controllers read (the true state or an estimate); ``z`` the
+    controllers' state, laid out by :func:`~ballbot_casadi.sim.ports.controller_state`
+    (velocity controller ``z``, then the observer's ``obs``, then the guidance block's
+    ``guide``).  Returns ``z_next``, ``tau_cmd`` (balance controller output), ``tau_lim``
+    (after the limit at the controller's ``tau_max``), the references used and ``diag``.
 
-    With ``observer`` (``ballbot_com_observer``,
-    :mod:`ballbot_casadi.estimation.com_observer`) the controller state is
-    ``z = [z_velocity; o]`` with the observer's state ``o`` last, ``const`` also holds
-    ``k_obs`` (observer gains) and ``com_observer`` (switch): the observer runs every
-    period on ``x_seen`` and, with the switch on, both controllers use its internal
-    model ``p_hat`` (the estimated COM offset) instead of ``p_ctrl``; with the switch off
-    they get ``p_ctrl`` itself, so the loop is exactly the one without an observer (the
-    estimate still runs, unused).  The result then also has ``com_hat`` (the COM-offset
-    estimate after this period's update) and ``com_meas`` (the observer's measurement).
+    With ``blocks.observer`` (``ballbot_com_observer``,
+    :mod:`ballbot_casadi.estimation.com_observer`) ``const`` also holds ``k_obs``
+    (observer gains) and ``com_observer`` (switch): the observer runs every period on
+    ``x_seen`` and, with the switch on, both controllers use its internal model ``p_hat``
+    (the estimated COM offset) instead of ``p_ctrl``; with the switch off they get
+    ``p_ctrl`` itself, so the loop is exactly the one without an observer (the estimate
+    still runs, unused).  The result then also has ``com_hat`` (the COM-offset estimate
+    after this period's update) and ``com_meas`` (the observer's measurement).
+
+    With ``blocks.guidance`` (``const`` holds ``k_guid``) the guidance block turns the
+    period's ``v_ref`` into the velocity reference the velocity controller and the
+    observer follow (output ``v_ref_used``).
     """
+    Z = controller_state(blocks, len(PARAM_NAMES))
     p_ctrl = const["p_ctrl"]
-    z_vel, extra = z, {}
+    observer, guidance = blocks.observer, blocks.guidance
+    v_ref, extra = seq["v_ref"], {}
+    z_vel = z if len(Z.fields) == 1 else z[Z["z"]]
+    if guidance is not None:
+        v_ref, g_next = (_value(v) for v in guidance(x_seen, v_ref, z[Z["guide"]], p_ctrl,
+                                                     const["k_guid"], const["Ts"]))
+        extra["v_ref_used"] = v_ref
     if observer is not None:
-        no = observer.numel_in(2)
-        nz = (z.numel() if _symbolic(z) else np.size(z)) - no
-        z_vel, o = z[:nz], z[nz:]
         o_next, p_hat, com_hat, com_meas = (_value(v) for v in observer(
-            x_seen, seq["v_ref"], o, p_ctrl, const["k_obs"], const["Ts"]))
+            x_seen, v_ref, z[Z["obs"]], p_ctrl, const["k_obs"], const["Ts"]))
         p_ctrl = _select(_on(const["com_observer"]), p_hat, p_ctrl)
-        extra = {"com_hat": com_hat, "com_meas": com_meas}
-    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(x_seen, seq["v_ref"], z_vel, p_ctrl,
+        extra.update(com_hat=com_hat, com_meas=com_meas)
+    qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(x_seen, v_ref, z_vel, p_ctrl,
                                                             const["k_vel"], const["Ts"]))
     on = _on(const["cascade"])
     qr = _select(on, qv, seq["q_ref"])
@@ -197,9 +147,11 @@ def controller_part(
     ddqr = _select(on, ddqv, seq["ddq_ref"])
     ddqr = ddqr * (const["feedforward"] if _symbolic(const["feedforward"]) else float(const["feedforward"]))
     z_next = _select(on, zv, z_vel)
-    if observer is not None:
-        z_next = (ca.vertcat(z_next, o_next) if _symbolic(z_next, o_next)
-                  else np.concatenate([np.ravel(z_next), np.ravel(o_next)]))
+    parts = [z_next, *([o_next] if observer is not None else []),
+             *([g_next] if guidance is not None else [])]
+    if len(parts) > 1:
+        z_next = (ca.vertcat(*parts) if _symbolic(*parts)
+                  else np.concatenate([np.ravel(p) for p in parts]))
     tau_cmd, diag = (_value(v) for v in blocks.balance(x_seen, qr, dqr, ddqr, p_ctrl, const["k_bal"]))
     tau_lim = saturate_torques(tau_cmd, const["p_ctrl"][_TAU_MAX])
     return {"z_next": z_next, "tau_cmd": tau_cmd, "tau_lim": tau_lim, "q_ref_used": qr,
@@ -229,11 +181,11 @@ def control_period(
     x, z
         Plant state at ``t_k`` (before a push) and the controller's state.
     seq
-        This period's :data:`SEQUENCE_INPUTS` (``q_ref``, ``dq_ref``, ``ddq_ref``,
-        ``v_ref``, ``w``).
+        This period's :data:`~ballbot_casadi.sim.ports.PERIOD_SEQUENCES` (``q_ref``,
+        ``dq_ref``, ``ddq_ref``, ``v_ref``, ``w``).
     const
-        The :data:`CONSTANT_INPUTS` (``p_plant``, ``p_ctrl``, ``k_bal``, ``k_vel``,
-        ``Ts``, ``cascade``, ``feedforward``).
+        The :data:`~ballbot_casadi.sim.ports.PERIOD_CONSTANTS` (``p_plant``, ``p_ctrl``,
+        ``k_bal``, ``k_vel``, ``Ts``, ``cascade``, ``feedforward``).
     plant
         ``plant(xk, tau, tau_lim, tau_dist) -> x_next``: advance the plant over the
         period from the pushed state ``xk``; ``tau`` is the torque acting on the plant
@@ -249,7 +201,7 @@ def control_period(
     Returns
     -------
     dict
-        ``x_next``, ``z_next`` and the :data:`PERIOD_OUTPUTS`: ``x`` (the pushed plant
+        ``x_next``, ``z_next`` and the :data:`~ballbot_casadi.sim.ports.PERIOD_OUTPUTS`: ``x`` (the pushed plant
         state at ``t_k``), ``tau_cmd`` (controller output), ``tau`` (torque acting on the
         plant), the references used and ``diag``, plus whatever else ``controller``
         returned.

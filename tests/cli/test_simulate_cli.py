@@ -7,7 +7,7 @@ import json
 import pytest
 
 from ballbot_casadi.cli import main
-from ballbot_casadi.sim.closed_loop import load_log
+from ballbot_casadi.sim.log import load_log
 from ballbot_casadi.studies.registry import shipped_scenarios
 
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -23,7 +23,6 @@ from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.container import build_container
 from ballbot_casadi.fmi.sil import read_scenario, run_ssp, sil_log, write_sil_ssp
-from ballbot_casadi.fmi.sil_mission import jacobi_mission
 from ballbot_casadi.fmi.ssp import NS, SSD_NAME, read_ssp
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import load_scenario_file
@@ -51,6 +50,11 @@ def _ssp(name: str, duration: float, tmp: str) -> Path:
 @pytest.fixture(scope="module")
 def work(tmp_path_factory) -> str:
     return str(tmp_path_factory.mktemp("sil"))
+
+
+def _jacobi(sc):
+    """The compiled mission with the one-period actuation delay of a Jacobi master."""
+    return run_scenario(sc, ClosedLoop(), actuation_delay=True).arrays
 
 
 def _max_diff(log, ref) -> tuple[float, float]:
@@ -94,7 +98,7 @@ def test_libcosim_runs_the_ssp_like_the_compiled_mission_with_the_jacobi_delay(w
         run = run_ssp(_ssp(name, dur, work))
         assert run.master == "libcosim" and run.time.size == sc.n_periods + 1
         log = sil_log(run)
-        ds, dt = _max_diff(log, jacobi_mission(sc))
+        ds, dt = _max_diff(log, _jacobi(sc))
         assert ds <= BOUND and dt <= BOUND, (name, ds, dt)
         # and that loop is not the zero-delay mission (the comparison can fail)
         ds0, dt0 = _max_diff(log, run_scenario(sc, ClosedLoop()).arrays)
@@ -132,7 +136,7 @@ def test_container_fmu_runs_in_fmpy_with_the_libcosim_result(work, tmp_path):
     tau_l = np.column_stack([run.signals[f"controller.tau{i}"] for i in range(3)])
     assert np.max(np.abs(x - x_l)) <= BOUND and np.max(np.abs(tau - tau_l)) <= BOUND
     sc, _ = _scenario("full_sine", SINE_S)
-    np.testing.assert_allclose(x, jacobi_mission(sc)["state"], rtol=0, atol=BOUND)
+    np.testing.assert_allclose(x, _jacobi(sc)["state"], rtol=0, atol=BOUND)
     # start values change the run: another seed gives other noise
     other = simulate_fmu(str(fmu), stop_time=0.1, output_interval=0.005,
                          start_values={"plant.seed": 7}, output=["plant.sensor_gyro_x"])
@@ -147,7 +151,7 @@ def test_your_own_plant_fmu_with_the_same_names(work, tmp_path):
     ssp = write_sil_ssp(sc, tmp_path / "mine.ssp", plant_fmu=mine)
     assert read_ssp(ssp).components["plant"] == "resources/MyPlant.fmu"
     log = sil_log(run_ssp(ssp))
-    ds, dt = _max_diff(log, jacobi_mission(sc))
+    ds, dt = _max_diff(log, _jacobi(sc))
     assert ds <= BOUND and dt <= BOUND
     # a plant without the robot's readings cannot be wired
     with pytest.raises(BuildError, match="lacks tau0"):

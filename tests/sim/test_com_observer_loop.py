@@ -13,7 +13,8 @@ from ballbot_casadi.control import make_flc, make_velocity_controller
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.estimation.com_observer import com_observer_initial_state, make_com_observer
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
-from ballbot_casadi.sim.closed_loop import ClosedLoop, make_closed_loop_step, make_estimating_step, run_scenario
+from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
 from ballbot_casadi.sim.embedded import estimator_blocks, make_embedded_step
 from ballbot_casadi.sim.scenario import load_scenario_file, parse_scenario
 from ballbot_casadi.sim.scenario import Scenario

@@ -14,15 +14,15 @@ pytestmark = pytest.mark.needs_cc
 CHILD = textwrap.dedent("""
     import casadi as ca, numpy as np
     from ballbot_casadi.sim.closed_loop import ClosedLoop
-    from ballbot_casadi.sim.period import CONSTANT_INPUTS, SEQUENCE_INPUTS
+    from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES
 
     # a tiny step with the mission signature: xz accumulates Ts, the rest passes through
     xz = ca.MX.sym("xz", 2)
-    seq = [ca.MX.sym(n, k) for n, k in zip(SEQUENCE_INPUTS, (4, 4, 4, 3, 6))]
-    const = [ca.MX.sym(n) for n in CONSTANT_INPUTS]
+    seq = [ca.MX.sym(n, k) for n, k in zip(PERIOD_SEQUENCES, (4, 4, 4, 3, 6))]
+    const = [ca.MX.sym(n) for n in PERIOD_CONSTANTS]
     step = ca.Function("ballbot_cl_step_tiny", [xz, *seq, *const],
                        [xz + const[4], xz[0], seq[3][0]],
-                       ["xz", *SEQUENCE_INPUTS, *CONSTANT_INPUTS], ["xz_next", "x", "v"])
+                       ["xz", *PERIOD_SEQUENCES, *PERIOD_CONSTANTS], ["xz_next", "x", "v"])
     sim = ClosedLoop(compiled=True, steps={"tiny": step})
     n = 450
     args = [np.zeros(2)] + [np.zeros((n, k)) for k in (4, 4, 4, 3, 6)] + [0.0] * 4 + [0.005, 1.0, 1.0]

@@ -17,15 +17,8 @@ from ballbot_casadi.core.layout import DISTURBANCE, STATE
 from ballbot_casadi.core.params import PARAM_NAMES, load_params
 from ballbot_casadi.model.dynamics import make_affine, make_ode
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.period import (
-    CONSTANT_INPUTS,
-    SEQUENCE_INPUTS,
-    PeriodBlocks,
-    actuate,
-    apply_push,
-    control_period,
-    rk4_plant,
-)
+from ballbot_casadi.sim.period import actuate, apply_push, control_period, rk4_plant
+from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES, PeriodBlocks
 from ballbot_casadi.sim.scenario import Scenario, initial_state
 
 TAU_MAX = PARAM_NAMES.index("tau_max")
@@ -45,12 +38,12 @@ def blocks() -> dict[str, PeriodBlocks]:
 def python_loop(blocks: PeriodBlocks, scenario: Scenario) -> dict[str, np.ndarray]:
     """The scenario as a Python loop of control_period with the RK4 plant."""
     inp = scenario.inputs()
-    const = {k: inp[k] for k in CONSTANT_INPUTS}
+    const = {k: inp[k] for k in PERIOD_CONSTANTS}
     plant = rk4_plant(make_ode(), scenario.n_sub, const["p_plant"], const["Ts"])
     x, z = inp["x0"].copy(), inp["z0"].copy()
     states, taus = [], []
     for k in range(scenario.n_periods):
-        out = control_period(blocks, x, z, {s: inp[s][k] for s in SEQUENCE_INPUTS}, const, plant)
+        out = control_period(blocks, x, z, {s: inp[s][k] for s in PERIOD_SEQUENCES}, const, plant)
         states.append(out["x"])
         taus.append(out["tau"])
         x, z = out["x_next"], out["z_next"]
@@ -125,8 +118,8 @@ def test_push_rotates_q_and_dq_and_the_controllers_see_the_pushed_state(blocks):
 
     sc = study_scenarios("sine", "flc")[0]
     inp = sc.inputs()
-    const = {k: inp[k] for k in CONSTANT_INPUTS}
-    seq = {s: inp[s][0] for s in SEQUENCE_INPUTS}
+    const = {k: inp[k] for k in PERIOD_CONSTANTS}
+    seq = {s: inp[s][0] for s in PERIOD_SEQUENCES}
     seq["w"] = np.r_[push, 0.0, 0.0, 0.0]
     seen = []
     out = control_period(blocks["flc"], x, inp["z0"], seq, const,

@@ -14,15 +14,10 @@ from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.model.dynamics import NP, make_ode
 from ballbot_casadi.model.integrators import make_rk4_n
 from ballbot_casadi.model.numeric import make_state
-from ballbot_casadi.sim.closed_loop import (
-    CHUNK,
-    ClosedLoop,
-    load_log,
-    make_closed_loop_step,
-    make_mission,
-    run_scenario,
-    save_log,
-)
+from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.log import load_log, save_log
+from ballbot_casadi.sim.mission import CHUNK, make_mission
+from ballbot_casadi.sim.steps import make_closed_loop_step
 from ballbot_casadi.sim.scenario import Scenario, initial_state
 
 

@@ -13,7 +13,8 @@ from ballbot_casadi.studies.registry import STUDIES, STUDY_NAMES, Spec
 
 from ballbot_casadi.cli import main
 from ballbot_casadi.control import FLC_DEFAULT_GAINS
-from ballbot_casadi.sim.closed_loop import ClosedLoop, load_log
+from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.log import load_log
 
 
 @pytest.fixture(scope="module")

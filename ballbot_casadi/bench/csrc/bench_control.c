@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-#include "ballbot_closed_loop.h"
+#include "ballbot_bench_control.h"
 
 #define MAXN 128
 #define CHUNK 200

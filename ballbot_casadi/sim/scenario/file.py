@@ -120,6 +120,7 @@ from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.core.specs import SPEC_OPS
 from ballbot_casadi.errors import ScenarioError, ScenarioFileError
 from ballbot_casadi.sim import references as R
+from ballbot_casadi.sim.ports import GAIN_CONSTANTS
 from ballbot_casadi.sim.scenario.scenario import (
     CONTROLLER_CHANGES,
     ESTIMATOR_CHANGES,
@@ -391,7 +392,7 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         key = f"torque_disturbance[{i}]"
         t0, t1 = _interval(c, row, key, "tau_nm")
         dists.append((t0, t1, *c.vector(row, "tau_nm", f"{key}.tau_nm", 3)))
-    gains = c.keys(table.get("gains", {}), "gains", ("k_bal", "k_vel", "k_obs"))
+    gains = c.keys(table.get("gains", {}), "gains", GAIN_CONSTANTS)
     fields = dict(
         name=name,
         controller=c.choice(table, "controller", "controller", "flc", tuple(BALANCE_CONTROLLERS)),
