@@ -49,7 +49,6 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, ukf_step
 from ballbot_casadi.estimation.manifold import attitude, attitude_additive
@@ -57,7 +56,6 @@ from ballbot_casadi.estimation.quaternion_mean import MEAN_ITERATIONS
 from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0, QUKF_X0
 
 __all__ = [
-    "ATTITUDE_STATE",
     "ATTITUDE_OUTPUT_NAMES",
     "INPUT_NAMES",
     "make_attitude_measurement",
@@ -68,8 +66,6 @@ __all__ = [
     "tangent_map",
 ]
 
-#: The attitude filter's state ``x = [q, omega]`` (thesis 4.1) by name.
-ATTITUDE_STATE = Layout("attitude filter state", [("q", 4), ("omega", 3)])
 
 #: Inputs of ``ballbot_qukf`` and ``ballbot_qekf``.
 INPUT_NAMES = ("xhat", "P", "z", "Q", "R", "dt", "p")

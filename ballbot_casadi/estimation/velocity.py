@@ -45,14 +45,12 @@ import math
 import casadi as ca
 
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.errors import BallbotTypeError
 from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, ukf_step
 from ballbot_casadi.estimation.manifold import euclidean
 
 __all__ = [
-    "VELOCITY_STATE",
     "INPUT_NAMES",
     "KAPPA",
     "NX",
@@ -61,8 +59,6 @@ __all__ = [
     "make_vukf",
 ]
 
-#: The velocity filter's state ``x = [dx, dy, ddx, ddy, b_acc]`` (thesis 5.1) by name.
-VELOCITY_STATE = Layout("velocity filter state", [("v", 2), ("a", 2), ("b_acc", 3)])
 
 #: Size of the velocity filter state (thesis 5.1).
 NX = 7

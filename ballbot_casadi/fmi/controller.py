@@ -77,21 +77,18 @@ from ballbot_casadi.control import BALANCE_DIAG_NAMES, BALANCE_GAIN_NAMES
 from ballbot_casadi.control.velocity import (
     VELOCITY_LIMIT_NAMES,
     VELOCITY_NKV,
-    VELOCITY_NZ,
 )
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
-from ballbot_casadi.core.layout import STATE, Layout
+from ballbot_casadi.core.constants import TS_CONTROL
+from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, STATE, VELOCITY_FILTER_STATE, Layout
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
 from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError, ScenarioError
-from ballbot_casadi.estimation.attitude import ATTITUDE_STATE
 from ballbot_casadi.estimation.com_observer import (
     COM_OBSERVER_GAIN_NAMES,
     com_observer_initial_state,
 )
 from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
-from ballbot_casadi.estimation.velocity import VELOCITY_STATE
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.embedded import MEAS, embedded_software, estimator_layout, software_layout
 from ballbot_casadi.sim.ports import (
@@ -412,7 +409,7 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
         return tuple(n for f in layout.fields
                      for n in _element_names(f"{prefix}_{f}", layout.size_of(f)))
 
-    for f, sub in (("xa", ATTITUDE_STATE), ("xv", VELOCITY_STATE)):
+    for f, sub in (("xa", ATTITUDE_FILTER_STATE), ("xv", VELOCITY_FILTER_STATE)):
         if layout[f].stop - layout[f].start != sub.size:
             raise BuildError(f"{embedded.name()}: field {f} of the controller state has "
                              f"{layout[f].stop - layout[f].start} entries, the {sub.name} {sub.size}")
@@ -420,8 +417,8 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
     blocks = [
         FmuBlock("c", layout, field_names("c")),
         FmuBlock("c0", layout, field_names("c0")),
-        FmuBlock("xa", ATTITUDE_STATE),
-        FmuBlock("xv", VELOCITY_STATE),
+        FmuBlock("xa", ATTITUDE_FILTER_STATE),
+        FmuBlock("xv", VELOCITY_FILTER_STATE),
         FmuBlock("meas", MEAS, READING_NAMES),
         FmuBlock("ref", REFERENCE, REFERENCE_NAMES),
         FmuBlock("tau", None, tuple(f"tau{i}" for i in range(3))),

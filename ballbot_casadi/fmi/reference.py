@@ -28,7 +28,7 @@ import numpy as np
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.controller import REFERENCE_NAMES
-from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable, block_start
+from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["MODEL_IDENTIFIER", "GRID_TOL", "DISTURBANCE_NAMES", "OUTPUT_NAMES", "reference_table",

@@ -40,7 +40,6 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 import casadi as ca
-import numpy as np
 
 from ballbot_casadi.core.layout import (
     DISTURBANCE,
@@ -48,7 +47,7 @@ from ballbot_casadi.core.layout import (
     VELOCITY_CONTROLLER_STATE,
     Layout,
 )
-from ballbot_casadi.errors import ScenarioError, ShapeError
+from ballbot_casadi.errors import ScenarioError
 
 __all__ = [
     "SEQUENCE",

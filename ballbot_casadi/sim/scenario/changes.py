@@ -17,7 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
-from ballbot_casadi.core.sensor_params import SENSOR_PARAM_NAMES, SensorParams, load_sensor_params
+from ballbot_casadi.core.sensor_params import SENSOR_PARAM_NAMES, load_sensor_params
 from ballbot_casadi.errors import BallbotError, ScenarioError
 
 __all__ = ["CHANGE_OPS", "ParamChanges", "apply_changes"]

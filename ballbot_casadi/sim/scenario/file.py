@@ -106,7 +106,6 @@ scenario, rerunnable alone with ``ballbot simulate``).
 from __future__ import annotations
 
 import copy
-import json
 import math
 import tomllib
 from dataclasses import dataclass
