@@ -15,14 +15,14 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
-from ballbot_casadi.fmi.controller import (
+from ballbot_casadi.fmi.controller.controller import (
     READING_NAMES,
     REFERENCE_NAMES,
     XHAT_NAMES,
     controller_spec,
 )
 from ballbot_casadi.fmi.package import build_tool, fmu_source_dir
-from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import value_range
 
 pytestmark = pytest.mark.needs_cc

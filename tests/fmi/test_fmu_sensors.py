@@ -1,6 +1,6 @@
 """The plant FMU's sampled sensors (accelerometer, gyroscope, encoders as the robot has them).
 
-Reference: :func:`ballbot_casadi.fmi.plant_reference.plant_sensor_reference`, a numpy RK4
+Reference: :func:`ballbot_casadi.fmi.plant.oracle.plant_sensor_reference`, a numpy RK4
 run of the CasADi model Functions called from Python with NoiseStream noise (the FMU runs
 the generated C of the same Functions and compiles the same Philox C file).  Measured:
 bit-identical states and readings, noise on and off, for every step size tried; the
@@ -21,7 +21,7 @@ from _fmu_support import ALL_STATES, NXW, SENSORS, STATES, Plant
 from ballbot_casadi import load_params
 from ballbot_casadi.core.rng import NoiseStream
 from ballbot_casadi.core.sensor_params import load_sensor_params
-from ballbot_casadi.fmi.plant_reference import plant_sensor_reference
+from ballbot_casadi.fmi.plant.oracle import plant_sensor_reference
 from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.model.sensors import (
     NOISE_STREAMS,

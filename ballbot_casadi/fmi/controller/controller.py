@@ -36,7 +36,7 @@ each ``t_k`` (Gauss-Seidel) gives the loop of the compiled mission exactly (torq
 period ``k`` computed from sample ``k`` and acting on ``[t_k, t_k+1)``); a master that
 steps both at once and exchanges values afterwards (Jacobi, libcosim's fixed-step
 algorithm, fmpy's containers) applies it one period later, on ``[t_k+1, t_k+2)``
-(:mod:`ballbot_casadi.fmi.sil`).
+(:mod:`ballbot_casadi.fmi.system.sil`).
 
 Variable names (see :func:`controller_variables`):
 
@@ -88,7 +88,7 @@ from ballbot_casadi.estimation.com_observer import (
     COM_OBSERVER_GAIN_NAMES,
     com_observer_initial_state,
 )
-from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.embedded import MEAS, embedded_software, estimator_layout, software_layout
 from ballbot_casadi.sim.ports import (

@@ -37,7 +37,7 @@ from ballbot_casadi.core.sensor_params import (
     load_sensor_params,
 )
 from ballbot_casadi.errors import ShapeError
-from ballbot_casadi.fmi.plant import (
+from ballbot_casadi.fmi.plant.plant import (
     GRID_TOL,
     H_INTERNAL_DEFAULT,
     NXW,

@@ -5,9 +5,9 @@ The system (:func:`sil_system`, written by :func:`write_sil_ssp`, ``make sil``):
 * ``plant`` - ``BallbotPlant.fmu`` (or any FMU with its variable names) with the
   scenario's plant parameters, sensor parameters, noise switch and seed (a 32-bit signed
   Integer in the FMU), internal step ``Ts / n_sub`` and sensor period ``Ts``;
-* ``controller`` - ``BallbotController.fmu`` (:mod:`~ballbot_casadi.fmi.controller`)
+* ``controller`` - ``BallbotController.fmu`` (:mod:`~ballbot_casadi.fmi.controller.controller`)
   with the scenario's controller and filter models, gains, tuning and state at power-on;
-* ``reference`` - ``BallbotReference.fmu`` (:mod:`~ballbot_casadi.fmi.reference`),
+* ``reference`` - ``BallbotReference.fmu`` (:mod:`~ballbot_casadi.fmi.reference_player.player`),
   the scenario's per-period references and wheel-torque disturbance;
 * connections ``plant.sensor_* -> controller.sensor_*``, ``controller.tau0..2 ->
   plant.tau0..2``, ``reference.<reference> -> controller.<reference>``,
@@ -59,7 +59,7 @@ from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.core.sensor_params import SENSOR_VECTOR_NAMES
 from ballbot_casadi.errors import BuildError, CosimError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
-from ballbot_casadi.fmi.controller import (
+from ballbot_casadi.fmi.controller.controller import (
     READING_NAMES,
     REFERENCE_NAMES,
     XHAT_NAMES,
@@ -68,10 +68,10 @@ from ballbot_casadi.fmi.controller import (
     embedded_function,
 )
 from ballbot_casadi.fmi.package import build_fmu_from_spec
-from ballbot_casadi.fmi.plant import WHEEL_ANGLE_NAMES
-from ballbot_casadi.fmi.reference import DISTURBANCE_NAMES, reference_spec
+from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
+from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
-from ballbot_casadi.fmi.ssp import SspComponent, SspConnection, read_ssp, write_ssp
+from ballbot_casadi.fmi.system.ssp import SspComponent, SspConnection, read_ssp, write_ssp
 from ballbot_casadi.sim.embedded import MEAS
 from ballbot_casadi.sim.log import SimulationLog
 from ballbot_casadi.sim.scenario import Scenario

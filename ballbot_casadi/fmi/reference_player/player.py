@@ -1,6 +1,6 @@
 """A scenario's references as an FMU: ``BallbotReference.fmu`` (FMI 2.0 Co-Simulation).
 
-The SIL system (:mod:`ballbot_casadi.fmi.ssp`) needs the scenario's references as
+The SIL system (:mod:`ballbot_casadi.fmi.system.ssp`) needs the scenario's references as
 signals that any co-simulation engine can connect to the controller FMU.  This FMU plays
 back the per-period rows the compiled mission uses (:meth:`Scenario.inputs
 <ballbot_casadi.sim.scenario.Scenario.inputs>`: ``q_ref, dq_ref, ddq_ref`` of the
@@ -12,7 +12,7 @@ Row ``k`` is output from ``t_k = startTime + k Ts`` until the next row (the last
 held after the end); ``balance_only`` is the scenario's mode (not ``cascade``).
 
 The output names are the controller FMU's input names
-(:data:`~ballbot_casadi.fmi.controller.REFERENCE_NAMES`) and the plant FMU's
+(:data:`~ballbot_casadi.fmi.controller.controller.REFERENCE_NAMES`) and the plant FMU's
 disturbance inputs (:data:`DISTURBANCE_NAMES`), so the SSP connects equal names.
 Attitude pushes cannot enter an FMU's state through its inputs; scenarios with pushes
 are refused.
@@ -27,7 +27,7 @@ import numpy as np
 
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.fmi.controller import REFERENCE_NAMES
+from ballbot_casadi.fmi.controller.controller import REFERENCE_NAMES
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.scenario import Scenario
 
