@@ -16,7 +16,8 @@ from ballbot_casadi.fmi.build import build_fmu, validate_fmu_archive
 from ballbot_casadi.fmi.system.container import CONTAINER_NAME, build_container
 from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.fmi.package import build_fmu_from_spec
-from ballbot_casadi.fmi.system.sil import MASTERS, write_sil_ssp
+from ballbot_casadi.fmi.masters.ssp_run import MASTERS
+from ballbot_casadi.fmi.system.sil import write_sil_ssp
 from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.sil import SIL_OUTPUTS, run_sil
