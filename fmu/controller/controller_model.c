@@ -3,7 +3,7 @@
  * layer (fmi2_common.c) to the CasADi-generated embedded software (ballbot_controller_cg.c:
  * CTRL_EMBEDDED = ballbot_embedded_<ctrl>_<est>, the Function the compiled mission calls,
  * and bbc_rpy, the ZYX angles of a quaternion).  ctrl_vr.h / ctrl_vars.h are generated from
- * the variable table of ballbot_casadi/fmi/controller.py: value indices CTRL_IX_<name>, the
+ * the variable table of ballbot_casadi/fmi/controller/controller.py: value indices CTRL_IX_<name>, the
  * packed vectors by name (CTRL_<BLOCK>_IX: value index of the first element,
  * CTRL_<BLOCK>_<FIELD>: offset of a field, _N: sizes; the state c and its power-on value
  * c0, its filter parts xa and xv, the readings meas, the references ref, the estimate

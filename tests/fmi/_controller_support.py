@@ -10,7 +10,11 @@ import numpy as np
 
 from ballbot_casadi.core.constants import N_SUB
 from ballbot_casadi.core.toolchain import load_library
-from ballbot_casadi.fmi.controller.controller import controller_spec, controller_values, default_scenario
+from ballbot_casadi.fmi.controller.controller import (
+    controller_spec,
+    controller_values,
+    default_scenario,
+)
 from ballbot_casadi.fmi.masters.adapter import FmuSlave
 from ballbot_casadi.fmi.package import FmuBuild, build_fmu_from_spec
 from ballbot_casadi.sim.library import closed_loop_library

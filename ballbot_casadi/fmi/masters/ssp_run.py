@@ -1,4 +1,5 @@
-"""Run an SSP archive with one of the masters: :func:`run_ssp` -> :class:`~ballbot_casadi.fmi.system.sil.SilRun`.
+"""Run an SSP archive with one of the masters (:func:`run_ssp`, a
+:class:`~ballbot_casadi.fmi.system.sil.SilRun`).
 
 Timing.  libcosim's fixed-step algorithm is a Jacobi master: every FMU steps from
 ``t_k`` on the inputs it was given at ``t_k``, and the outputs are transferred when all

@@ -16,8 +16,9 @@ The system (:func:`sil_system`, written by :func:`write_sil_ssp`, ``make sil``):
   (``osp:FixedStepAlgorithm``); the scenario itself as ``resources/scenario.json``.
 
 The masters that run it (libcosim's Jacobi algorithm, the controller-first Gauss-Seidel
-master on fmpy) are in :mod:`ballbot_casadi.fmi.masters` (:func:`~ballbot_casadi.fmi.masters.ssp_run.run_ssp`,
-which explains their timing); this module only composes the system.
+master on fmpy) are in :mod:`ballbot_casadi.fmi.masters`
+(:func:`~ballbot_casadi.fmi.masters.ssp_run.run_ssp`, which explains their timing); this
+module only composes the system.
 
 A run of the system is a :class:`SilRun` (every connection logged at every communication
 point, plus :func:`recorded`); :func:`~ballbot_casadi.fmi.system.sil_log.sil_log` turns it
@@ -51,7 +52,7 @@ from ballbot_casadi.fmi.controller.controller import (
 )
 from ballbot_casadi.fmi.package import build_fmu_from_spec
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
-from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_spec
+from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_player_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.system.ssp import SspComponent, SspConnection, SspSystem, write_ssp
 from ballbot_casadi.sim.scenario import Scenario
@@ -198,7 +199,7 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     embedded = embedded_function(scenario.controller, scenario.estimator)
     ctrl = build_fmu_from_spec(controller_spec(scenario.controller, scenario.estimator), out)
     ref_dir = (out if out is not None else Path(ctrl.fmu).parent) / "reference" / scenario.name
-    ref = build_fmu_from_spec(reference_spec(scenario), ref_dir)
+    ref = build_fmu_from_spec(reference_player_spec(scenario), ref_dir)
     components = [
         SspComponent(PLANT, plant, plant_parameters(scenario, names)),
         SspComponent(CONTROLLER, ctrl.fmu, controller_values(scenario, embedded)),
