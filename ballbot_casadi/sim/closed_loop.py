@@ -23,11 +23,13 @@ from typing import Any, Mapping
 import casadi as ca
 import numpy as np
 
+from ballbot_casadi.control.velocity import VELOCITY_NZ
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.toolchain import Library, build_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.estimation.com_observer import (
     COM_OBSERVER_DEFAULT_GAINS,
+    COM_OBSERVER_STATE,
     check_com_observer_gains,
     com_observer_initial_state,
 )
@@ -38,6 +40,7 @@ from ballbot_casadi.sim.embedded import (
     SENSOR_STATE,
     controller_layout,
     estimator_layout,
+    initial_controller_state,
 )
 from ballbot_casadi.sim.library import MissionVariant, closed_loop_functions, closed_loop_library
 from ballbot_casadi.sim.log import SimulationLog
@@ -263,8 +266,14 @@ class ClosedLoop:
         parts: dict[str, Any] = {"x": x0, "c.z": z0}
         if with_obs:
             k_obs = check_com_observer_gains(COM_OBSERVER_DEFAULT_GAINS if k_obs is None else k_obs)
-            parts["c.obs"] = (com_observer_initial_state(x0, p_ctrl) if o0 is None
-                              else np.asarray(o0, float).reshape(-1))
+            if o0 is not None:
+                parts["c.obs"] = np.asarray(o0, float).reshape(-1)
+            elif est:  # the embedded software's power-on state, as the controller FMU's
+                c0 = initial_controller_state(estimator, x0, p_ctrl, observer=True)
+                parts["c.obs"] = c0[controller_layout(estimator, VELOCITY_NZ,
+                                                      COM_OBSERVER_STATE.size)["obs"]]
+            else:
+                parts["c.obs"] = com_observer_initial_state(x0, p_ctrl)
         n_obs = np.size(parts["c.obs"]) if with_obs else 0
         if est:
             X = mission_state(controller_layout(estimator, z0.size, n_obs), SENSOR_STATE,
