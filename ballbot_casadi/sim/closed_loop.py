@@ -59,7 +59,7 @@ from ballbot_casadi.sim.ports import (
 )
 from ballbot_casadi.sim.scenario import Scenario
 
-__all__ = ["ClosedLoop", "run_scenario", "DECIMATED_SEGMENT_PERIODS"]
+__all__ = ["ClosedLoop", "run_scenario", "power_on_inputs", "DECIMATED_SEGMENT_PERIODS"]
 
 #: Periods per segment of a decimated run (60 s at 200 Hz): memory grows with the
 #: decimated log only.
@@ -344,6 +344,18 @@ class ClosedLoop:
         return log
 
 
+def power_on_inputs(estimator: str, inp: Mapping[str, Any]) -> dict[str, Any]:
+    """``inp`` (:meth:`Scenario.inputs <ballbot_casadi.sim.scenario.Scenario.inputs>`) with
+    the embedded software's state at power-on (``z0``, the filters' ``e0``, the observer's
+    ``o0``) from :func:`~ballbot_casadi.sim.embedded.initial_controller_state_function`,
+    the Function the controller FMU evaluates in its initialisation."""
+    c0 = initial_controller_state(estimator, inp["x0"], inp["p_ctrl"], observer=True)
+    L = controller_layout(estimator, VELOCITY_NZ, COM_OBSERVER_STATE.size)
+    e0 = np.concatenate([c0[L[f]] for f in estimator_layout(estimator).fields])
+    return {**inp, "z0": c0[L["z"]], "o0": c0[L["obs"]],
+            "estimation": {**inp["estimation"], "e0": e0}}
+
+
 def run_scenario(scenario: Any, sim: ClosedLoop | None = None, log_every: int = 1,
                  segment_periods: int | None = None, actuation_delay: bool = False
                  ) -> SimulationLog:
@@ -383,6 +395,8 @@ def run_scenario(scenario: Any, sim: ClosedLoop | None = None, log_every: int = 
     for k0 in range(0, n, seg):
         k1 = min(n, k0 + seg)
         inp = scenario.inputs(periods=(k0, k1))
+        if xz is None and scenario.estimator != "true":
+            inp = power_on_inputs(scenario.estimator, inp)
         part = sim.simulate(scenario.controller, **inp, n_sub=scenario.n_sub, xz0=xz,
                             actuation_delay=actuation_delay)
         xz = part.pop("xz_final")

@@ -15,6 +15,7 @@ from ballbot_casadi.core.params import PARAM_NAMES, load_params
 from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.estimation import initial_state
 from ballbot_casadi.estimation.com_observer import com_observer_initial_state
+from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs, run_scenario
 from ballbot_casadi.sim.embedded import (
     ESTIMATOR_FILTERS,
     controller_layout,
@@ -22,6 +23,8 @@ from ballbot_casadi.sim.embedded import (
     initial_controller_state_function,
     initial_estimator_state,
 )
+from ballbot_casadi.sim.scenario import Scenario
+from ballbot_casadi.sim.scenario.scenario import initial_state as tilted_state
 
 RNG = np.random.default_rng(20260)
 
@@ -97,3 +100,31 @@ def test_bad_input_is_refused():
         initial_controller_state("ukf", _random_state(), p[:3])
     with pytest.raises(ScenarioError, match="unknown estimator"):
         initial_controller_state("true", _random_state(), p)
+
+
+def test_run_scenario_starts_from_the_function(monkeypatch):
+    sc = Scenario(name="power_on", controller="flc", estimator="ekf", duration=0.005,
+                  x0=tilted_state(4.0, 1.0, 0.0), seed=5)
+    inp = sc.inputs()
+    got = power_on_inputs("ekf", inp)
+    c0 = initial_controller_state("ekf", inp["x0"], inp["p_ctrl"], observer=True)
+    L = controller_layout("ekf", VELOCITY_NZ, got["o0"].size)
+    np.testing.assert_array_equal(np.concatenate([got["z0"], got["estimation"]["e0"],
+                                                  got["o0"]]), c0)
+    assert L.size == c0.size and L.fields[-1] == "obs"
+    sim = ClosedLoop()
+    log = run_scenario(sc, sim)
+    ref = sim.simulate(sc.controller, **got, n_sub=sc.n_sub)
+    np.testing.assert_array_equal(log.arrays["c_final"], ref["c_final"])
+    # whatever the Function gives is where the mission starts (a changed power-on state
+    # changes the run: the mission does not build its own)
+    import ballbot_casadi.sim.closed_loop as cl
+
+    def shifted(*args, **kw):
+        c = initial_controller_state(*args, **kw).copy()
+        c[L["z"].start] += 1e-3
+        return c
+
+    monkeypatch.setattr(cl, "initial_controller_state", shifted)
+    moved = run_scenario(sc, sim).arrays["c_final"]
+    assert np.max(np.abs(moved - log.arrays["c_final"])) > 1e-5
