@@ -36,7 +36,7 @@ each ``t_k`` (Gauss-Seidel) gives the loop of the compiled mission exactly (torq
 period ``k`` computed from sample ``k`` and acting on ``[t_k, t_k+1)``); a master that
 steps both at once and exchanges values afterwards (Jacobi, libcosim's fixed-step
 algorithm, fmpy's containers) applies it one period later, on ``[t_k+1, t_k+2)``
-(:mod:`ballbot_casadi.fmi.system.sil`).
+(:mod:`ballbot_casadi.fmi.masters.ssp_run`).
 
 Variable names (see :func:`controller_variables`):
 

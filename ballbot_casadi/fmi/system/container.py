@@ -17,7 +17,7 @@ step): :func:`build_container` turns an SSP archive of :mod:`ballbot_casadi.fmi.
 
 The container steps every component from ``t_k`` and then updates the connections in
 order (a Jacobi master, like libcosim), so its result equals the libcosim run of the
-same SSP (:mod:`ballbot_casadi.fmi.system.sil`).
+same SSP (:mod:`ballbot_casadi.fmi.masters.ssp_run`).
 """
 
 from __future__ import annotations
