@@ -8,7 +8,7 @@ import numpy as np
 
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.fmi.build import build_fmu
-from ballbot_casadi.fmi.cosim import closed_loop_cosim, cosim_open_loop
+from ballbot_casadi.fmi.masters.plant_loop import closed_loop_cosim, cosim_open_loop
 from ballbot_casadi.model.dynamics import STATE_NAMES, make_model_functions
 from ballbot_casadi.model.integrators import make_rk4
 from ballbot_casadi.model.numeric import make_state

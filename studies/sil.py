@@ -1,6 +1,6 @@
 """``ballbot fmu cosim``: run an SSP system (plant + controller FMUs) and write it up like a study.
 
-:func:`run_sil` co-simulates an SSP archive of :mod:`ballbot_casadi.fmi.sil` (libcosim by
+:func:`run_sil` co-simulates an SSP archive of :mod:`ballbot_casadi.fmi.system.sil` (libcosim by
 default, or the controller-first Gauss-Seidel master) and writes, all together (the
 folder is replaced as a whole):
 
@@ -8,7 +8,7 @@ folder is replaced as a whole):
   the output that was read and the input that was held), the plant's states and the
   controller's estimate and diagnostics (``%.17g``, exact doubles);
 * ``run.npz``: the run as a :class:`~ballbot_casadi.sim.log.SimulationLog` in the
-  compiled mission's layout (:func:`~ballbot_casadi.fmi.sil.sil_log`);
+  compiled mission's layout (:func:`~ballbot_casadi.fmi.system.sil_log.sil_log`);
 * ``metrics.json``: the metrics of :func:`~ballbot_casadi.analysis.metrics.run_metrics`,
   the scenario file's specs, the thesis §7.1 limits (as a study's), and the section
   ``sil``: master, steps, wall time and, when the SSP carries its scenario, the largest
@@ -35,7 +35,9 @@ from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.fmi.sil import SilRun, run_ssp, sil_log
+from ballbot_casadi.fmi.masters.ssp_run import run_ssp
+from ballbot_casadi.fmi.system.sil import SilRun
+from ballbot_casadi.fmi.system.sil_log import sil_log
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import save_log
 from ballbot_casadi.studies.registry import Spec, evaluate_specs

@@ -33,9 +33,9 @@ from fmpy import extract, read_model_description, simulate_fmu
 
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.fmi.build import build_fmu, build_tool
-from ballbot_casadi.fmi.controller import controller_spec
+from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.fmi.package import build_fmu_from_spec
-from ballbot_casadi.fmi.sil import write_sil_ssp
+from ballbot_casadi.fmi.system.sil import write_sil_ssp
 from ballbot_casadi.model.dynamics import STATE_NAMES
 from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario

@@ -13,10 +13,11 @@ from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.errors import PathError
 from ballbot_casadi.fmi.build import build_fmu, validate_fmu_archive
-from ballbot_casadi.fmi.container import CONTAINER_NAME, build_container
-from ballbot_casadi.fmi.controller import controller_spec
+from ballbot_casadi.fmi.system.container import CONTAINER_NAME, build_container
+from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.fmi.package import build_fmu_from_spec
-from ballbot_casadi.fmi.sil import MASTERS, write_sil_ssp
+from ballbot_casadi.fmi.masters.ssp_run import MASTERS
+from ballbot_casadi.fmi.system.sil import write_sil_ssp
 from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.sil import SIL_OUTPUTS, run_sil

@@ -31,12 +31,12 @@ from typing import Any, Mapping
 import casadi as ca
 import numpy as np
 
+from ballbot_casadi.control.velocity import VELOCITY_NZ
 from ballbot_casadi.core.constants import N_SUB
 from ballbot_casadi.errors import BuildError, ScenarioError
-from ballbot_casadi.estimation.com_observer import com_observer_initial_state
 from ballbot_casadi.firmware.toolchain import PRECISIONS
 from ballbot_casadi.sim.closed_loop import closed_loop_functions
-from ballbot_casadi.sim.embedded import MEAS
+from ballbot_casadi.sim.embedded import MEAS, controller_layout, initial_controller_state
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
@@ -138,11 +138,9 @@ def scenario_values(f: ca.Function, scenario: Scenario) -> FirmwareValues:
             raise BuildError(f"{f.name()}: input {n} has {f.numel_in(f.index_in(n))} entries, "
                              f"the scenario gives {v.size}")
         params[n] = v
-    parts = [np.asarray(inp["z0"], float).ravel(), np.asarray(est["e0"], float).ravel()]
-    n_obs = f.size1_in(0) - sum(p.size for p in parts)
-    if n_obs:
-        parts.append(com_observer_initial_state(inp["x0"], inp["p_ctrl"]))
-    c0 = np.concatenate(parts)
+    # the state at power-on: the Function the compiled mission and the controller FMU use
+    observer = f.size1_in(0) != controller_layout(scenario.estimator, VELOCITY_NZ).size
+    c0 = initial_controller_state(scenario.estimator, inp["x0"], inp["p_ctrl"], observer)
     if c0.size != f.size1_in(0):
         raise BuildError(f"{f.name()}: state of {f.size1_in(0)} entries, the scenario gives {c0.size}")
     return FirmwareValues(params, c0)

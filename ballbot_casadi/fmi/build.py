@@ -1,7 +1,7 @@
 """Build the native FMI 2.0 plant FMU ``BallbotPlant.fmu`` (Model Exchange + Co-Simulation).
 
 The plant is one :class:`~ballbot_casadi.fmi.spec.FmuSpec`
-(:func:`~ballbot_casadi.fmi.plant.plant_spec`) built by the generic
+(:func:`~ballbot_casadi.fmi.plant.plant.plant_spec`) built by the generic
 :func:`~ballbot_casadi.fmi.package.build_fmu_from_spec`; this module is the plant's
 entry point (``ballbot fmu build``, the co-simulation master, the benchmarks).
 
@@ -12,9 +12,9 @@ Where things are:
 * :mod:`ballbot_casadi.fmi.model_description` - ``modelDescription.xml``;
 * :mod:`ballbot_casadi.fmi.cheaders` - the generated C headers;
 * :mod:`ballbot_casadi.fmi.package` - CasADi codegen, compile, cache with manifest, zip;
-* :mod:`ballbot_casadi.fmi.plant` - the plant's table, Functions and spec
+* :mod:`ballbot_casadi.fmi.plant.plant` - the plant's table, Functions and spec
   (per-model C: ``fmu/plant/plant_model.c``);
-* :mod:`ballbot_casadi.fmi.plant_reference` - the plant's sensor readings in Python.
+* :mod:`ballbot_casadi.fmi.plant.oracle` - the plant's sensor readings in Python.
 
 A second FMU supplies its own table, Functions and per-model C file in an
 :class:`FmuSpec` and calls :func:`build_fmu_from_spec`.
@@ -33,7 +33,7 @@ from ballbot_casadi.fmi.package import (
     fmu_source_dir,
     validate_fmu_archive,
 )
-from ballbot_casadi.fmi.plant import (
+from ballbot_casadi.fmi.plant.plant import (
     H_INTERNAL_DEFAULT,
     MODEL_IDENTIFIER,
     plant_functions,

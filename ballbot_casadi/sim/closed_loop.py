@@ -23,11 +23,13 @@ from typing import Any, Mapping
 import casadi as ca
 import numpy as np
 
+from ballbot_casadi.control.velocity import VELOCITY_NZ
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.toolchain import Library, build_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.estimation.com_observer import (
     COM_OBSERVER_DEFAULT_GAINS,
+    COM_OBSERVER_STATE,
     check_com_observer_gains,
     com_observer_initial_state,
 )
@@ -38,6 +40,7 @@ from ballbot_casadi.sim.embedded import (
     SENSOR_STATE,
     controller_layout,
     estimator_layout,
+    initial_controller_state,
 )
 from ballbot_casadi.sim.library import MissionVariant, closed_loop_functions, closed_loop_library
 from ballbot_casadi.sim.log import SimulationLog
@@ -56,7 +59,7 @@ from ballbot_casadi.sim.ports import (
 )
 from ballbot_casadi.sim.scenario import Scenario
 
-__all__ = ["ClosedLoop", "run_scenario", "DECIMATED_SEGMENT_PERIODS"]
+__all__ = ["ClosedLoop", "run_scenario", "power_on_inputs", "DECIMATED_SEGMENT_PERIODS"]
 
 #: Periods per segment of a decimated run (60 s at 200 Hz): memory grows with the
 #: decimated log only.
@@ -263,8 +266,14 @@ class ClosedLoop:
         parts: dict[str, Any] = {"x": x0, "c.z": z0}
         if with_obs:
             k_obs = check_com_observer_gains(COM_OBSERVER_DEFAULT_GAINS if k_obs is None else k_obs)
-            parts["c.obs"] = (com_observer_initial_state(x0, p_ctrl) if o0 is None
-                              else np.asarray(o0, float).reshape(-1))
+            if o0 is not None:
+                parts["c.obs"] = np.asarray(o0, float).reshape(-1)
+            elif est:  # the embedded software's power-on state, as the controller FMU's
+                c0 = initial_controller_state(estimator, x0, p_ctrl, observer=True)
+                parts["c.obs"] = c0[controller_layout(estimator, VELOCITY_NZ,
+                                                      COM_OBSERVER_STATE.size)["obs"]]
+            else:
+                parts["c.obs"] = com_observer_initial_state(x0, p_ctrl)
         n_obs = np.size(parts["c.obs"]) if with_obs else 0
         if est:
             X = mission_state(controller_layout(estimator, z0.size, n_obs), SENSOR_STATE,
@@ -335,6 +344,18 @@ class ClosedLoop:
         return log
 
 
+def power_on_inputs(estimator: str, inp: Mapping[str, Any]) -> dict[str, Any]:
+    """``inp`` (:meth:`Scenario.inputs <ballbot_casadi.sim.scenario.Scenario.inputs>`) with
+    the embedded software's state at power-on (``z0``, the filters' ``e0``, the observer's
+    ``o0``) from :func:`~ballbot_casadi.sim.embedded.initial_controller_state_function`,
+    the Function the controller FMU evaluates in its initialisation."""
+    c0 = initial_controller_state(estimator, inp["x0"], inp["p_ctrl"], observer=True)
+    L = controller_layout(estimator, VELOCITY_NZ, COM_OBSERVER_STATE.size)
+    e0 = np.concatenate([c0[L[f]] for f in estimator_layout(estimator).fields])
+    return {**inp, "z0": c0[L["z"]], "o0": c0[L["obs"]],
+            "estimation": {**inp["estimation"], "e0": e0}}
+
+
 def run_scenario(scenario: Any, sim: ClosedLoop | None = None, log_every: int = 1,
                  segment_periods: int | None = None, actuation_delay: bool = False
                  ) -> SimulationLog:
@@ -374,6 +395,8 @@ def run_scenario(scenario: Any, sim: ClosedLoop | None = None, log_every: int = 
     for k0 in range(0, n, seg):
         k1 = min(n, k0 + seg)
         inp = scenario.inputs(periods=(k0, k1))
+        if xz is None and scenario.estimator != "true":
+            inp = power_on_inputs(scenario.estimator, inp)
         part = sim.simulate(scenario.controller, **inp, n_sub=scenario.n_sub, xz0=xz,
                             actuation_delay=actuation_delay)
         xz = part.pop("xz_final")

@@ -45,7 +45,11 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.control import BALANCE_CONTROLLERS, make_velocity_controller
-from ballbot_casadi.control.velocity import VELOCITY_NZ
+from ballbot_casadi.control.velocity import (
+    VELOCITY_NZ,
+    measured_tilt,
+    tilt_heading_quaternion,
+)
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import (
     ATTITUDE_FILTER_STATE,
@@ -57,17 +61,18 @@ from ballbot_casadi.core.layout import (
     Layout,
 )
 from ballbot_casadi.core.params import PARAM_NAMES
-from ballbot_casadi.errors import BuildError, ScenarioError
+from ballbot_casadi.errors import BuildError, ScenarioError, ShapeError
 from ballbot_casadi.estimation import (
     DEFAULT_TUNING,
-    initial_state,
     make_qekf,
     make_qukf,
     make_tilt_correction,
     make_vekf,
     make_vukf,
 )
-from ballbot_casadi.estimation.com_observer import make_com_observer
+from ballbot_casadi.estimation.attitude import tangent_map
+from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_observer
+from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.model.sensors import make_encoders, make_gyro_bias_step, make_imu
 from ballbot_casadi.sim.period import controller_part
@@ -93,6 +98,9 @@ __all__ = [
     "sense",
     "make_embedded_step",
     "embedded_software",
+    "make_initial_controller_state",
+    "initial_controller_state_function",
+    "initial_controller_state",
     "initial_estimator_state",
 ]
 
@@ -337,27 +345,105 @@ def embedded_software(controller: str = "flc", estimator: str = "ukf",
     return make_embedded_step(blocks.balance, blocks.velocity, est, blocks.observer)
 
 
-def initial_estimator_state(estimator: str, x0: np.ndarray) -> np.ndarray:
-    """The filters' part of ``c`` at the start of a run (:func:`estimator_layout`).
+def make_initial_controller_state(estimator: str, observer: bool = True) -> ca.Function:
+    """``ballbot_initial_controller_state_<estimator>[_obs]``: the embedded software's state
+    ``c`` at power-on (:func:`controller_layout`) from the robot's state ``x0`` and the
+    controllers' model ``p_ctrl``; the compiled mission starts from it and the controller
+    FMU evaluates its generated C at initialisation.
 
-    The filters start aligned with the robot's initial attitude, body rate and velocity
-    (as after the robot's start-up calibration at rest) with the thesis's initial
-    covariances (4.4, 5.4) and a zero accelerometer-bias estimate; the position estimate
-    starts at the true position.
+    * ``z``: the velocity controller's reference at the measured tilt and heading, tilt
+      rates and position error zero (a bumpless start,
+      :func:`~ballbot_casadi.control.velocity.velocity_initial_state`);
+    * the filters aligned with the initial attitude, body rate ``omega = 2 vec(q* o dq)``
+      and velocity (as after the robot's start-up calibration at rest) with the thesis's
+      initial covariances (4.4, 5.4; the QEKF's ``G P0 G^T + radial blkdiag(q q^T, 0)``)
+      and a zero accelerometer-bias estimate; the position estimate at the true position;
+    * with ``observer``, the COM observer's state: the model's COM offset as both
+      estimates, the measurement filters at the initial attitude's static measurement,
+      ball velocity and body rate
+      (:func:`~ballbot_casadi.estimation.com_observer.com_observer_initial_state`).
+
+    The attitude quaternion of ``x0`` is normalised first.  Inputs ``x0`` (12),
+    ``p_ctrl`` (:data:`~ballbot_casadi.core.params.PARAM_NAMES`); output ``c0``.
+
+    Raises
+    ------
+    ScenarioError
+        Unknown estimator.
     """
-    L = estimator_layout(estimator)
-    att, vel = ESTIMATOR_FILTERS[estimator]
-    x0 = np.asarray(x0, float).reshape(-1)
-    q = x0[STATE["q"]] / np.linalg.norm(x0[STATE["q"]])
-    omega = 2 * Q.vee(Q.mul(Q.conj(q), x0[STATE["dq"]]))
-    xa0, Pa0 = initial_state(att, np.concatenate([q, omega]))
-    xv0, Pv0 = initial_state(vel)
-    xv0 = xv0.copy()
-    xv0[VELOCITY_FILTER_STATE["v"]] = x0[STATE_DXY]
-    e = np.zeros(L.size)
-    e[L["xa"]] = xa0
-    e[L["Pa"]] = np.asarray(Pa0, float).ravel(order="F")
-    e[L["xv"]] = xv0
-    e[L["Pv"]] = np.asarray(Pv0, float).ravel(order="F")
-    e[L["pos"]] = x0[STATE_XY]
-    return e
+    E = estimator_layout(estimator)
+    att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[estimator])
+    x0 = ca.SX.sym("x0", STATE.size)
+    p = ca.SX.sym("p_ctrl", len(PARAM_NAMES))
+    q = x0[STATE["q"]] / ca.norm_2(x0[STATE["q"]])
+    dq = x0[STATE["dq"]]
+    # velocity controller: reference = measured tilt and heading
+    th = measured_tilt(q)
+    qz = Q.mul(Q.conj(tilt_heading_quaternion(th[0], th[1], 0.0)), q)
+    z = {"theta_r": th, "psi_r": 2 * ca.atan2(qz[3], qz[0])}
+    parts: dict[str, Any] = {"z": ca.vertcat(*(
+        z.get(f, ca.SX.zeros(VELOCITY_CONTROLLER_STATE.size_of(f)))
+        for f in VELOCITY_CONTROLLER_STATE.fields))}
+    # filters
+    omega = 2 * Q.vee(Q.mul(Q.conj(q), dq))
+    Pa = ca.DM(att.P0)
+    if ESTIMATOR_FILTERS[estimator][0] == "qekf":
+        Pa = ca.mtimes([tangent_map(q), ca.DM(QUKF_P0), tangent_map(q).T])
+        Pa[:4, :4] += QEKF_P0_RADIAL * ca.mtimes(q, q.T)
+    xv = {f: ca.DM(vel.x0[VELOCITY_FILTER_STATE[f]]) for f in VELOCITY_FILTER_STATE.fields}
+    xv["v"] = x0[STATE_DXY]
+    parts.update({"xa": ca.vertcat(q, omega), "Pa": ca.vec(Pa),
+                  "xv": ca.vertcat(*(xv[f] for f in VELOCITY_FILTER_STATE.fields)),
+                  "Pv": ca.vec(ca.DM(vel.P0)), "pos": x0[STATE_XY]})
+    # COM observer
+    if observer:
+        pi = {n: PARAM_NAMES.index(n) for n in ("com_x", "com_y", "l")}
+        R = Q.rotation_matrix(q)
+        Rh, rhs = R[0:2, 0:2], -p[pi["l"]] * R[0:2, 2]
+        com = ca.vertcat(p[pi["com_x"]], p[pi["com_y"]])
+        o = {"com_bal": com, "com": com, "s_f": ca.solve(Rh, rhs), "v_f": x0[STATE_DXY],
+             "w_f": 2 * Q.vee(Q.mul(dq, Q.conj(q)))[0:2]}
+        parts["obs"] = ca.vertcat(*(o[f] for f in COM_OBSERVER_STATE.fields))
+    L = controller_layout(estimator, VELOCITY_NZ, COM_OBSERVER_STATE.size if observer else 0)
+    for f in L.fields:
+        if parts[f].numel() != L.size_of(f):
+            raise BuildError(f"initial controller state: field {f} has {parts[f].numel()} "
+                             f"entries, the layout {L.size_of(f)}")
+    name = f"ballbot_initial_controller_state_{estimator}{'_obs' if observer else ''}"
+    return ca.Function(name, [x0, p], [ca.vertcat(*(parts[f] for f in L.fields))],
+                       ["x0", "p_ctrl"], ["c0"])
+
+
+@lru_cache(maxsize=None)
+def initial_controller_state_function(estimator: str, observer: bool = True) -> ca.Function:
+    """:func:`make_initial_controller_state`, built once per process (the mission, the
+    controller FMU and the firmware use this one Function)."""
+    return make_initial_controller_state(estimator, observer)
+
+
+def initial_controller_state(estimator: str, x0: Any, p_ctrl: Any,
+                             observer: bool = True) -> np.ndarray:
+    """The embedded software's state at power-on, evaluated by
+    :func:`initial_controller_state_function` (a float vector in :func:`controller_layout`).
+
+    Raises
+    ------
+    ShapeError
+        ``x0`` not a finite 12-state or ``p_ctrl`` of the wrong size.
+    """
+    x = np.asarray(x0, float).reshape(-1)
+    p = np.asarray(p_ctrl, float).reshape(-1)
+    if x.shape != (STATE.size,) or not np.all(np.isfinite(x)):
+        raise ShapeError(f"x0 must be a finite 12-state, got shape {x.shape}")
+    if p.shape != (len(PARAM_NAMES),):
+        raise ShapeError(f"p_ctrl must have {len(PARAM_NAMES)} entries, got {p.size}")
+    f = initial_controller_state_function(estimator, observer)
+    return np.asarray(f(x, p), float).reshape(-1)
+
+
+def initial_estimator_state(estimator: str, x0: np.ndarray) -> np.ndarray:
+    """The filters' part of ``c`` at the start of a run (:func:`estimator_layout`), from
+    :func:`initial_controller_state_function` (the filters do not depend on ``p_ctrl``)."""
+    c = initial_controller_state(estimator, x0, np.zeros(len(PARAM_NAMES)), observer=False)
+    L = controller_layout(estimator, VELOCITY_NZ)
+    return np.concatenate([c[L[f]] for f in estimator_layout(estimator).fields])

@@ -25,7 +25,7 @@ The sequence of one period ``[t_k, t_k + Ts)`` is
 :func:`control_period` is that sequence, written once; its inputs and outputs are the
 ports of :mod:`ballbot_casadi.sim.ports`.  It evaluates on CasADi
 symbols (the compiled mission's step Function, :mod:`ballbot_casadi.sim.closed_loop`)
-and on numpy values (the FMU co-simulation master :mod:`ballbot_casadi.fmi.cosim` and
+and on numpy values (the FMU co-simulation master :mod:`ballbot_casadi.fmi.masters.plant_loop` and
 the Python-loop benchmark), with the plant supplied by the caller: classical RK4 on the
 model's ODE (:func:`rk4_plant`), or an FMU stepped by ``fmi2DoStep``.
 """

@@ -1,14 +1,16 @@
 /*
  * controller_model.c - per-model part of BallbotController: connects the shared FMI 2.0
  * layer (fmi2_common.c) to the CasADi-generated embedded software (ballbot_controller_cg.c:
- * CTRL_EMBEDDED = ballbot_embedded_<ctrl>_<est>, the Function the compiled mission calls,
- * and bbc_rpy, the ZYX angles of a quaternion).  ctrl_vr.h / ctrl_vars.h are generated from
- * the variable table of ballbot_casadi/fmi/controller.py: value indices CTRL_IX_<name>, the
- * packed vectors by name (CTRL_<BLOCK>_IX: value index of the first element,
- * CTRL_<BLOCK>_<FIELD>: offset of a field, _N: sizes; the state c and its power-on value
- * c0, its filter parts xa and xv, the readings meas, the references ref, the estimate
- * x_hat, ...) and the Functions' argument positions (CTRL_EMBEDDED_ARG_<input>,
- * CTRL_EMBEDDED_RES_<output>), which the calls below set by name (fmu_casadi.h).
+ * CTRL_EMBEDDED = ballbot_embedded_<ctrl>_<est>, the Function the compiled mission calls;
+ * CTRL_INITIAL = ballbot_initial_controller_state_<est>[_obs], the state at power-on the
+ * compiled mission starts from; bbc_rpy, the ZYX angles of a quaternion).  ctrl_vr.h /
+ * ctrl_vars.h are generated from the variable table of
+ * ballbot_casadi/fmi/controller/controller.py: value indices CTRL_IX_<name>, the packed
+ * vectors by name (CTRL_<BLOCK>_IX: value index of the first element, CTRL_<BLOCK>_<FIELD>:
+ * offset of a field, _N: sizes; the state c, its filter parts xa and xv, the robot's state
+ * at power-on x0, the readings meas, the references ref, the estimate x_hat, ...) and the
+ * Functions' argument positions (CTRL_<F>_ARG_<input>, CTRL_<F>_RES_<output>), which the
+ * calls below set by name (fmu_casadi.h).
  *
  * Period k runs at t_k = startTime + k Ts.  fmi2DoStep(t_k, n Ts) runs periods k..k+n-1:
  * the first on the readings latched at t_k, the others predict only (readings missing);
@@ -53,14 +55,14 @@ static int check_cov(const double *r, size_t first, size_t n, const char *name, 
     return 0;
 }
 
+/* The attitude to check: the restored estimate, or the robot's attitude at power-on. */
 static int check_initial(const fmu_values *v, int restored, char *msg, size_t len) {
     const double *r = v->r;
-    const double *c = r + (restored ? CTRL_C_IX : CTRL_C0_IX);
-    const double *q = c + CTRL_C_XA + CTRL_XA_Q;
+    const double *q = restored ? r + CTRL_C_IX + CTRL_C_XA + CTRL_XA_Q : r + CTRL_X0_IX + CTRL_X0_Q;
     if (!quat_ok(q, restored ? CTRL_QUAT_TOL_RESTORED : CTRL_QUAT_TOL)) {
-        snprintf(msg, len, "%s attitude estimate [%g, %g, %g, %g] (%s_xa_0..3) must be a unit "
-                 "quaternion (norm 1 within %g)", restored ? "the restored" : "the initial",
-                 q[0], q[1], q[2], q[3], restored ? "c" : "c0",
+        snprintf(msg, len, "%s [%g, %g, %g, %g] (%s) must be a unit quaternion (norm 1 within "
+                 "%g)", restored ? "the restored attitude estimate" : "the initial attitude",
+                 q[0], q[1], q[2], q[3], restored ? "c_xa_0..3" : "x0_q0..3",
                  restored ? CTRL_QUAT_TOL_RESTORED : CTRL_QUAT_TOL);
         return 1;
     }
@@ -84,7 +86,15 @@ static fmi2Status initialize(fmu_instance *inst, fmu_values *v, double t, char *
     double *r = v->r, *x = r + CTRL_X_HAT_IX, *dq = x + CTRL_X_HAT_DQ;
     const double *c = r + CTRL_C_IX, *q, *w;
     (void)t;
-    memcpy(r + CTRL_C_IX, r + CTRL_C0_IX, CTRL_C_N * sizeof(double));
+    /* the state at power-on: CTRL_INITIAL (the Function the compiled mission starts from)
+     * of the robot's state x0_* and the controllers' model ctrl_* */
+    wk->cg.arg[CTRL_INITIAL_ARG_X0] = r + CTRL_X0_IX;
+    wk->cg.arg[CTRL_INITIAL_ARG_P_CTRL] = r + CTRL_P_CTRL_IX;
+    wk->cg.res[CTRL_INITIAL_RES_C0] = r + CTRL_C_IX;
+    if (fmu_casadi_call(&wk->cg, CTRL_INITIAL_FN) != 0 || !fmu_all_finite(c, CTRL_C_N)) {
+        snprintf(msg, len, "the state at power-on from x0_* and ctrl_* is NaN or Inf");
+        return fmi2Error;
+    }
     v->i[CTRL_IX_period] = 0;
     /* the estimate before the first period: the state at power-on */
     q = c + CTRL_C_XA + CTRL_XA_Q;
@@ -99,7 +109,7 @@ static fmi2Status initialize(fmu_instance *inst, fmu_values *v, double t, char *
     dq[2] = 0.5 * (q[0] * w[1] + q[3] * w[0] - q[1] * w[2]);
     dq[3] = 0.5 * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0]);
     if (decode(wk, r, c) != 0 || !fmu_all_finite(x, CTRL_X_HAT_N)) {
-        snprintf(msg, len, "the initial estimate (c0_*) is NaN or Inf");
+        snprintf(msg, len, "the initial estimate is NaN or Inf");
         return fmi2Error;
     }
     return fmi2OK;

@@ -1,5 +1,5 @@
-"""Shared helpers of the controller-FMU and SIL tests: cached builds, fmpy instances with
-captured logs, the compiled embedded step of the mission library."""
+"""Shared helpers of the controller-FMU and SIL tests: cached builds, instances on the
+masters' adapter with captured logs, the compiled embedded step of the mission library."""
 
 from __future__ import annotations
 
@@ -10,7 +10,12 @@ import numpy as np
 
 from ballbot_casadi.core.constants import N_SUB
 from ballbot_casadi.core.toolchain import load_library
-from ballbot_casadi.fmi.controller import controller_spec, controller_values, default_scenario
+from ballbot_casadi.fmi.controller.controller import (
+    controller_spec,
+    controller_values,
+    default_scenario,
+)
+from ballbot_casadi.fmi.masters.adapter import FmuSlave
 from ballbot_casadi.fmi.package import FmuBuild, build_fmu_from_spec
 from ballbot_casadi.sim.library import closed_loop_library
 
@@ -35,58 +40,35 @@ def default_values(controller: str = "flc", estimator: str = "ukf") -> dict:
 
 
 class Controller:
-    """One fmpy Co-Simulation instance of a controller FMU with a logger recording every
-    message."""
+    """One Co-Simulation instance of a controller FMU on the masters' adapter
+    (:class:`~ballbot_casadi.fmi.masters.adapter.FmuSlave`) with a logger recording every
+    message; ``fmu`` is the fmpy instance for raw calls."""
 
     def __init__(self, controller: str = "flc", estimator: str = "ukf", name: str = "ctrl"):
-        from fmpy import calloc, free, read_model_description
-        from fmpy.fmi2 import (
-            FMU2Slave,
-            fmi2CallbackAllocateMemoryTYPE,
-            fmi2CallbackFreeMemoryTYPE,
-            fmi2CallbackFunctions,
-            fmi2CallbackLoggerTYPE,
-        )
-
         b = controller_build(controller, estimator)
-        md = read_model_description(str(b.unzipped))
-        self.vars = {v.name: v for v in md.modelVariables}
         self.logs: list[tuple[int, str]] = []
-        self.fmu = FMU2Slave(guid=b.guid, unzipDirectory=str(b.unzipped),
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        cb = fmi2CallbackFunctions()
-        cb.logger = fmi2CallbackLoggerTYPE(self._log)
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        self._cb = cb
-        self.fmu.instantiate(callbacks=cb)
+        self.slave = FmuSlave(b.unzipped, name,
+                              logger=lambda status, category, msg: self.logs.append((status, msg)))
+        self.vars = self.slave.variables
+        self.fmu = self.slave.fmu
         self.t = 0.0
 
-    def _log(self, env, name, status, category, message):
-        self.logs.append((int(status), message.decode()))
-
     def vr(self, *names: str) -> list[int]:
-        return [self.vars[n].valueReference for n in names]
+        return self.slave.vr(*names)
 
     def set(self, **values) -> None:
         for n, v in values.items():
-            if isinstance(v, bool):
-                self.fmu.setBoolean(self.vr(n), [v])
-            else:
-                self.fmu.setReal(self.vr(n), [float(v)])
+            self.slave.set(n, v)
 
     def set_many(self, names, values) -> None:
-        self.fmu.setReal(self.vr(*names), [float(v) for v in values])
+        self.slave.set_reals(names, values)
 
     def get(self, *names: str) -> np.ndarray:
-        return np.array(self.fmu.getReal(self.vr(*names)))
+        return self.slave.get_reals(names)
 
     def init(self, values: dict | None = None) -> None:
-        self.fmu.setupExperiment(startTime=0.0)
-        self.fmu.enterInitializationMode()
-        for n, v in (values or {}).items():
-            self.set(**{n: v})
-        self.fmu.exitInitializationMode()
+        self.slave.setup(0.0, values)
+        self.slave.exit_initialization()
         self.t = 0.0
 
     def raw(self, fname: str, *args) -> int:
@@ -98,11 +80,11 @@ class Controller:
         return self.raw("fmi2DoStep", c_double(self.t), c_double(h), 1)
 
     def step(self, h: float = 0.005) -> None:
-        self.fmu.doStep(self.t, h)
+        self.slave.do_step(self.t, h)
         self.t += h
 
     def errors(self) -> list[str]:
         return [m for s, m in self.logs if s >= 3]
 
     def free(self) -> None:
-        self.fmu.freeInstance()
+        self.slave.free()

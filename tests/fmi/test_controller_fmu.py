@@ -15,15 +15,23 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
-from ballbot_casadi.fmi.controller import (
+from ballbot_casadi.fmi.controller.controller import (
     READING_NAMES,
     REFERENCE_NAMES,
+    X0_NAMES,
     XHAT_NAMES,
     controller_spec,
+    controller_state_layout,
+    controller_values,
+    embedded_function,
 )
 from ballbot_casadi.fmi.package import build_tool, fmu_source_dir
-from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import value_range
+from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.embedded import initial_controller_state
+from ballbot_casadi.sim.scenario import Scenario
+from ballbot_casadi.sim.scenario.scenario import initial_state
 
 pytestmark = pytest.mark.needs_cc
 
@@ -55,7 +63,9 @@ class _Reference:
     def __init__(self, controller: str = "flc", estimator: str = "ukf"):
         self.f = compiled_embedded(controller, estimator)
         self.values = default_values(controller, estimator)
-        self.c = np.array([v for k, v in self.values.items() if k.startswith("c0_")])
+        x0 = np.array([self.values[n] for n in X0_NAMES])
+        self.c = initial_controller_state(estimator, x0, _function_args(self.values)["p_ctrl"],
+                                          observer="com_observer" in self.values)
         self.args = _function_args(self.values)
         self.k = 0
 
@@ -291,10 +301,10 @@ def test_parameters_are_checked_and_the_initial_estimate_is_readable_in_initiali
     assert "non-physical value" in fmu.logs[-1][1] and text in fmu.logs[-1][1]
     # the estimate before the first period is the state at power-on, already in init mode
     vals = default_values()
-    q0 = [vals[f"c0_xa_{i}"] for i in range(4)]
+    q0 = [vals[f"x0_q{i}"] for i in range(4)]
     np.testing.assert_array_equal(fmu.get("q_hat0", "q_hat1", "q_hat2", "q_hat3"), q0)
-    # a non-unit initial attitude estimate is refused at the end of initialisation
-    fmu.set(c0_xa_0=2.0)
+    # a non-unit initial attitude is refused at the end of initialisation
+    fmu.set(x0_q0=2.0)
     assert fmu.raw("fmi2ExitInitializationMode") == 3
     assert "unit quaternion" in fmu.logs[-1][1]
     fmu.free()
@@ -324,3 +334,35 @@ def test_c_host_runs_the_controller_without_python():
     out = json.loads(res.stdout)
     assert out["t"] == pytest.approx(400 * TS, rel=1e-12)
     assert all(np.isfinite(out["tau"])) and max(abs(t) for t in out["tau"]) > 0.0
+
+
+@pytest.mark.parametrize("ctrl,est", [("flc", "ukf"), ("smc", "ekf")])
+def test_the_state_at_power_on_is_the_missions(ctrl, est):
+    """The FMU computes c at initialisation with the generated C of the Function the
+    compiled mission starts from: equal to the Function in Python bit for bit, to the
+    mission's initial parts, and after one period to the compiled mission's state."""
+    sc = Scenario(name="power_on", controller=ctrl, estimator=est, duration=0.005,
+                  x0=initial_state(4.0, -3.0, 20.0), seed=3)
+    values = controller_values(sc)
+    inp = sc.inputs()
+    fmu = Controller(ctrl, est)
+    fmu.init(values)
+    c_names = [n for n in fmu.vars if n.startswith("c_")]
+    c_fmu = fmu.get(*c_names)
+    want = initial_controller_state(est, inp["x0"], inp["p_ctrl"], observer=True)
+    np.testing.assert_array_equal(c_fmu, want)
+    L = controller_state_layout(embedded_function(ctrl, est), est)
+    np.testing.assert_allclose(c_fmu[L["z"]], inp["z0"], rtol=0, atol=1e-15)
+    e0 = inp["estimation"]["e0"]
+    np.testing.assert_array_equal(np.concatenate([c_fmu[L[f]] for f in
+                                                  ("xa", "Pa", "xv", "Pv", "pos")]), e0)
+    # one period on the mission's readings: the compiled mission's state after it
+    log = run_scenario(sc, ClosedLoop())
+    fmu.set(balance_only=True)
+    fmu.set_many(READING_NAMES, log.arrays["meas"][0])
+    fmu.step()
+    np.testing.assert_allclose(fmu.get(*c_names), log.arrays["c_final"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fmu.get("tau_cmd0", "tau_cmd1", "tau_cmd2"),
+                               log.arrays["tau_cmd"][0], rtol=0, atol=1e-12)
+    assert fmu.errors() == []
+    fmu.free()

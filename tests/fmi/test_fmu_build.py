@@ -176,7 +176,7 @@ def test_sources_are_installed_package_data():
 
 def test_generation_is_deterministic(plant):
     from ballbot_casadi.fmi.package import generated_files
-    from ballbot_casadi.fmi.plant import plant_spec
+    from ballbot_casadi.fmi.plant.plant import plant_spec
 
     a = generated_files(plant_spec(), plant.guid)
     b = generated_files(plant_spec(), plant.guid)

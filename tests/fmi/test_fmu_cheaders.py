@@ -10,9 +10,9 @@ import pytest
 from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.fmi.cheaders import function_alias, named_defines
-from ballbot_casadi.fmi.controller import controller_spec
+from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.fmi.package import fmu_source_dir
-from ballbot_casadi.fmi.plant import plant_spec
+from ballbot_casadi.fmi.plant.plant import plant_spec
 from ballbot_casadi.fmi.spec import FmuBlock, block_start
 
 MODELS = ("plant/plant_model.c", "controller/controller_model.c", "reference/reference_model.c")

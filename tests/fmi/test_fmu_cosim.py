@@ -9,7 +9,7 @@ from _fmu_support import plant_build
 from ballbot_casadi.studies.registry import study_scenarios
 
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.fmi.cosim import closed_loop_cosim
+from ballbot_casadi.fmi.masters.plant_loop import closed_loop_cosim
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 
 

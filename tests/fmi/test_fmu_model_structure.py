@@ -9,9 +9,9 @@ import pytest
 from fmpy import read_model_description
 
 from ballbot_casadi.core.params import load_params
-from ballbot_casadi.fmi.controller import controller_spec
+from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.fmi.model_description import model_description_xml
-from ballbot_casadi.fmi.plant import plant_functions, plant_spec
+from ballbot_casadi.fmi.plant.plant import plant_functions, plant_spec
 from ballbot_casadi.fmi.spec import sparsity_dependencies
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")

@@ -1,6 +1,6 @@
 """The plant FMU's sampled sensors (accelerometer, gyroscope, encoders as the robot has them).
 
-Reference: :func:`ballbot_casadi.fmi.plant_reference.plant_sensor_reference`, a numpy RK4
+Oracle: :func:`ballbot_casadi.fmi.plant.oracle.plant_sensor_oracle`, a numpy RK4
 run of the CasADi model Functions called from Python with NoiseStream noise (the FMU runs
 the generated C of the same Functions and compiles the same Philox C file).  Measured:
 bit-identical states and readings, noise on and off, for every step size tried; the
@@ -21,7 +21,7 @@ from _fmu_support import ALL_STATES, NXW, SENSORS, STATES, Plant
 from ballbot_casadi import load_params
 from ballbot_casadi.core.rng import NoiseStream
 from ballbot_casadi.core.sensor_params import load_sensor_params
-from ballbot_casadi.fmi.plant_reference import plant_sensor_reference
+from ballbot_casadi.fmi.plant.oracle import plant_sensor_oracle
 from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.model.sensors import (
     NOISE_STREAMS,
@@ -83,7 +83,7 @@ def _fmu_run(step: float, noise_on: bool, seed: int = 42, sensors=S, **extra) ->
 
 
 def _ref_run(step: float, noise_on: bool, seed: int = 42, sensors=S, **kw) -> np.ndarray:
-    ref = plant_sensor_reference(X0, _per_step(TAU, step), _per_step(DIST, step), step=step,
+    ref = plant_sensor_oracle(X0, _per_step(TAU, step), _per_step(DIST, step), step=step,
                                  sensors=sensors, seed=seed, noise_on=noise_on, **kw)
     return np.hstack([ref["xw"], ref["acc"], ref["gyro"], ref["enc"]])
 
@@ -91,7 +91,7 @@ def _ref_run(step: float, noise_on: bool, seed: int = 42, sensors=S, **kw) -> np
 def _compare(fmu: np.ndarray, ref: np.ndarray) -> None:
     assert fmu.shape == ref.shape
     err = np.abs(fmu - ref)
-    print(f"FMU vs Python reference: states {err[:, :NXW].max():.3e}, IMU "
+    print(f"FMU vs Python oracle: states {err[:, :NXW].max():.3e}, IMU "
           f"{err[:, NXW:NXW + 6].max():.3e}, encoders {err[:, NXW + 6:].max():.3e}")
     np.testing.assert_allclose(fmu[:, :NXW], ref[:, :NXW], rtol=0, atol=1e-12)
     np.testing.assert_allclose(fmu[:, NXW:NXW + 6], ref[:, NXW:NXW + 6], rtol=0, atol=1e-12)
@@ -246,7 +246,7 @@ def test_seed_changes_the_noise_and_noise_off_is_deterministic():
 
 def test_start_time_and_sensor_period_parameters():
     """Samples at startTime + k Ts_sensor; Ts_sensor 10 ms holds each reading two steps."""
-    ref = plant_sensor_reference(X0, TAU[:40], step=0.005, Ts_sensor=0.01, start_time=1.25,
+    ref = plant_sensor_oracle(X0, TAU[:40], step=0.005, Ts_sensor=0.01, start_time=1.25,
                                  noise_on=True, seed=3)
     p = Plant("cs")
     p.init(start_time=1.25, **dict(zip(STATES, X0.tolist())), Ts_sensor=0.01, noise_on=True,

@@ -21,9 +21,11 @@ from ballbot_casadi.cli import main
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
-from ballbot_casadi.fmi.container import build_container
-from ballbot_casadi.fmi.sil import read_scenario, run_ssp, sil_log, write_sil_ssp
-from ballbot_casadi.fmi.ssp import NS, SSD_NAME, read_ssp
+from ballbot_casadi.fmi.system.container import build_container
+from ballbot_casadi.fmi.masters.ssp_run import run_ssp
+from ballbot_casadi.fmi.system.sil import read_scenario, write_sil_ssp
+from ballbot_casadi.fmi.system.sil_log import sil_log
+from ballbot_casadi.fmi.system.ssp import NS, SSD_NAME, read_ssp
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario

@@ -9,7 +9,7 @@ import pytest
 from ballbot_casadi.control import make_balance_controller, make_velocity_controller
 from ballbot_casadi.core.layout import STATE, Layout, c_layout_defines
 from ballbot_casadi.model.dynamics import NP, make_affine, make_ode
-from ballbot_casadi.fmi.controller import controller_spec
+from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.sim import library as sim_library
 from ballbot_casadi.sim.embedded import embedded_software, software_layout
 from ballbot_casadi.sim.library import closed_loop_steps

@@ -3,7 +3,7 @@
 Tools without SSP support run the closed loop as a single Co-Simulation FMU built with
 fmpy's container support (:mod:`fmpy.container_fmu`: a prebuilt container binary that
 loads the component FMUs from its ``resources/`` and steps them at a fixed internal
-step): :func:`build_container` turns an SSP archive of :mod:`ballbot_casadi.fmi.ssp`
+step): :func:`build_container` turns an SSP archive of :mod:`ballbot_casadi.fmi.system.ssp`
 (e.g. ``build/fmu/BallbotSIL.ssp``) into ``BallbotSILContainer.fmu`` with
 
 * the same components and connections;
@@ -17,7 +17,7 @@ step): :func:`build_container` turns an SSP archive of :mod:`ballbot_casadi.fmi.
 
 The container steps every component from ``t_k`` and then updates the connections in
 order (a Jacobi master, like libcosim), so its result equals the libcosim run of the
-same SSP (:mod:`ballbot_casadi.fmi.sil`).
+same SSP (:mod:`ballbot_casadi.fmi.masters.ssp_run`).
 """
 
 from __future__ import annotations
@@ -42,9 +42,9 @@ from fmpy.model_description import (
 
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import BuildError
-from ballbot_casadi.fmi.controller import READING_NAMES, XHAT_NAMES
-from ballbot_casadi.fmi.plant import WHEEL_ANGLE_NAMES
-from ballbot_casadi.fmi.ssp import read_ssp
+from ballbot_casadi.fmi.controller.controller import READING_NAMES, XHAT_NAMES
+from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
+from ballbot_casadi.fmi.system.ssp import read_ssp
 
 __all__ = ["CONTAINER_NAME", "OUTPUTS", "build_container"]
 

@@ -1,6 +1,6 @@
-"""A scenario's references as an FMU: ``BallbotReference.fmu`` (FMI 2.0 Co-Simulation).
+"""The reference player: a scenario's references as an FMU, ``BallbotReference.fmu`` (FMI 2.0 CS).
 
-The SIL system (:mod:`ballbot_casadi.fmi.ssp`) needs the scenario's references as
+The SIL system (:mod:`ballbot_casadi.fmi.system.ssp`) needs the scenario's references as
 signals that any co-simulation engine can connect to the controller FMU.  This FMU plays
 back the per-period rows the compiled mission uses (:meth:`Scenario.inputs
 <ballbot_casadi.sim.scenario.Scenario.inputs>`: ``q_ref, dq_ref, ddq_ref`` of the
@@ -12,7 +12,7 @@ Row ``k`` is output from ``t_k = startTime + k Ts`` until the next row (the last
 held after the end); ``balance_only`` is the scenario's mode (not ``cascade``).
 
 The output names are the controller FMU's input names
-(:data:`~ballbot_casadi.fmi.controller.REFERENCE_NAMES`) and the plant FMU's
+(:data:`~ballbot_casadi.fmi.controller.controller.REFERENCE_NAMES`) and the plant FMU's
 disturbance inputs (:data:`DISTURBANCE_NAMES`), so the SSP connects equal names.
 Attitude pushes cannot enter an FMU's state through its inputs; scenarios with pushes
 are refused.
@@ -27,12 +27,12 @@ import numpy as np
 
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.fmi.controller import REFERENCE_NAMES
+from ballbot_casadi.fmi.controller.controller import REFERENCE_NAMES
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["MODEL_IDENTIFIER", "GRID_TOL", "DISTURBANCE_NAMES", "OUTPUT_NAMES", "reference_table",
-           "reference_variables", "reference_spec"]
+           "reference_player_variables", "reference_player_spec"]
 
 MODEL_IDENTIFIER = "BallbotReference"
 #: A time within GRID_TOL * Ts of a row's instant is at the instant.
@@ -74,7 +74,7 @@ def _unit(name: str) -> str:
 
 
 
-def reference_variables(Ts: float) -> tuple[FmuVar, ...]:
+def reference_player_variables(Ts: float) -> tuple[FmuVar, ...]:
     """The variable table of the reference FMU (row period ``Ts`` as the start value)."""
     t = VarTable()
     for name in REFERENCE_NAMES:
@@ -92,7 +92,7 @@ def reference_variables(Ts: float) -> tuple[FmuVar, ...]:
     return t.rows()
 
 
-def reference_spec(scenario: Scenario) -> FmuSpec:
+def reference_player_spec(scenario: Scenario) -> FmuSpec:
     """The reference FMU of ``scenario`` (Co-Simulation only)."""
     table = reference_table(scenario)
     if table.shape[0] == 1:  # an interpolant needs two grid points
@@ -102,7 +102,7 @@ def reference_spec(scenario: Scenario) -> FmuSpec:
     interp = ca.interpolant("ballbot_reference_interp", "linear", [np.arange(n, dtype=float)],
                             table.ravel(order="C"))
     f = ca.Function("ballbot_reference_table", [k], [interp(k)], ["k"], ["row"])
-    rows = reference_variables(scenario.Ts)
+    rows = reference_player_variables(scenario.Ts)
     defines = {"NROWS": n, "BALANCE_ONLY": int(not scenario.cascade), "GRID_TOL": repr(GRID_TOL)}
     return FmuSpec(
         model_identifier=MODEL_IDENTIFIER,

@@ -13,7 +13,7 @@ sensor readings ``sensor_acc_*``, ``sensor_gyro_*``, ``sensor_enc*`` sampled eve
 (``noise_on``, ``seed``) and the sensor parameters under their
 :data:`~ballbot_casadi.core.sensor_params.SENSOR_VECTOR_NAMES` names.  The sampling
 conventions are in ``fmu/plant/plant_model.c`` and reproduced in Python by
-:mod:`ballbot_casadi.fmi.plant_reference`.
+:mod:`ballbot_casadi.fmi.plant.oracle`.
 """
 
 from __future__ import annotations

@@ -14,10 +14,10 @@ The default experiment carries the Open Simulation Platform annotation
 parameter set only to parameters and inputs (it logs a warning and skips anything else,
 e.g. an FMU's state start values, which the SSP standard allows);
 :attr:`SspComponent.initial_values` lists those, and
-:mod:`ballbot_casadi.fmi.sil` applies them as initial values.
+the libcosim master (:mod:`ballbot_casadi.fmi.masters.libcosim`) applies them as initial values.
 
 The system of the software-in-the-loop run (plant, controller and reference FMUs of a
-scenario) is :func:`ballbot_casadi.fmi.sil.sil_system`.
+scenario) is :func:`ballbot_casadi.fmi.system.sil.sil_system`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""The plant FMU's sensor readings in Python: a numpy RK4 run of the model Functions.
+"""The plant FMU's oracle: its sensor readings from a numpy RK4 run of the model Functions.
 
-:func:`plant_sensor_reference` reproduces what ``BallbotPlant.fmu`` outputs in
+:func:`plant_sensor_oracle` reproduces what ``BallbotPlant.fmu`` outputs in
 Co-Simulation, by the same conventions (``fmu/plant/plant_model.c``) but from the CasADi
 Functions of :mod:`ballbot_casadi.model` called from Python and the noise of
 :class:`~ballbot_casadi.core.rng.NoiseStream` (the same Philox C file the FMU compiles):
@@ -37,7 +37,7 @@ from ballbot_casadi.core.sensor_params import (
     load_sensor_params,
 )
 from ballbot_casadi.errors import ShapeError
-from ballbot_casadi.fmi.plant import (
+from ballbot_casadi.fmi.plant.plant import (
     GRID_TOL,
     H_INTERNAL_DEFAULT,
     NXW,
@@ -53,14 +53,14 @@ from ballbot_casadi.model.sensors import (
     make_wheel_angle_ode,
 )
 
-__all__ = ["plant_sensor_reference"]
+__all__ = ["plant_sensor_oracle"]
 
 
 def _vec(v: Any) -> np.ndarray:
     return np.asarray(v, dtype=float).ravel()
 
 
-def plant_sensor_reference(x0: Any, tau: Any, tau_dist: Any = None, *, step: float = 0.005,
+def plant_sensor_oracle(x0: Any, tau: Any, tau_dist: Any = None, *, step: float = 0.005,
                            params: Params | None = None, sensors: SensorParams | None = None,
                            seed: int = 0, noise_on: bool = False,
                            Ts_sensor: float = TS_SENSOR_DEFAULT,

@@ -36,7 +36,7 @@ each ``t_k`` (Gauss-Seidel) gives the loop of the compiled mission exactly (torq
 period ``k`` computed from sample ``k`` and acting on ``[t_k, t_k+1)``); a master that
 steps both at once and exchanges values afterwards (Jacobi, libcosim's fixed-step
 algorithm, fmpy's containers) applies it one period later, on ``[t_k+1, t_k+2)``
-(:mod:`ballbot_casadi.fmi.sil`).
+(:mod:`ballbot_casadi.fmi.masters.ssp_run`).
 
 Variable names (see :func:`controller_variables`):
 
@@ -54,10 +54,14 @@ Variable names (see :func:`controller_variables`):
   internal model ``est_<name>`` under the :data:`~ballbot_casadi.core.params.PARAM_NAMES`
   of ``load_params`` (both exist, hence the prefixes); the gains ``k_bal_<gain name>``
   and ``k_vel_K_<row>_<col>`` / ``k_vel_<limit name>``; ``feedforward``; the filter
-  covariances ``Qa_<r>_<c>``, ``Ra_..``, ``Qv_..``, ``Rv_..``; the embedded software's
-  state at power-on ``c0_<field>_<i>`` (:func:`controller_state_layout`; the filters
-  aligned with the initial state as after the start-up calibration at rest); with the
-  COM observer ``com_observer`` and ``k_obs_<gain name>``;
+  covariances ``Qa_<r>_<c>``, ``Ra_..``, ``Qv_..``, ``Rv_..``; the robot's state at
+  power-on ``x0_<state name>`` (``x0_x .. x0_dq3``), from which the FMU computes the
+  embedded software's state at power-on in its initialisation with the generated C of
+  ``ballbot_initial_controller_state_<est>[_obs]``
+  (:func:`~ballbot_casadi.sim.embedded.make_initial_controller_state`, the Function the
+  compiled mission starts from: the filters aligned with that state as after the
+  start-up calibration at rest); with the COM observer ``com_observer`` and
+  ``k_obs_<gain name>``;
 * locals: the embedded software's state ``c_<field>_<i>`` and the period counter
   ``period`` (so FMU states, serialisation and reset need no model code).
 
@@ -84,13 +88,15 @@ from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, STATE, VELOCITY_FI
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
 from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError, ScenarioError
-from ballbot_casadi.estimation.com_observer import (
-    COM_OBSERVER_GAIN_NAMES,
-    com_observer_initial_state,
-)
-from ballbot_casadi.fmi.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.estimation.com_observer import COM_OBSERVER_GAIN_NAMES
+from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
-from ballbot_casadi.sim.embedded import MEAS, embedded_software, estimator_layout, software_layout
+from ballbot_casadi.sim.embedded import (
+    MEAS,
+    embedded_software,
+    initial_controller_state_function,
+    software_layout,
+)
 from ballbot_casadi.sim.ports import (
     EMBEDDED_INPUTS,
     EMBEDDED_OUTPUTS,
@@ -110,7 +116,8 @@ __all__ = [
     "model_identifier",
     "embedded_function",
     "controller_state_layout",
-    "initial_controller_state",
+    "initial_state_function",
+    "X0_NAMES",
     "controller_variables",
     "controller_values",
     "controller_spec",
@@ -138,7 +145,10 @@ REFERENCE_USED = Layout("references used", [("q", 4), ("dq", 4), ("ddq", 4)])
 #: The estimate x_hat the controllers read (output block, the order of the Function's output).
 XHAT_NAMES = ("pos_hat_x", "pos_hat_y", "q_hat0", "q_hat1", "q_hat2", "q_hat3", "v_hat_x",
               "v_hat_y", "dq_hat0", "dq_hat1", "dq_hat2", "dq_hat3")
+#: The robot's state at power-on (parameters): ``x0_<state name>``.
+X0_NAMES = tuple(f"x0_{n}" for n in STATE.names)
 _XHAT_UNITS = ("m", "m", "1", "1", "1", "1", "m/s", "m/s", "1/s", "1/s", "1/s", "1/s")
+_STATE_UNITS = _XHAT_UNITS
 _READING_DESC = {
     "acc": ("m/s2", "accelerometer reading along IMU axis {c} (the plant FMU's output of that "
                     "name); NaN = missing (the filters predict only)"),
@@ -242,21 +252,21 @@ def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
     return groups
 
 
-def initial_controller_state(inp: Mapping[str, Any], layout: Layout, estimator: str) -> np.ndarray:
-    """The embedded software's state at power-on, as the compiled mission starts it, from a
-    scenario's :meth:`~ballbot_casadi.sim.scenario.Scenario.inputs` ``inp``: velocity
-    controller, filters (aligned with the initial state) and COM observer."""
-    e0 = np.asarray(inp["estimation"]["e0"], float).reshape(-1)
-    E = estimator_layout(estimator)
-    if e0.size != E.size:
-        raise BuildError(f"initial filter state has {e0.size} entries, the layout {E.size}")
-    parts = {"z": inp["z0"], **{f: e0[E[f]] for f in E.fields}}
-    if "obs" in layout.fields:
-        parts["obs"] = com_observer_initial_state(inp["x0"], inp["p_ctrl"])
-    try:
-        return layout.pack(parts)
-    except ValueError as e:
-        raise BuildError(f"initial controller state: {e}") from None
+def initial_state_function(embedded: ca.Function, estimator: str) -> ca.Function:
+    """The power-on state Function of the embedded software ``embedded``
+    (:func:`~ballbot_casadi.sim.embedded.initial_controller_state_function`, with the COM
+    observer's part when ``embedded`` has the observer), checked against its state.
+
+    Raises
+    ------
+    BuildError
+        The Function's output is not the embedded software's state.
+    """
+    f = initial_controller_state_function(estimator, _has_observer(embedded))
+    if f.size1_out(0) != embedded.size1_in(0):
+        raise BuildError(f"{f.name()} gives {f.size1_out(0)} entries, {embedded.name()}'s state "
+                         f"has {embedded.size1_in(0)}")
+    return f
 
 
 def controller_values(scenario: Scenario, embedded: ca.Function | None = None
@@ -264,9 +274,9 @@ def controller_values(scenario: Scenario, embedded: ca.Function | None = None
     """Values of the controller FMU's parameters for ``scenario`` (FMU name -> value).
 
     The scenario's controller model (``ctrl_*``), filter model (``est_*``), gains,
-    feed-forward mode, filter tuning, COM observer and the state at power-on (``c0_*``:
-    velocity controller, filters and observer started as the compiled mission starts
-    them).  Booleans are Python ``bool``.
+    feed-forward mode, filter tuning, COM observer and the robot's state at power-on
+    (``x0_*``, from which the FMU starts the velocity controller, filters and observer as
+    the compiled mission starts them).  Booleans are Python ``bool``.
 
     Raises
     ------
@@ -280,7 +290,6 @@ def controller_values(scenario: Scenario, embedded: ca.Function | None = None
         else embedded
     inp = scenario.inputs()
     est = inp["estimation"]
-    layout = controller_state_layout(embedded, scenario.estimator)
     vectors = {"p_ctrl": inp["p_ctrl"], "p_est": est["p_est"], "k_bal": inp["k_bal"],
                "k_vel": inp["k_vel"], "Qa": est["Qa"], "Ra": est["Ra"], "Qv": est["Qv"],
                "Rv": est["Rv"], "k_obs": inp.get("k_obs")}
@@ -290,10 +299,8 @@ def controller_values(scenario: Scenario, embedded: ca.Function | None = None
         out.update({n: float(v) for n, v in zip(names, vals, strict=True)})
     if _has_observer(embedded):
         out["com_observer"] = bool(inp["com_observer"])
-    c0 = initial_controller_state(inp, layout, scenario.estimator)
-    names = [n for f in layout.fields
-             for n in _element_names(f"c0_{f}", layout.size_of(f))]
-    out.update({n: float(v) for n, v in zip(names, c0, strict=True)})
+    out.update({n: float(v) for n, v in zip(X0_NAMES, np.asarray(inp["x0"], float).ravel(),
+                                            strict=True)})
     return out
 
 
@@ -376,11 +383,10 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
     if _has_observer(embedded):
         t.add("com_observer", "parameter", "the controllers use the COM observer's estimate as "
               "their internal model", type="Boolean", start=bool(start["com_observer"]))
-    for f in layout.fields:
-        n = layout.size_of(f)
-        for name in _element_names(f"c0_{f}", n):
-            t.add(name, "parameter", f"state of the embedded software at power-on, field {f}",
-                  start=float(start[name]))
+    for name, unit in zip(X0_NAMES, _STATE_UNITS, strict=True):
+        t.add(name, "parameter", f"robot state {name[3:]} at power-on: the embedded software "
+              "starts aligned with it (start-up calibration at rest)", start=float(start[name]),
+              unit=unit)
     for f in layout.fields:
         n = layout.size_of(f)
         for name in _element_names(f"c_{f}", n):
@@ -401,6 +407,7 @@ def _rpy_function() -> ca.Function:
 def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
     """The controller FMU of ``controller`` with ``estimator`` (Co-Simulation only)."""
     embedded = embedded_function(controller, estimator)
+    initial = initial_state_function(embedded, estimator)
     rows = controller_variables(embedded, controller, estimator)
     layout = controller_state_layout(embedded, estimator)
     has_obs = _has_observer(embedded)
@@ -416,7 +423,7 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
     groups = dict(_parameter_groups(embedded, controller, estimator))
     blocks = [
         FmuBlock("c", layout, field_names("c")),
-        FmuBlock("c0", layout, field_names("c0")),
+        FmuBlock("x0", STATE, X0_NAMES),
         FmuBlock("xa", ATTITUDE_FILTER_STATE),
         FmuBlock("xv", VELOCITY_FILTER_STATE),
         FmuBlock("meas", MEAS, READING_NAMES),
@@ -451,12 +458,12 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
         "mission's Function: sensor readings in, wheel torques, estimate and diagnostics out",
         prefix="ctrl",
         variables=rows,
-        functions=(embedded, _rpy_function()),
+        functions=(embedded, initial, _rpy_function()),
         model_source="controller/controller_model.c",
         cg_name="ballbot_controller_cg",
         interfaces=("cs",),
         defines=tuple((k, str(v)) for k, v in defines.items()),
         blocks=tuple(blocks),
-        function_aliases=((embedded.name(), "EMBEDDED"),),
+        function_aliases=((embedded.name(), "EMBEDDED"), (initial.name(), "INITIAL")),
         default_experiment=(0.0, 5.0, TS_CONTROL),
     )

@@ -2,7 +2,8 @@
 
 The closed-loop master runs the package's controllers once per control period around
 the FMU, through the one definition of a control period in
-:mod:`ballbot_casadi.sim.period`.
+:mod:`ballbot_casadi.sim.period`; the FMU runs on the one adapter
+:class:`~ballbot_casadi.fmi.masters.adapter.FmuSlave`.
 """
 
 from __future__ import annotations
@@ -10,14 +11,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from fmpy import extract, read_model_description, simulate_fmu
-from fmpy.fmi2 import FMU2Slave
+from fmpy import extract, simulate_fmu
 
 from ballbot_casadi.control import BALANCE_CONTROLLERS, make_velocity_controller
 from ballbot_casadi.core.layout import DISTURBANCE, STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.fmi.build import MODEL_IDENTIFIER, build_fmu
+from ballbot_casadi.fmi.build import build_fmu
+from ballbot_casadi.fmi.masters.adapter import FmuSlave
 from ballbot_casadi.model.dynamics import make_affine
 from ballbot_casadi.sim.period import control_period
 from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES, PeriodBlocks
@@ -82,40 +83,34 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
         raise ScenarioError("closed_loop_cosim: attitude pushes cannot be applied through the "
                             "FMU's inputs; use a scenario without pushes")
     unzipped = build_fmu().unzipped if fmu is None else Path(extract(str(fmu)))
-    md = read_model_description(str(unzipped))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    sx = [vr[n] for n in STATE.names]
-    su = [vr[f"tau{i}"] for i in range(3)]
-    sd = [vr[f"tau_dist{i}"] for i in range(3)]
+    torques = [f"tau{i}" for i in range(3)]
+    dists = [f"tau_dist{i}" for i in range(3)]
     const = {k: inp[k] for k in PERIOD_CONSTANTS}
     Ts = float(const["Ts"])
     n = w.shape[0]
-    plant = FMU2Slave(guid=md.guid, unzipDirectory=str(unzipped),
-                      modelIdentifier=MODEL_IDENTIFIER, instanceName="plant")
-    plant.instantiate()
+    plant = FmuSlave(unzipped, "plant")
     states = np.zeros((n + 1, STATE.size))
     zs = np.zeros((n + 1, np.size(inp["z0"])))
     tau_cmd = np.zeros((n, 3))
     tau = np.zeros((n, 3))
     try:
-        plant.setupExperiment(startTime=0.0)
-        plant.enterInitializationMode()
-        plant.setReal([vr[p] for p in PARAM_NAMES], [float(v) for v in inp["p_plant"]])
-        plant.setReal([vr["h_internal"]], [Ts / n_sub])
-        plant.setReal(sx, [float(v) for v in inp["x0"]])
-        plant.exitInitializationMode()
+        plant.setup(0.0)
+        plant.set_reals(PARAM_NAMES, inp["p_plant"])
+        plant.set_reals(["h_internal"], [Ts / n_sub])
+        plant.set_reals(STATE.names, inp["x0"])
+        plant.exit_initialization()
         z = np.asarray(inp["z0"], float)
         zs[0] = z
         k = 0
 
         def fmu_plant(xk: np.ndarray, tau_k: np.ndarray, tau_lim: np.ndarray,
                       tau_dist: np.ndarray) -> np.ndarray:
-            plant.setReal(su, [float(v) for v in tau_lim])
-            plant.setReal(sd, [float(v) for v in tau_dist])
-            plant.doStep(k * Ts, Ts)
-            return np.array(plant.getReal(sx))
+            plant.set_reals(torques, tau_lim)
+            plant.set_reals(dists, tau_dist)
+            plant.do_step(k * Ts, Ts)
+            return plant.get_reals(STATE.names)
 
-        x = np.array(plant.getReal(sx))
+        x = plant.get_reals(STATE.names)
         for k in range(n):
             seq = {key: inp[key][k] for key in PERIOD_SEQUENCES}
             out = control_period(blocks, x, z, seq, const, fmu_plant)
@@ -125,5 +120,5 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
         states[n] = x
         plant.terminate()
     finally:
-        plant.freeInstance()
+        plant.free()
     return {"time": np.arange(n + 1) * Ts, "state": states, "z": zs, "tau_cmd": tau_cmd, "tau": tau}
