@@ -8,7 +8,9 @@
 * :mod:`~ballbot_casadi.sim.scenario.signals` -- the attitude-reference schema and its
   check (Nyquist limit);
 * :mod:`~ballbot_casadi.sim.scenario.file` -- reading and validating scenario files;
-* :mod:`~ballbot_casadi.sim.scenario.toml_write` -- writing them back.
+* :mod:`~ballbot_casadi.sim.scenario.toml_write` -- writing them back;
+* :mod:`~ballbot_casadi.sim.scenario.dispersions` -- the Monte Carlo dispersions of a file
+  and the runs drawn from them.
 
 The specs of a file's ``[[spec]]`` rows are :mod:`ballbot_casadi.core.specs`.
 """
