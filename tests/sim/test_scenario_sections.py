@@ -7,6 +7,8 @@ of the closed loop, and the same table again (a fixed point).
 
 from __future__ import annotations
 
+import copy
+import pickle
 import tomllib
 
 import numpy as np
@@ -70,6 +72,7 @@ def test_attributes_read_through_the_sections_and_stay_immutable():
     with pytest.raises(AttributeError, match="immutable"):
         sc.seed = 3
     assert Scenario.from_dict(sc.to_dict()) == sc
+    assert pickle.loads(pickle.dumps(sc)) == sc and copy.deepcopy(sc) == sc   # Dask, caches
     assert Scenario("s", "smc", 2.0) == Scenario("s", controller="smc", duration=2.0)
     with pytest.raises(TypeError, match="unknown"):
         Scenario("s", colour="red")

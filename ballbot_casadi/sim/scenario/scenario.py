@@ -243,6 +243,10 @@ class Scenario:
 
     __hash__ = None  # type: ignore[assignment]  (mutable mappings inside, as before)
 
+    def __reduce__(self) -> tuple:
+        """Pickle and copy by sections (the instance refuses attribute assignment)."""
+        return (_from_sections, ({s: getattr(self, s) for s, _ in SCENARIO_SECTIONS},))
+
     def __repr__(self) -> str:
         return "Scenario(" + ", ".join(f"{f}={getattr(self, f)!r}" for f in SCENARIO_FIELDS) + ")"
 
@@ -425,6 +429,10 @@ class Scenario:
         for s, _ in SCENARIO_SECTIONS:
             out.update(getattr(self, s).to_file())
         return out
+
+
+def _from_sections(sections: Mapping[str, Any]) -> Scenario:
+    return Scenario.from_sections(**sections)
 
 
 def _section_property(field_name: str) -> property:
