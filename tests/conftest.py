@@ -1,10 +1,12 @@
-"""Shared fixtures: reference data, default parameters, model Functions (built once)."""
+"""Shared fixtures: reference data, default parameters, model Functions (built once), a
+forked child for loads that may kill the process."""
 
 from __future__ import annotations
 
 import json
 import os
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pytest
@@ -40,3 +42,32 @@ def default_params():
 @pytest.fixture()
 def rng() -> np.random.Generator:
     return np.random.default_rng(20201122)
+
+
+def _run_in_fork(fn: Callable[[], object]) -> tuple[int, str]:
+    """Run ``fn()`` in a forked child; (its exit code, or -signal, and ``str(fn())``).
+
+    Loading a truncated shared library kills the process with SIGBUS, so such loads run
+    in a child whose exit status the test checks.
+    """
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # child: a SIGBUS here must not take the test run with it
+        code = 1
+        try:
+            os.close(r)
+            os.write(w, str(fn()).encode())
+            code = 0
+        finally:
+            os._exit(code)
+    os.close(w)
+    with os.fdopen(r) as f:
+        out = f.read()
+    _, status = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(status), out
+
+
+@pytest.fixture()
+def in_fork() -> Callable[[Callable[[], object]], tuple[int, str]]:
+    """:func:`_run_in_fork`: ``in_fork(fn) -> (exit code or -signal, str(fn()))``."""
+    return _run_in_fork

@@ -22,8 +22,8 @@ LAYERS = {
     "fmi": 5,
     "firmware": 5,
     "studies": 6,
-    "bench": 6,
-    "cli": 7,
+    "bench": 7,  # above studies: it times the Monte Carlo runner of studies/
+    "cli": 8,
 }
 #: Optional dependencies that may be imported inside functions (extras, not installed by default).
 OPTIONAL = {"libcosimpy", "pythonfmu", "dask", "distributed"}

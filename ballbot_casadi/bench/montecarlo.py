@@ -18,9 +18,10 @@ import time
 from importlib import resources
 from pathlib import Path
 
-from ballbot_casadi.analysis.montecarlo import draw_runs, run_dask, run_serial
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.scenario import load_scenario_file, parse_scenario, set_value
+from ballbot_casadi.sim.scenario.dispersions import draw_runs
+from ballbot_casadi.studies.montecarlo_runner import run_dask, run_serial
 
 __all__ = ["bench_montecarlo"]
 

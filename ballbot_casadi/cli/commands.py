@@ -15,7 +15,7 @@ from ballbot_casadi.core.files import (
 )
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.model.linearization import model_summary
-from ballbot_casadi.studies import analyze, fmu_demo, montecarlo, report, study
+from ballbot_casadi.studies import analyze, fmu_demo, montecarlo_report, report, study
 
 __all__ = ["add_parser", "DEMO_STEPS"]
 
@@ -59,7 +59,7 @@ DEMO_STEPS: tuple[tuple[str, Callable[[Path], int]], ...] = (
     ("complete system: noisy sensors, QUKF + VUKF, FLC in the thesis mode, beside SMC + EKF "
      "(thesis 9.3, 9.4)", study.demo_full),
     ("Monte Carlo: 16 random COM offsets, estimated online, noise and UKFs, on 2 Dask workers",
-     montecarlo.demo_step),
+     montecarlo_report.demo_step),
     ("plant FMU: build BallbotPlant.fmu and co-simulate it in fmpy", fmu_demo.demo_step),
     ("report", report.demo_step),
 )

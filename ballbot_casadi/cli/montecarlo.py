@@ -1,4 +1,4 @@
-"""``ballbot montecarlo SCENARIO --n N``: front end of :mod:`ballbot_casadi.studies.montecarlo`."""
+"""``ballbot montecarlo SCENARIO --n N``: front end of :mod:`ballbot_casadi.studies.montecarlo_report`."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ballbot_casadi.core.files import check_output_dir
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.studies.montecarlo import OWNED_OUTPUTS, run_montecarlo
+from ballbot_casadi.studies.montecarlo_report import OWNED_OUTPUTS, run_montecarlo
 from ballbot_casadi.studies.registry import parse_overrides, resolve_scenario
 
 __all__ = ["add_parser"]

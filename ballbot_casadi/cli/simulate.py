@@ -48,7 +48,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-plot", action="store_true", help="skip the PNG plot")
     p.add_argument("--log-every", type=int, default=1, metavar="M",
                    help="keep every M-th control period in the log and run the mission in 60 s "
-                        "segments: memory ~96 kB per simulated second with M = 1 (158 kB with the "
-                        "estimators), divided by M (default 1)")
+                        "segments: the log's memory per simulated second is divided by M (default 1; "
+                        "measured sizes in the README)")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=_cmd_simulate)

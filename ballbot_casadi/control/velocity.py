@@ -214,10 +214,8 @@ def design_velocity_lqr(
         model, a pre-filter the balance loop follows through its feedforward) and the
         balance loop's own -10: the velocity dynamics are >= 3x slower than the inner
         loop (thesis §7.1).  The velocity-to-position-error weight ratio trades the
-        velocity-ramp shape against the speed of offset rejection: on the Fig. 9.3-like
-        profile the velocity error after removing the ~0.55 s non-minimum-phase delay
-        is 0.044 m/s rms, and a (-2, -3, +3) cm COM offset is rejected (speed < 1e-3
-        m/s) within ~15 s with a peak position error ~1.1 m.
+        velocity-ramp shape against the speed of offset rejection (the ``velocity`` and
+        ``com`` studies measure both; their reports hold the numbers).
     inner
         ``(K_p, K_d)`` of the balance controller's tilt channels (FLC defaults).
 

@@ -4,6 +4,9 @@ The one home of specs: a scenario file's ``[[spec]]`` rows
 (:mod:`ballbot_casadi.sim.scenario.file`), the study registry's cross-run specs and the
 Monte Carlo statistics all use these.  A spec is a pure function of a run's metrics
 (a mapping ``{metric: value}``), so it sits in ``core`` where every layer may use it.
+Not in ``analysis`` (where the metrics are computed): the scenario-file reader in ``sim``
+validates the ``[[spec]]`` rows (their operators) when it reads a file, and ``sim`` may
+not import ``analysis``; nothing here depends on how a metric is computed.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
-__all__ = ["SPEC_OPS", "Spec", "spec_ok", "spec_usage", "evaluate_specs"]
+__all__ = ["SPEC_OPS", "DEFAULT_SPECS", "Spec", "spec_ok", "spec_usage", "evaluate_specs", "specs_or_default"]
 
 _SPEC_FUNCS: Mapping[str, Callable[[Any, Any], Any]] = {
     "<": lambda a, b: a < b,
@@ -24,6 +27,9 @@ _SPEC_FUNCS: Mapping[str, Callable[[Any, Any], Any]] = {
 }
 #: Comparison operators of a spec.
 SPEC_OPS = tuple(_SPEC_FUNCS)
+#: The specs of a Monte Carlo set whose scenario file declares none: the run completed.
+DEFAULT_SPECS: tuple[Mapping[str, Any], ...] = (
+    {"metric": "finite", "op": "==", "threshold": True, "source": "run completed", "thesis": ""},)
 
 
 def spec_ok(value: Any, op: str, threshold: Any) -> bool:
@@ -83,3 +89,8 @@ class Spec:
 def evaluate_specs(specs: Sequence[Spec], metrics: Mapping[str, Any]) -> list[dict[str, Any]]:
     """Evaluate ``specs`` on ``metrics``: one row per criterion (see :meth:`Spec.evaluate`)."""
     return [s.evaluate(metrics) for s in specs]
+
+
+def specs_or_default(specs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """``specs`` as dicts, or :data:`DEFAULT_SPECS` when there are none."""
+    return [dict(s) for s in (specs or DEFAULT_SPECS)]

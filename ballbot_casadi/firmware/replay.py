@@ -33,8 +33,8 @@ __all__ = ["REPLAY_ATOL", "OUT_HEADER", "CALIB_LOOPS", "QEMU_COMMAND", "Recorded
 
 #: Largest torque difference (N m) of the QEMU replay from the host's double-precision
 #: torques: double, rounding differences of newlib's libm against glibc's carried through
-#: the filters (measured ~4e-13 over 200 periods); single, float rounding (measured ~6e-4,
-#: 0.04 % of the peak torque).
+#: the filters; single, float rounding (the measured differences are in the README's
+#: firmware section).
 REPLAY_ATOL = {"double": 1e-12, "single": 2e-3}
 #: Values in the output header of the replay program (csrc/replay_main.c).
 OUT_HEADER = 6

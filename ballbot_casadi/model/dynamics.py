@@ -64,7 +64,7 @@ NP = len(PARAM_NAMES)
 STATE_NAMES = ("x", "y", "q0", "q1", "q2", "q3", "dx", "dy", "dq0", "dq1", "dq2", "dq3")
 INPUT_NAMES = ("tau0", "tau1", "tau2")
 
-#: Function options: common-subexpression elimination shrinks the generated C by ~17 %.
+#: Function options: common-subexpression elimination (a smaller generated C).
 _FUNC_OPTS = {"cse": True}
 
 
@@ -269,7 +269,7 @@ def make_jacobians() -> ca.Function:
     e = t["s0"] + ca.mtimes(t["S"], u)
     F = ca.mtimes(t["S"].T, ca.mtimes(t["M"], e) - r)
     xt = ca.vertcat(x, tau)
-    # Forward-mode columns: ~11 % fewer operations than CasADi's default mode choice here.
+    # Forward-mode columns: fewer operations than CasADi's default mode choice here.
     seeds = ca.DM.eye(xt.numel())
     JF = ca.horzcat(*[ca.jtimes(F, xt, seeds[:, i]) for i in range(xt.numel())])
     J = ca.jacobian(e, xt) - ca.mtimes(t["S"], _ldl_solve(t["L"], t["D"], JF))

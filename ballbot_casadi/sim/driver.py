@@ -2,8 +2,8 @@
 
 The CasADi mission Function (:func:`ballbot_casadi.sim.mission.make_mission`) is the
 reference implementation; calling it from Python converts every input and output
-element between numpy and ``casadi.DM`` (~80 ns per element, a third of a 100 s
-mission's wall time).  This module generates a few lines of C glue,
+element between numpy and ``casadi.DM`` (a large share of a long mission's wall time,
+see ``make bench``).  This module generates a few lines of C glue,
 ``ballbot_mission_<ctrl>(n, in, out)``, that chains the *generated* chunk Function
 ``ballbot_cl_chunk_<ctrl>`` (``CHUNK`` periods) and the step Function
 ``ballbot_cl_step_<ctrl>`` for the remainder, reading and writing numpy buffers in

@@ -39,7 +39,7 @@ def test_reference_acceleration_rate_and_tilt_stay_within_the_limits(rng):
         x = make_state(roll=rng.normal() * 0.05, pitch=rng.normal() * 0.05,
                        dx=rng.normal() * 0.5, dy=rng.normal() * 0.5)
         v_ref = np.r_[rng.normal(size=2) * 0.5, 0.0]
-        z_next = np.ravel(vel(x, v_ref, z, p, k, Ts)[3])
+        z_next = vel(x, v_ref, z, p, k, Ts)[3].full().ravel()
         a = (z_next[Z["dtheta_r"]] - dth) / Ts
         n_checked += 1
         n_active += np.any(np.abs(a) > a_max - 1e-9)
@@ -62,6 +62,6 @@ def test_braking_bound_stops_at_the_tilt_limit():
     x = make_state(dx=-0.5)  # the LQR wants to tilt further forward
     peak = 0.0
     for _ in range(400):
-        z = np.ravel(vel(x, np.array([0.5, 0.0, 0.0]), z, p, k, TS_CONTROL)[3])
+        z = vel(x, np.array([0.5, 0.0, 0.0]), z, p, k, TS_CONTROL)[3].full().ravel()
         peak = max(peak, z[Z["theta_r"]][0])
     assert peak <= tilt_max + 1e-12

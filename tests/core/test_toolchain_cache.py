@@ -34,25 +34,6 @@ def _build_and_eval(root: str) -> tuple[str, list[float]]:
     return lib.status, [float(v) for v in ca.DM(f([2.0, 5.0])).full().ravel()]
 
 
-def _eval_in_child(root: Path) -> tuple[int, str]:
-    """Build and evaluate in a forked child; (exit code or -signal, its printed result)."""
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # child: a SIGBUS here must not take the test run with it
-        code = 1
-        try:
-            os.close(r)
-            os.write(w, repr(_build_and_eval(str(root))).encode())
-            code = 0
-        finally:
-            os._exit(code)
-    os.close(w)
-    with os.fdopen(r) as f:
-        out = f.read()
-    _, status = os.waitpid(pid, 0)
-    return os.waitstatus_to_exitcode(status), out
-
-
 @pytest.fixture()
 def built(tmp_path):
     status, y = _build_and_eval(str(tmp_path))
@@ -74,7 +55,7 @@ def test_sources_and_binaries_live_together_in_the_hash_folder(built, tmp_path):
 
 @pytest.mark.parametrize("damage", ["truncate", "zero", "delete", "flip"])
 @pytest.mark.parametrize("which", ["shared", "static", "source"])
-def test_damaged_cached_file_is_rebuilt_and_loads(built, tmp_path, which, damage):
+def test_damaged_cached_file_is_rebuilt_and_loads(built, tmp_path, which, damage, in_fork):
     path: Path = getattr(built, which)
     size = path.stat().st_size
     if damage == "truncate":
@@ -90,7 +71,7 @@ def test_damaged_cached_file_is_rebuilt_and_loads(built, tmp_path, which, damage
         data[size // 2] ^= 0xFF
         path.write_bytes(bytes(data))
     # a fresh process builds and loads: no SIGBUS, no CasADi load error
-    code, out = _eval_in_child(tmp_path)
+    code, out = in_fork(lambda: repr(_build_and_eval(str(tmp_path))))
     assert code == 0, f"child ended with {code} (negative: killed by signal {-code})"
     assert "rebuilt" in out and "[11.0, 10.0]" in out
     assert path.stat().st_size == size and tc.verify_library(built) is None

@@ -24,25 +24,6 @@ from ballbot_casadi.errors import BuildError
 pytestmark = pytest.mark.needs_cc
 
 
-def _in_child(fn) -> tuple[int, str]:
-    """Run ``fn() -> str`` in a forked child; (exit code or -signal, its result)."""
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:
-        code = 1
-        try:
-            os.close(r)
-            os.write(w, str(fn()).encode())
-            code = 0
-        finally:
-            os._exit(code)
-    os.close(w)
-    with os.fdopen(r) as f:
-        out = f.read()
-    _, status = os.waitpid(pid, 0)
-    return os.waitstatus_to_exitcode(status), out
-
-
 def _build_and_load(out: Path) -> str:
     b = fb.build_fmu(out)
     lib = ctypes.CDLL(str(b.binary))
@@ -128,11 +109,11 @@ def test_deleted_cached_archive_with_its_folder_left_is_rebuilt(fmu_out):
     fb.validate_fmu_archive(b2.fmu, _sha(b2.binary))
 
 
-def test_truncated_unpacked_binary_is_rebuilt_before_it_is_loaded(fmu_out):
+def test_truncated_unpacked_binary_is_rebuilt_before_it_is_loaded(fmu_out, in_fork):
     out, _, _, _ = fmu_out
     b = fb.build_fmu(out)
     _damage(b.binary, "truncate")
-    code, res = _in_child(lambda: _build_and_load(out))
+    code, res = in_fork(lambda: _build_and_load(out))
     assert code == 0, f"child ended with {code} (negative: killed by signal {-code})"
     status, version, digest = res.split("|")
     assert status.startswith("rebuilt:") and version == "2.0" and digest == b.digest

@@ -48,8 +48,8 @@ def test_noise_free_readings_are_the_sensor_model_at_the_logged_state(sim):
     x, tau, meas = log["state"], log["tau"], log["meas"]
     for k in (1, 57, 200, 399):
         acc, gyro, _ = sensors(x[k], tau[k - 1], p.to_vector())  # torque acting just before t_k
-        np.testing.assert_allclose(meas[k, 0:3], np.ravel(acc), rtol=0, atol=1e-12)
-        np.testing.assert_allclose(meas[k, 3:6], np.ravel(gyro), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(meas[k, 0:3], np.asarray(acc).ravel(), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(meas[k, 3:6], np.asarray(gyro).ravel(), rtol=0, atol=1e-12)
         # encoders: quantised count difference over the period, in ticks/s
         dticks = encoder_count(log["phi"][k], p.n_ticks) - encoder_count(log["phi"][k - 1], p.n_ticks)
         np.testing.assert_allclose(meas[k, 6:9] * sc.Ts, dticks, rtol=0, atol=1e-9)
@@ -57,7 +57,7 @@ def test_noise_free_readings_are_the_sensor_model_at_the_logged_state(sim):
     # the first sample has no previous count: reported missing
     assert np.all(np.isnan(meas[0, 6:9]))
     # the wheel angles integrate the wheel speeds of the plant
-    dphi = np.ravel(f["wheel_speeds"](x[200], p.to_vector()))
+    dphi = np.asarray(f["wheel_speeds"](x[200], p.to_vector())).ravel()
     np.testing.assert_allclose((log["phi"][201] - log["phi"][199]) / (2 * sc.Ts), dphi, rtol=0.02)
 
 
@@ -101,6 +101,6 @@ def test_noise_reaches_the_readings_with_the_sensor_covariance(sim):
     _, gyro, _ = sens(noisy["state"][k], noisy["tau"][k - 1], p)
     # gyro = omega + b_k + sqrt(Sigma_gyro) n_k with the bias random walk (3.9)
     bias = np.asarray(s.gyro_bias0) + np.sqrt(sc.Ts) * np.asarray(s.gyro_bias_rw) * n[:k, 6:9].sum(axis=0)
-    np.testing.assert_allclose(noisy["meas"][k, 3:6] - np.ravel(gyro),
+    np.testing.assert_allclose(noisy["meas"][k, 3:6] - np.asarray(gyro).ravel(),
                                bias + np.sqrt(s.gyro_noise_var) * n[k, 3:6], rtol=0, atol=1e-12)
     assert np.all(np.isfinite(clean["meas"][1:]))

@@ -127,7 +127,7 @@ def test_push_rotates_q_and_dq_and_the_controllers_see_the_pushed_state(blocks):
     np.testing.assert_allclose(seen[0], xk, atol=1e-15)
     tau_after, _ = blocks["flc"].balance(xk, seq["q_ref"], seq["dq_ref"], seq["ddq_ref"],
                                          inp["p_ctrl"], inp["k_bal"])
-    np.testing.assert_allclose(out["tau_cmd"], np.ravel(tau_after), atol=1e-14)
+    np.testing.assert_allclose(out["tau_cmd"], np.asarray(tau_after).ravel(), atol=1e-14)
 
 
 @pytest.mark.parametrize("controller", ["flc", "smc"])
@@ -142,7 +142,7 @@ def test_logged_command_is_the_controller_on_the_logged_state_during_pushes(sim,
     for k in ks:
         tau, _ = bal(log["state"][k], log["q_ref"][k], log["dq_ref"][k], log["ddq_ref"][k],
                      inp["p_ctrl"], inp["k_bal"])
-        np.testing.assert_allclose(log["tau_cmd"][k], np.ravel(tau), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(log["tau_cmd"][k], np.asarray(tau).ravel(), rtol=0, atol=1e-12)
     # the pushed state has body rates of a moving robot (the push hit a moving body)
     k = ks[0]
     assert np.max(np.abs(log["state"][k, STATE["dq"]])) > 0.05
@@ -171,7 +171,7 @@ def test_actuate_on_numbers_and_symbols_agree():
     num = actuate(t, d, 1.98)
     ts, ds = ca.MX.sym("t", 3), ca.MX.sym("d", 3)
     f = ca.Function("a", [ts, ds], [actuate(ts, ds, 1.98)])
-    np.testing.assert_array_equal(num, np.ravel(f(t, d)))
+    np.testing.assert_array_equal(num, np.asarray(f(t, d)).ravel())
     np.testing.assert_array_equal(num, [2.08, -2.18, 0.3])
 
 

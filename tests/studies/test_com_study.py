@@ -15,7 +15,9 @@ from ballbot_casadi.analysis.com_observer import (
     standstill_start,
     trailing_mean_angle_deg,
 )
-from ballbot_casadi.analysis.montecarlo import draw_runs, run_serial, summarize
+from ballbot_casadi.analysis.dispersion_stats import summarize
+from ballbot_casadi.sim.scenario.dispersions import draw_runs
+from ballbot_casadi.studies.montecarlo_runner import run_serial
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario

@@ -8,12 +8,13 @@ import json
 import numpy as np
 import pytest
 
-from ballbot_casadi.analysis.montecarlo import DEFAULT_DISPERSIONS, draw_runs, run_serial
+from ballbot_casadi.sim.scenario.dispersions import DEFAULT_DISPERSIONS, draw_runs
+from ballbot_casadi.studies.montecarlo_runner import run_serial
 from ballbot_casadi.cli import main
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.scenario import load_scenario_file, parse_scenario, set_value
-from ballbot_casadi.studies import montecarlo as montecarlo_study
-from ballbot_casadi.studies.montecarlo import run_montecarlo, spec_usage
+from ballbot_casadi.studies import montecarlo_report as montecarlo_study
+from ballbot_casadi.studies.montecarlo_report import run_montecarlo, spec_usage
 from ballbot_casadi.studies.registry import shipped_scenarios
 
 PNG = b"\x89PNG\r\n\x1a\n"

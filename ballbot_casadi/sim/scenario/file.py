@@ -100,38 +100,36 @@ Format (every key optional unless marked; units in the names)::
 :func:`load_scenario_file` reads and validates a file into a :class:`ScenarioFile`
 (the validated table, the :class:`~ballbot_casadi.sim.scenario.Scenario`, specs and
 dispersions); :func:`dump_toml` writes such a table back (e.g. a Monte Carlo run's
-scenario, rerunnable alone with ``ballbot simulate``).
+scenario, rerunnable alone with ``ballbot simulate``).  Each part of the file is read,
+checked and written by its section (:mod:`ballbot_casadi.sim.scenario.sections`).
 """
 
 from __future__ import annotations
 
 import copy
-import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-import numpy as np
-
-from ballbot_casadi.control import BALANCE_CONTROLLERS
-from ballbot_casadi.core.params import PARAM_NAMES
-from ballbot_casadi.core.specs import SPEC_OPS
 from ballbot_casadi.errors import ScenarioError, ScenarioFileError
-from ballbot_casadi.sim import references as R
-from ballbot_casadi.sim.ports import GAIN_CONSTANTS
-from ballbot_casadi.sim.scenario.scenario import (
-    CONTROLLER_CHANGES,
-    ESTIMATOR_CHANGES,
-    ESTIMATOR_CHOICES,
-    ESTIMATOR_TUNING_KEYS,
-    FEEDFORWARD_MODES,
-    PLANT_CHANGES,
-    SENSOR_CHANGES,
-    Scenario,
-    initial_state,
+from ballbot_casadi.sim.scenario.checker import FileChecker
+from ballbot_casadi.sim.scenario.scenario import Scenario
+from ballbot_casadi.sim.scenario.sections import (
+    DISPERSION_TARGETS,
+    SCENARIO_SECTIONS,
+    DispersionsSection,
+    DisturbancesSection,
+    EstimationSection,
+    GainsSection,
+    InitialSection,
+    ModelSection,
+    ObserverSection,
+    ReferencesSection,
+    RunSection,
+    SensorsSection,
+    SpecsSection,
 )
-from ballbot_casadi.sim.scenario.signals import attitude_reference, signal_from_file
 
 __all__ = [
     "ScenarioFileError",
@@ -141,11 +139,9 @@ __all__ = [
     "parse_scenario",
 ]
 
-#: Initial-state quantities a Monte Carlo dispersion may target (besides ``plant.<name>``).
-DISPERSION_TARGETS = ("initial.roll_deg", "initial.pitch_deg", "initial.yaw_deg")
-_DISTS = ("normal", "uniform")
-
-_NUM = (int, float)
+#: Every top-level key of a scenario file: the keys of its sections.
+_TOP = tuple(k for _, cls in SCENARIO_SECTIONS for k in cls.TABLE_KEYS) + SpecsSection.TABLE_KEYS \
+    + DispersionsSection.TABLE_KEYS
 
 
 @dataclass(frozen=True)
@@ -172,266 +168,40 @@ class ScenarioFile:
     specs: tuple[Mapping[str, Any], ...]
     montecarlo: Mapping[str, Any] | None
 
-
-class _Checker:
-    """Key-by-key validation with messages ``FILE: key 'a.b': reason``."""
-
-    def __init__(self, where: str) -> None:
-        self.where = where
-
-    def fail(self, key: str, reason: str) -> ScenarioFileError:
-        return ScenarioFileError(f"{self.where}: key '{key}': {reason}")
-
-    def keys(self, table: Any, key: str, allowed: tuple[str, ...], required: tuple[str, ...] = ()) -> dict:
-        if not isinstance(table, Mapping):
-            raise self.fail(key, f"expected a table, got {type(table).__name__}")
-        for k in table:
-            if k not in allowed:
-                raise self.fail(f"{key}.{k}" if key else k,
-                                f"unknown key; allowed here: {', '.join(allowed)}")
-        for k in required:
-            if k not in table:
-                raise self.fail(f"{key}.{k}" if key else k, "missing (required)")
-        return dict(table)
-
-    def num(self, table: Mapping, key: str, full: str, default: Any = None, *, lo: float | None = None,
-            hi: float | None = None, lo_open: bool = False) -> Any:
-        if key not in table:
-            return default
-        v = table[key]
-        if not isinstance(v, _NUM) or isinstance(v, bool):
-            raise self.fail(full, f"expected a number, got {v!r} ({type(v).__name__})")
-        if not math.isfinite(v):
-            raise self.fail(full, f"must be finite, got {v!r}")
-        if lo is not None and (v <= lo if lo_open else v < lo):
-            raise self.fail(full, f"must be {'>' if lo_open else '>='} {lo:g}, got {v!r}")
-        if hi is not None and v > hi:
-            raise self.fail(full, f"must be <= {hi:g}, got {v!r}")
-        return float(v)
-
-    def integer(self, table: Mapping, key: str, full: str, default: int, lo: int) -> int:
-        if key not in table:
-            return default
-        v = table[key]
-        if not isinstance(v, int) or isinstance(v, bool) or v < lo:
-            raise self.fail(full, f"expected an integer >= {lo}, got {v!r}")
-        return int(v)
-
-    def choice(self, table: Mapping, key: str, full: str, default: str, allowed: tuple[str, ...]) -> str:
-        if key not in table:
-            return default
-        v = table[key]
-        if not isinstance(v, str) or v not in allowed:
-            raise self.fail(full, f"allowed: {', '.join(allowed)}; got {v!r}")
-        return v
-
-    def text(self, table: Mapping, key: str, full: str, default: str = "") -> str:
-        if key not in table:
-            return default
-        v = table[key]
-        if not isinstance(v, str):
-            raise self.fail(full, f"expected a string, got {v!r}")
-        return v
-
-    def boolean(self, table: Mapping, key: str, full: str, default: bool) -> bool:
-        if key not in table:
-            return default
-        v = table[key]
-        if not isinstance(v, bool):
-            raise self.fail(full, f"expected true or false, got {v!r}")
-        return v
-
-    def rows(self, table: Mapping, key: str) -> list:
-        v = table.get(key, [])
-        if not isinstance(v, list) or not all(isinstance(r, Mapping) for r in v):
-            raise self.fail(key, f"expected an array of tables ([[{key}]]), got {type(v).__name__}")
-        return v
-
-    def vector(self, table: Mapping, key: str, full: str, n: int | None = None) -> tuple[float, ...]:
-        v = table.get(key, [])
-        if not isinstance(v, list) or any(not isinstance(e, _NUM) or isinstance(e, bool) for e in v):
-            raise self.fail(full, f"expected an array of numbers, got {v!r}")
-        if n is not None and len(v) != n:
-            raise self.fail(full, f"expected {n} numbers, got {len(v)}")
-        if not all(math.isfinite(e) for e in v):
-            raise self.fail(full, "numbers must be finite")
-        return tuple(float(e) for e in v)
-
-
-_TOP = ("name", "description", "study", "controller", "duration_s", "cascade", "feedforward",
-        "estimator", "seed", "control_period_s", "rk4_substeps", "initial", "attitude", "velocity",
-        "push", "torque_disturbance", "plant", "controller_model", "gains", "spec", "montecarlo",
-        "noise", "estimator_model", "sensors", "sensor_dropout", "estimator_tuning", "com_observer")
-_INITIAL = ("roll_deg", "pitch_deg", "yaw_deg", "x_m", "y_m", "vx_mps", "vy_mps", "on_reference")
-def _section(c: _Checker, parse: Any, *args: Any) -> Any:
-    """``parse(*args)`` of a section; its keyed :class:`ScenarioError` becomes a file error."""
-    try:
-        return parse(*args)
-    except ScenarioError as exc:
-        raise c.fail(exc.key or "scenario", exc.reason) from None
-
-
-def _interval(c: _Checker, row: Any, key: str, field: str) -> tuple[float, float]:
-    """``(t_start_s, t_end_s)`` of a row that also requires ``field``; end after start."""
-    c.keys(row, key, ("t_start_s", "t_end_s", field), ("t_start_s", "t_end_s", field))
-    t0 = c.num(row, "t_start_s", f"{key}.t_start_s", lo=0.0)
-    t1 = c.num(row, "t_end_s", f"{key}.t_end_s")
-    if t1 <= t0:
-        raise c.fail(f"{key}.t_end_s", f"must be after t_start_s ({t0:g}), got {t1:g}")
-    return t0, t1
-
-
-def _dropouts(c: _Checker, table: Mapping[str, Any]) -> list[tuple]:
-    rows = []
-    for i, row in enumerate(c.rows(table, "sensor_dropout")):
-        key = f"sensor_dropout[{i}]"
-        t0, t1 = _interval(c, row, key, "sensor")
-        rows.append((t0, t1, c.choice(row, "sensor", f"{key}.sensor", "", ("acc", "gyro", "enc"))))
-    return rows
-
-
-def _initial(c: _Checker, table: Any, attitude: Mapping[str, Any], Ts: float) -> tuple:
-    table = c.keys(table, "initial", _INITIAL)
-    ang = {k: c.num(table, k, f"initial.{k}", 0.0, lo=-180.0, hi=180.0)
-           for k in ("roll_deg", "pitch_deg", "yaw_deg")}
-    if abs(ang["pitch_deg"]) >= 90.0:
-        raise c.fail("initial.pitch_deg", "must be within (-90, 90) deg (ZYX Euler angles)")
-    pos = {k: c.num(table, k, f"initial.{k}", 0.0) for k in ("x_m", "y_m", "vx_mps", "vy_mps")}
-    for k in ("vx_mps", "vy_mps"):
-        if abs(pos[k]) > 10.0:
-            raise c.fail(f"initial.{k}", f"{pos[k]:g} m/s is not a ballbot speed (|v| <= 10 m/s)")
-    on_ref = c.boolean(table, "on_reference", "initial.on_reference", False)
-    x0 = np.array(initial_state(ang["roll_deg"], ang["pitch_deg"], ang["yaw_deg"]))
-    if on_ref:
-        q, dq, _ = attitude_reference(attitude, np.zeros(1))
-        x0[2:6], x0[8:12] = q[0], dq[0]
-    x0[0], x0[1], x0[6], x0[7] = pos["x_m"], pos["y_m"], pos["vx_mps"], pos["vy_mps"]
-    return tuple(float(v) for v in x0)
-
-
-def _specs(c: _Checker, rows: list) -> tuple[dict[str, Any], ...]:
-    out = []
-    for i, row in enumerate(rows):
-        key = f"spec[{i}]"
-        c.keys(row, key, ("metric", "op", "threshold", "source", "thesis"), ("metric", "op", "threshold"))
-        thr = row["threshold"]
-        if not (isinstance(thr, bool) or (isinstance(thr, _NUM) and math.isfinite(thr))):
-            raise c.fail(f"{key}.threshold", f"expected a finite number or true/false, got {thr!r}")
-        out.append({"metric": c.text(row, "metric", f"{key}.metric"),
-                    "op": c.choice(row, "op", f"{key}.op", "", SPEC_OPS),
-                    "threshold": thr,
-                    "source": c.text(row, "source", f"{key}.source", "scenario file"),
-                    "thesis": c.text(row, "thesis", f"{key}.thesis", "")})
-    return tuple(out)
-
-
-def _montecarlo(c: _Checker, table: Any) -> dict[str, Any]:
-    table = c.keys(table, "montecarlo", ("seed", "dispersion", "description"))
-    seed = c.integer(table, "seed", "montecarlo.seed", 0, 0)
-    rows = []
-    for i, row in enumerate(c.rows(table, "dispersion")):
-        key = f"montecarlo.dispersion[{i}]"
-        c.keys(row, key, ("param", "dist", "sd", "low", "high", "relative"), ("param", "dist"))
-        param = c.text(row, "param", f"{key}.param")
-        if not (param in DISPERSION_TARGETS or (param.startswith("plant.") and param[6:] in PARAM_NAMES)):
-            raise c.fail(f"{key}.param", f"unknown target {param!r}; allowed: plant.<parameter> "
-                                         f"({', '.join(PARAM_NAMES)}) or {', '.join(DISPERSION_TARGETS)}")
-        dist = c.choice(row, "dist", f"{key}.dist", "", _DISTS)
-        d = {"param": param, "dist": dist, "relative": c.boolean(row, "relative", f"{key}.relative", False)}
-        if dist == "normal":
-            c.keys(row, key, ("param", "dist", "sd", "relative"), ("sd",))
-            d["sd"] = c.num(row, "sd", f"{key}.sd", lo=0.0)
-        else:
-            c.keys(row, key, ("param", "dist", "low", "high", "relative"), ("low", "high"))
-            d["low"] = c.num(row, "low", f"{key}.low")
-            d["high"] = c.num(row, "high", f"{key}.high")
-            if d["high"] < d["low"]:
-                raise c.fail(f"{key}.high", f"must be >= low ({d['low']:g}), got {d['high']:g}")
-        rows.append(d)
-    return {"seed": seed, "dispersion": rows}
+    def to_file(self) -> dict[str, Any]:
+        """The file's table written by its sections (defaults omitted): read back by
+        :func:`parse_scenario`, it gives an equal scenario, specs and dispersions."""
+        return {**self.scenario.to_file(), **SpecsSection(self.specs).to_file(),
+                **DispersionsSection(self.montecarlo).to_file()}
 
 
 def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name: str = "scenario") -> ScenarioFile:
     """Validate a scenario table (as read from TOML) into a :class:`ScenarioFile`."""
-    c = _Checker(where)
+    c = FileChecker(where)
     table = c.keys(table, "", _TOP, ("duration_s",))
-    name = c.text(table, "name", "name", default_name) or default_name
-    Ts = c.num(table, "control_period_s", "control_period_s", 0.005, lo=0.0, lo_open=True, hi=0.1)
-    duration = c.num(table, "duration_s", "duration_s", lo=0.0, lo_open=True, hi=3600.0)
-    if round(duration / Ts) < 1:
-        raise c.fail("duration_s", f"shorter than one control period ({Ts:g} s)")
-    att_table = c.keys(table.get("attitude", {}), "attitude", ("roll", "pitch", "yaw"))
-    attitude = {ax: _section(c, signal_from_file, ax, spec, Ts) for ax, spec in att_table.items()}
-    x0 = _initial(c, table.get("initial", {}), attitude, Ts)
-    keyframes = []
-    for i, row in enumerate(c.rows(table, "velocity")):
-        key = f"velocity[{i}]"
-        c.keys(row, key, ("t_s", "vx_mps", "vy_mps", "yaw_rate_rps", "accel_mps2"), ("t_s",))
-        kf = [c.num(row, "t_s", f"{key}.t_s", lo=0.0), c.num(row, "vx_mps", f"{key}.vx_mps", 0.0),
-              c.num(row, "vy_mps", f"{key}.vy_mps", 0.0), c.num(row, "yaw_rate_rps", f"{key}.yaw_rate_rps", 0.0)]
-        if "accel_mps2" in row:
-            kf.append(c.num(row, "accel_mps2", f"{key}.accel_mps2", lo=0.0, lo_open=True))
-        keyframes.append(tuple(kf))
-    if keyframes:
-        try:
-            R.velocity_profile(np.zeros(1), keyframes)
-        except ScenarioError as exc:
-            raise c.fail("velocity", str(exc)) from None
-    pushes = []
-    for i, row in enumerate(c.rows(table, "push")):
-        key = f"push[{i}]"
-        c.keys(row, key, ("t_s", "roll_deg", "pitch_deg", "yaw_deg"), ("t_s",))
-        t = c.num(row, "t_s", f"{key}.t_s", lo=0.0)
-        if t >= duration:
-            raise c.fail(f"{key}.t_s", f"must be before the end of the run ({duration:g} s), got {t:g}")
-        pushes.append((t, *(c.num(row, k, f"{key}.{k}", 0.0, lo=-90.0, hi=90.0)
-                            for k in ("roll_deg", "pitch_deg", "yaw_deg"))))
-    dists = []
-    for i, row in enumerate(c.rows(table, "torque_disturbance")):
-        key = f"torque_disturbance[{i}]"
-        t0, t1 = _interval(c, row, key, "tau_nm")
-        dists.append((t0, t1, *c.vector(row, "tau_nm", f"{key}.tau_nm", 3)))
-    gains = c.keys(table.get("gains", {}), "gains", GAIN_CONSTANTS)
-    fields = dict(
-        name=name,
-        controller=c.choice(table, "controller", "controller", "flc", tuple(BALANCE_CONTROLLERS)),
-        duration=duration, x0=x0,
-        cascade=c.boolean(table, "cascade", "cascade", False),
-        attitude=attitude, velocity_keyframes=tuple(keyframes), pushes=tuple(pushes),
-        torque_disturbances=tuple(dists),
-        plant_changes=_section(c, PLANT_CHANGES.parse, table.get("plant", {})),
-        ctrl_changes=_section(c, CONTROLLER_CHANGES.parse, table.get("controller_model", {})),
-        k_bal=c.vector(gains, "k_bal", "gains.k_bal"), k_vel=c.vector(gains, "k_vel", "gains.k_vel"),
-        com_observer=c.boolean(table, "com_observer", "com_observer", False),
-        k_obs=c.vector(gains, "k_obs", "gains.k_obs"),
-        Ts=Ts, n_sub=c.integer(table, "rk4_substeps", "rk4_substeps", 5, 1),
-        feedforward=c.choice(table, "feedforward", "feedforward", "exact", FEEDFORWARD_MODES),
-        estimator=c.choice(table, "estimator", "estimator", "true", ESTIMATOR_CHOICES),
-        seed=c.integer(table, "seed", "seed", 0, 0),
-        noise=c.boolean(table, "noise", "noise", True),
-        est_changes=_section(c, ESTIMATOR_CHANGES.parse, table.get("estimator_model", {})),
-        sensor_changes=_section(c, SENSOR_CHANGES.parse, table.get("sensors", {})),
-        sensor_dropouts=tuple(_dropouts(c, table)),
-        estimator_tuning={k: c.num(table["estimator_tuning"], k, f"estimator_tuning.{k}", lo=0.0, lo_open=True)
-                          for k in c.keys(table.get("estimator_tuning", {}), "estimator_tuning",
-                                          ESTIMATOR_TUNING_KEYS)},
-        study=c.text(table, "study", "study"), description=c.text(table, "description", "description"),
+    run = RunSection.from_file(c, table, default_name)
+    references = ReferencesSection.from_file(c, table, run)
+    sections = dict(
+        run=run, references=references,
+        initial=InitialSection.from_file(c, table, references.attitude),
+        disturbances=DisturbancesSection.from_file(c, table, run),
+        models=ModelSection.from_file(c, table),
+        gains=GainsSection.from_file(c, table),
+        observer=ObserverSection.from_file(c, table),
+        estimation=EstimationSection.from_file(c, table),
+        sensors=SensorsSection.from_file(c, table),
     )
-    if fields["seed"] >= 2**32:
-        raise c.fail("seed", f"must be below 2^32, got {fields['seed']}")
-    if fields["n_sub"] > 100:
-        raise c.fail("rk4_substeps", f"at most 100, got {fields['n_sub']}")
-    scenario = _scenario(c, fields)
-    specs = _specs(c, c.rows(table, "spec"))
-    mc = _montecarlo(c, table["montecarlo"]) if "montecarlo" in table else None
+    scenario = _scenario(c, sections)
+    specs = SpecsSection.from_file(c, table).rows
+    mc = DispersionsSection.from_file(c, table).table
     return ScenarioFile(where, copy.deepcopy(table), scenario, specs, mc)
 
 
-def _scenario(c: _Checker, fields: Mapping[str, Any]) -> Scenario:
-    """The :class:`Scenario` of the checked fields (checks only the whole run can make, e.g.
-    the gain count of the chosen controller, fail here under their own key)."""
+def _scenario(c: FileChecker, sections: Mapping[str, Any]) -> Scenario:
+    """The :class:`Scenario` of the checked sections (checks only the whole run can make,
+    e.g. the gain count of the chosen controller, fail here under their own key)."""
     try:
-        return Scenario(**fields)
+        return Scenario.from_sections(**sections)
     except ScenarioError as exc:
         raise c.fail(exc.key or "scenario", exc.reason) from None
 

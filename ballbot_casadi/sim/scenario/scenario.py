@@ -5,6 +5,8 @@ the V2019 baseline of thesis §8.3), whether the velocity loop closes the cascad
 (thesis Fig. 7.1) or the balance controller follows an attitude reference alone
 (thesis Fig. 8.1), the initial state, the references, pushes, and how the plant and
 the controller's internal model deviate from the nominal parameters (thesis §8.4).
+It is composed of the sections of :mod:`~ballbot_casadi.sim.scenario.sections` (one per
+part of a scenario file, each owning its keys, units, validation and TOML round trip).
 :meth:`Scenario.inputs` turns it into the input sequences of
 :meth:`ballbot_casadi.sim.closed_loop.ClosedLoop.simulate`.
 
@@ -16,46 +18,61 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field, fields
-from types import MappingProxyType
 from typing import Any, Mapping
 
 import numpy as np
 
 from ballbot_casadi.control import (
-    BALANCE_CONTROLLERS,
     BALANCE_DIAG_NAMES,
     VELOCITY_NKV,
-    check_gains,
     default_balance_gains,
     default_velocity_gains,
     velocity_initial_state,
 )
 from ballbot_casadi.control.velocity import VELOCITY_DEFAULT_LIMITS
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.core.rng import NoiseStream
 from ballbot_casadi.core.sensor_params import SensorParams, load_sensor_params
-from ballbot_casadi.core.validation import check_state
-from ballbot_casadi.errors import ArgumentError, ScenarioError
+from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.estimation import DEFAULT_TUNING
-from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS, check_com_observer_gains
+from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.model.sensors import NOISE_STREAMS
 from ballbot_casadi.sim import references as R
-from ballbot_casadi.sim.scenario.changes import ParamChanges
-from ballbot_casadi.sim.scenario.signals import attitude_reference, check_attitude
 from ballbot_casadi.sim.embedded import (
     ESTIMATOR_FILTERS,
     NOISE,
     VALID,
     initial_estimator_state,
 )
+from ballbot_casadi.sim.scenario.sections import (
+    CONTROLLER_CHANGES,
+    ESTIMATOR_CHANGES,
+    ESTIMATOR_CHOICES,
+    ESTIMATOR_TUNING_KEYS,
+    ESTIMATOR_TUNING_TARGETS,
+    FEEDFORWARD_MODES,
+    PLANT_CHANGES,
+    SCENARIO_SECTIONS,
+    SENSOR_CHANGES,
+    DisturbancesSection,
+    EstimationSection,
+    GainsSection,
+    InitialSection,
+    ModelSection,
+    ObserverSection,
+    ReferencesSection,
+    RunSection,
+    SensorsSection,
+    initial_state,
+)
+from ballbot_casadi.sim.scenario.signals import attitude_reference
 
 __all__ = [
     "Scenario",
+    "SCENARIO_FIELDS",
     "FEEDFORWARD_MODES",
     "ESTIMATOR_CHOICES",
     "ESTIMATOR_TUNING_KEYS",
@@ -67,38 +84,25 @@ __all__ = [
     "SENSOR_CHANGES",
 ]
 
-#: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
-FEEDFORWARD_MODES = ("exact", "none")
-#: What the controllers read: the true state, or estimates from noisy sensors.
-ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
-#: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
-#: input each sets and the diagonal block of it (the value times the identity).
-ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
-    "rate_process_var": ("Qa", slice(3, 6)),      # QUKF body rate (tangent [rotation, omega])
-    "encoder_var": ("Rv", slice(0, 3)),           # VUKF encoder ticks
-    "acc_process_var": ("Qv", slice(2, 4)),       # VUKF ball acceleration
-    "acc_bias_process_var": ("Qv", slice(4, 7)),  # VUKF accelerometer bias
-})
-#: Keys of Scenario.estimator_tuning.
-ESTIMATOR_TUNING_KEYS = tuple(ESTIMATOR_TUNING_TARGETS)
+#: The attributes of a :class:`Scenario`, in the order of :meth:`Scenario.to_dict`.
+SCENARIO_FIELDS = (
+    "name", "controller", "duration", "x0", "cascade", "attitude", "velocity_keyframes", "pushes",
+    "torque_disturbances", "plant_changes", "ctrl_changes", "k_bal", "k_vel", "Ts", "n_sub",
+    "feedforward", "estimator", "seed", "noise", "sensor_changes", "est_changes", "estimator_tuning",
+    "sensor_dropouts", "com_observer", "k_obs", "study", "description",
+)
+#: Attribute -> the section holding it.
+_SECTION_OF = {f: name for name, cls in SCENARIO_SECTIONS for f in cls.FIELDS}
 
 
-#: The four parameter-change sections of a scenario (file table names as error keys).
-PLANT_CHANGES = ParamChanges("plant")
-CONTROLLER_CHANGES = ParamChanges("controller_model")
-ESTIMATOR_CHANGES = ParamChanges("estimator_model")
-SENSOR_CHANGES = ParamChanges("sensors", sensors=True)
-
-
-def initial_state(roll_deg: float = 0.0, pitch_deg: float = 0.0, yaw_deg: float = 0.0) -> tuple:
-    """Upright-at-rest state rotated by ZYX angles in degrees, as a 12-tuple."""
-    q = Q.from_rpy(math.radians(roll_deg), math.radians(pitch_deg), math.radians(yaw_deg))
-    return tuple(float(v) for v in np.concatenate([[0.0, 0.0], q, np.zeros(6)]))
-
-
-@dataclass(frozen=True)
 class Scenario:
-    """One closed-loop run.
+    """One closed-loop run, composed of the sections of a scenario file.
+
+    ``Scenario(name, **fields)`` takes the attributes below (each a keyword with its
+    default); they are held by the sections of
+    :mod:`~ballbot_casadi.sim.scenario.sections` (``run``, ``initial``, ``references``,
+    ``disturbances``, ``models``, ``sensors``, ``estimation``, ``observer``, ``gains``),
+    each validating its own fields, and read back as plain attributes.  Immutable.
 
     Attributes
     ----------
@@ -181,115 +185,76 @@ class Scenario:
         Which study the scenario belongs to (:mod:`ballbot_casadi.studies.registry`).
     """
 
-    name: str
-    controller: str = "flc"
-    duration: float = 5.0
-    x0: tuple = field(default_factory=initial_state)
-    cascade: bool = False
-    attitude: Mapping[str, Any] = field(default_factory=dict)
-    velocity_keyframes: tuple = ()
-    pushes: tuple = ()
-    torque_disturbances: tuple = ()
-    plant_changes: Mapping[str, Any] = field(default_factory=dict)
-    ctrl_changes: Mapping[str, Any] = field(default_factory=dict)
-    k_bal: tuple = ()
-    k_vel: tuple = ()
-    Ts: float = TS_CONTROL
-    n_sub: int = N_SUB
-    feedforward: str = "exact"
-    estimator: str = "true"
-    seed: int = 0
-    noise: bool = True
-    sensor_changes: Mapping[str, Any] = field(default_factory=dict)
-    est_changes: Mapping[str, Any] = field(default_factory=dict)
-    estimator_tuning: Mapping[str, Any] = field(default_factory=dict)
-    sensor_dropouts: tuple = ()
-    com_observer: bool = False
-    k_obs: tuple = ()
-    study: str = ""
-    description: str = ""
+    __slots__ = tuple(name for name, _ in SCENARIO_SECTIONS)
 
-    def __post_init__(self) -> None:
+    run: RunSection
+    initial: InitialSection
+    references: ReferencesSection
+    disturbances: DisturbancesSection
+    models: ModelSection
+    sensors: SensorsSection
+    estimation: EstimationSection
+    observer: ObserverSection
+    gains: GainsSection
+
+    def __init__(self, *args: Any, **fields: Any) -> None:
+        if len(args) > len(SCENARIO_FIELDS):
+            raise TypeError(f"Scenario() takes at most {len(SCENARIO_FIELDS)} positional arguments")
+        twice = sorted(set(SCENARIO_FIELDS[:len(args)]) & set(fields))
+        unknown = sorted(set(fields) - set(SCENARIO_FIELDS))
+        if twice or unknown:
+            raise TypeError(f"Scenario() got field(s) {twice} twice or unknown field(s) {unknown}; "
+                            f"allowed: {list(SCENARIO_FIELDS)}")
+        fields.update(zip(SCENARIO_FIELDS, args))
+        if "name" not in fields:
+            raise TypeError("Scenario() needs a name")
+        by_section: dict[str, dict[str, Any]] = {s: {} for s, _ in SCENARIO_SECTIONS}
+        for f, v in fields.items():
+            by_section[_SECTION_OF[f]][f] = v
+        self._assign({s: cls(**by_section[s]) for s, cls in SCENARIO_SECTIONS})
+
+    @classmethod
+    def from_sections(cls, **sections: Any) -> "Scenario":
+        """A scenario of section objects (every section of ``SCENARIO_SECTIONS``; missing
+        ones are the defaults), validated."""
+        unknown = sorted(set(sections) - {s for s, _ in SCENARIO_SECTIONS})
+        if unknown:
+            raise TypeError(f"unknown scenario section(s) {unknown}")
+        self = cls.__new__(cls)
+        self._assign({s: sections.get(s, c()) for s, c in SCENARIO_SECTIONS})
+        return self
+
+    def _assign(self, sections: Mapping[str, Any]) -> None:
+        for s, _ in SCENARIO_SECTIONS:
+            object.__setattr__(self, s, sections[s])
         try:
-            self._validate()
+            for s, _ in SCENARIO_SECTIONS:
+                sections[s].check(self.run)
         except ScenarioError as exc:
             raise exc.within(f"scenario {self.name!r}") from None
 
-    def _validate(self) -> None:
-        """Check every field; each error is a :class:`ScenarioError` keyed by the file key."""
-        if self.controller not in BALANCE_CONTROLLERS:
-            raise ScenarioError(f"unknown controller {self.controller!r}; allowed: "
-                                f"{', '.join(BALANCE_CONTROLLERS)}", key="controller")
-        if self.k_bal:
-            _argument(check_gains, "gains.k_bal", self.controller, self.k_bal)
-        if self.k_vel and len(self.k_vel) != VELOCITY_NKV:
-            raise ScenarioError(f"k_vel needs {VELOCITY_NKV} entries, got {len(self.k_vel)}", key="gains.k_vel")
-        for name, key in (("duration", "duration_s"), ("Ts", "control_period_s")):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ScenarioError(f"{name} must be a finite number > 0, got {v!r}", key=key)
-        if round(self.duration / self.Ts) < 1:
-            raise ScenarioError(f"duration shorter than one control period ({self.Ts:g} s)", key="duration_s")
-        if not _is_int(self.n_sub) or self.n_sub < 1:
-            raise ScenarioError(f"n_sub must be an int >= 1, got {self.n_sub!r}", key="rk4_substeps")
-        for name, allowed in (("feedforward", FEEDFORWARD_MODES), ("estimator", ESTIMATOR_CHOICES)):
-            if getattr(self, name) not in allowed:
-                raise ScenarioError(f"{name} {getattr(self, name)!r} unknown; allowed: {', '.join(allowed)}",
-                                    key=name)
-        if not _is_int(self.seed) or not 0 <= self.seed < 2**32:
-            raise ScenarioError(f"seed must be an int in [0, 2^32), got {self.seed!r}", key="seed")
-        for name in (f.name for f in fields(self) if f.type in ("bool", bool)):
-            if not isinstance(getattr(self, name), bool):
-                raise ScenarioError(f"{name} must be true or false, got {getattr(self, name)!r}", key=name)
-        if self.k_obs:
-            _argument(check_com_observer_gains, "gains.k_obs", self.k_obs)
-        drops = []
-        for i, row in enumerate(self.sensor_dropouts):
-            ok = (isinstance(row, (list, tuple)) and len(row) == 3 and row[2] in VALID.fields
-                  and all(isinstance(v, (int, float)) and math.isfinite(v) for v in row[:2])
-                  and 0 <= row[0] < row[1])
-            if not ok:
-                raise ScenarioError(f"sensor dropout {row!r} must be (t_start, t_end, sensor) "
-                                    f"with 0 <= t_start < t_end and sensor in {VALID.fields}",
-                                    key=f"sensor_dropout[{i}]")
-            drops.append((float(row[0]), float(row[1]), str(row[2])))
-        object.__setattr__(self, "sensor_dropouts", tuple(drops))
-        for key, val in self.estimator_tuning.items():
-            if key not in ESTIMATOR_TUNING_KEYS:
-                raise ScenarioError(f"estimator_tuning key {key!r} unknown; allowed: "
-                                    f"{', '.join(ESTIMATOR_TUNING_KEYS)}", key=f"estimator_tuning.{key}")
-            if not isinstance(val, (int, float)) or isinstance(val, bool) or not math.isfinite(val) or val <= 0:
-                raise ScenarioError(f"estimator_tuning {key} must be a finite number > 0, got {val!r}",
-                                    key=f"estimator_tuning.{key}")
-        SENSOR_CHANGES.check(self.sensor_changes)
-        object.__setattr__(self, "x0", tuple(float(v) for v in check_state(self.x0, "initial state x0")))
-        check_attitude(self.attitude, self.Ts)
-        for name, key in (("velocity_keyframes", "velocity"), ("pushes", "push"),
-                          ("torque_disturbances", "torque_disturbance"), ("k_bal", "gains.k_bal"),
-                          ("k_vel", "gains.k_vel"), ("k_obs", "gains.k_obs")):
-            arr = np.asarray(getattr(self, name), dtype=float)
-            if not np.all(np.isfinite(arr)):
-                raise ScenarioError(f"{name} contains NaN or Inf", key=key)
-            object.__setattr__(self, name, _freeze(getattr(self, name)))
-        for i, row in enumerate(self.pushes):
-            if len(row) != 4 or not 0 <= row[0] < self.duration:
-                raise ScenarioError(f"push {row!r} must be (t, roll_deg, pitch_deg, yaw_deg) with "
-                                    f"0 <= t < duration", key=f"push[{i}]")
-        for i, row in enumerate(self.torque_disturbances):
-            if len(row) != 5 or not 0 <= row[0] < row[1]:
-                raise ScenarioError(f"torque disturbance {row!r} must be (t_start, t_end, tau0, tau1, "
-                                    f"tau2) with 0 <= t_start < t_end", key=f"torque_disturbance[{i}]")
-        if self.velocity_keyframes:
-            _argument(R.velocity_profile, "velocity", np.zeros(1), self.velocity_keyframes)
-        PLANT_CHANGES.check(self.plant_changes)
-        CONTROLLER_CHANGES.check(self.ctrl_changes)
-        ESTIMATOR_CHANGES.check(self.est_changes)
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"Scenario is immutable; use replace({name}=...)")
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Scenario):
+            return NotImplemented
+        return all(getattr(self, s) == getattr(other, s) for s, _ in SCENARIO_SECTIONS)
+
+    __hash__ = None  # type: ignore[assignment]  (mutable mappings inside, as before)
+
+    def __reduce__(self) -> tuple:
+        """Pickle and copy by sections (the instance refuses attribute assignment)."""
+        return (_from_sections, ({s: getattr(self, s) for s, _ in SCENARIO_SECTIONS},))
+
+    def __repr__(self) -> str:
+        return "Scenario(" + ", ".join(f"{f}={getattr(self, f)!r}" for f in SCENARIO_FIELDS) + ")"
 
     # -- derived quantities ------------------------------------------------------------
     @property
     def n_periods(self) -> int:
         """Number of control periods."""
-        return int(round(self.duration / self.Ts))
+        return self.run.n_periods
 
     def window(self, periods: tuple[int, int] | None = None) -> tuple[int, int]:
         """Validated period range ``[k0, k1)`` (default: the whole run)."""
@@ -441,42 +406,44 @@ class Scenario:
 
     # -- serialisation -----------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        """JSON-compatible dict (round-trips through :meth:`from_dict`)."""
-        d = asdict(self)
+        """JSON-compatible dict of the attributes (round-trips through :meth:`from_dict`)."""
+        d = {f: getattr(self, f) for f in SCENARIO_FIELDS}
         return json.loads(json.dumps(d, default=_jsonable))
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> "Scenario":
         """Inverse of :meth:`to_dict`."""
-        allowed = {f for f in cls.__dataclass_fields__}
-        unknown = sorted(set(data) - allowed)
+        unknown = sorted(set(data) - set(SCENARIO_FIELDS))
         if unknown:
-            raise ScenarioError(f"unknown scenario field(s) {unknown}; allowed: {sorted(allowed)}")
+            raise ScenarioError(f"unknown scenario field(s) {unknown}; allowed: {sorted(SCENARIO_FIELDS)}")
         return cls(**dict(data))
 
     def replace(self, **changes: Any) -> "Scenario":
         """Copy with some fields changed (validated)."""
         return Scenario.from_dict({**self.to_dict(), **changes})
 
-
-def _is_int(v: Any) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
-
-
-def _argument(check: Any, key: str, *args: Any) -> Any:
-    """``check(*args)``; a library's :class:`ArgumentError` becomes a keyed :class:`ScenarioError`."""
-    try:
-        return check(*args)
-    except ScenarioError as exc:
-        raise ScenarioError(str(exc), key=exc.key or key, reason=exc.reason) from None
-    except ArgumentError as exc:
-        raise ScenarioError(str(exc), key=key) from None
+    def to_file(self) -> dict[str, Any]:
+        """The scenario as a scenario-file table (friendly units, defaults omitted; read back
+        by :func:`~ballbot_casadi.sim.scenario.file.parse_scenario` into an equal scenario)."""
+        out: dict[str, Any] = {}
+        for s, _ in SCENARIO_SECTIONS:
+            out.update(getattr(self, s).to_file())
+        return out
 
 
-def _freeze(value: Any) -> Any:
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return tuple(_freeze(v) for v in value)
-    return float(value)
+def _from_sections(sections: Mapping[str, Any]) -> Scenario:
+    return Scenario.from_sections(**sections)
+
+
+def _section_property(field_name: str) -> property:
+    section = _SECTION_OF[field_name]
+    return property(lambda self: getattr(getattr(self, section), field_name),
+                     doc=f"``{section}.{field_name}`` (see the class docstring).")
+
+
+for _f in SCENARIO_FIELDS:
+    setattr(Scenario, _f, _section_property(_f))
+del _f
 
 
 def _jsonable(obj: Any) -> Any:

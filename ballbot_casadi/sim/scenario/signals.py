@@ -21,7 +21,7 @@ from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim import references as R
 
 __all__ = ["SignalKey", "SIGNAL_KEYS", "SIGNAL_TYPES", "AXES", "check_signal", "make_signal",
-           "signal_from_file", "check_attitude", "attitude_reference"]
+           "signal_from_file", "signal_to_file", "check_attitude", "attitude_reference"]
 
 #: Attitude axes a scenario may give a reference for (missing axes are 0).
 AXES = ("roll", "pitch", "yaw")
@@ -104,6 +104,13 @@ def check_signal(axis: str, spec: Any, Ts: float) -> None:
 def signal_from_file(axis: str, table: Any, Ts: float) -> dict[str, Any]:
     """A scenario file's ``[attitude.<axis>]`` table as a validated :class:`Scenario` signal."""
     return _check(table, f"attitude.{axis}", Ts, file=True)
+
+
+def signal_to_file(spec: Mapping[str, Any]) -> dict[str, Any]:
+    """A validated :class:`Scenario` signal as a file's ``[attitude.<axis>]`` table
+    (inverse of :func:`signal_from_file`)."""
+    names = {k.name: k.file for k in SIGNAL_KEYS[spec["type"]]}
+    return {"type": spec["type"], **{names[k]: v for k, v in spec.items() if k != "type"}}
 
 
 def check_attitude(attitude: Any, Ts: float) -> None:

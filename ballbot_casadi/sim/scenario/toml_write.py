@@ -14,7 +14,7 @@ import math
 from typing import Any, Mapping
 
 from ballbot_casadi.errors import ScenarioFileError
-from ballbot_casadi.sim.scenario.scenario import (
+from ballbot_casadi.sim.scenario.sections import (
     CONTROLLER_CHANGES,
     ESTIMATOR_CHANGES,
     PLANT_CHANGES,

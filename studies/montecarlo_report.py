@@ -1,7 +1,8 @@
 """``ballbot montecarlo``: a scenario file dispersed over many runs, on Dask, with a report.
 
-The runs and their evaluation are :mod:`ballbot_casadi.analysis.montecarlo`; this module
-runs them (a Dask ``LocalCluster`` by default, an existing cluster with ``scheduler``,
+The runs are drawn by :mod:`ballbot_casadi.sim.scenario.dispersions`, evaluated by
+:mod:`ballbot_casadi.studies.montecarlo_runner` and summarised by
+:mod:`ballbot_casadi.analysis.dispersion_stats`; this module runs them (a Dask ``LocalCluster`` by default, an existing cluster with ``scheduler``,
 or serially with ``workers = 0``) with a progress bar (tqdm) and writes, all together:
 
 * ``montecarlo.json``: success rate against the file's specs, per-spec pass rates,
@@ -29,12 +30,7 @@ import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless bac
 import numpy as np
 from tqdm import tqdm
 
-from ballbot_casadi.analysis.montecarlo import (
-    draw_runs,
-    run_dask,
-    run_serial,
-    summarize,
-)
+from ballbot_casadi.analysis.dispersion_stats import summarize
 from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.specs import spec_ok, spec_usage
@@ -46,7 +42,9 @@ from ballbot_casadi.sim.scenario import (
     parse_scenario,
     set_value,
 )
+from ballbot_casadi.sim.scenario.dispersions import draw_runs
 from ballbot_casadi.studies.formatting import fmt
+from ballbot_casadi.studies.montecarlo_runner import run_dask, run_serial
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.study import jsonable
 
