@@ -50,11 +50,13 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.core.constants import THESIS_LIMITS
+from ballbot_casadi.core.toolchain import Library, build_library, load_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL, LoopModel
 
-__all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "NX_MPC", "NU_MPC", "polygon"]
+__all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "mpc_library", "workspace_bytes",
+           "NX_MPC", "NU_MPC", "polygon"]
 
 #: MPC state: loop model (14), progress s and its rate.
 NX_MPC = NXL + 2
@@ -217,7 +219,7 @@ def make_mpc(model: LoopModel, config: MpcConfig = MpcConfig()) -> tuple[ca.Func
         soft(ca.mtimes(Cs["tilt_rate"], xl1), lim["tilt_rate_max"] * m, sl[6:10])
         # acceleration at the node with the input held over the step that ends there
         soft(ca.mtimes(Cs["acc"], xl1) + ca.mtimes(Ds["acc"], vr), lim["a_max"] * m, sl[10:14])
-        soft(ca.mtimes(Cs["v"], xl1), lim["v_max"], sl[14:18])
+        soft(ca.mtimes(Cs["v"], xl1), lim["v_max"] * m, sl[14:18])
         for j in range(M):
             o = (j * (N + 1) + k1) * 2
             n_ob = P["obs_n"][o:o + 2]
@@ -258,6 +260,21 @@ def make_mpc(model: LoopModel, config: MpcConfig = MpcConfig()) -> tuple[ca.Func
                     ["x0", "p", "w0", "lam_x0", "lam_a0"],
                     ["v_ref", "w", "lam_x", "lam_a", "cost"])
     return f, L
+
+
+def workspace_bytes(f: ca.Function) -> int:
+    """Static memory of a generated Function's call: real and integer work, argument pointers.
+
+    ``sz_w`` doubles, ``sz_iw`` integers (``long long``, the package's ``casadi_int``) and
+    ``sz_arg + sz_res`` pointers: what a caller allocates once (statically) for the solve.
+    """
+    return 8 * (f.sz_w() + f.sz_iw() + f.sz_arg() + f.sz_res())
+
+
+def mpc_library(f: ca.Function, root: Any = None) -> tuple[Library, ca.Function]:
+    """Generate ``f`` (``ballbot_mpc``) to C99, compile it (strict flags, cached by hash), load it."""
+    lib = build_library("ballbot_mpc", [f], root)
+    return lib, load_library(lib, [f.name()])[f.name()]
 
 
 class PathMPC:
