@@ -244,7 +244,7 @@ def make_mpc(model: LoopModel, config: MpcConfig = MpcConfig()) -> tuple[ca.Func
     opts = {"error_on_fail": False}
     if config.solver == "qrqp":
         opts.update({"print_iter": False, "print_header": False, "print_info": False,
-                     "max_iter": 200})
+                     "max_iter": 1000})
     opts.update(config.solver_options)
     qp = ca.conic("ballbot_mpc_qp", config.solver, {"h": H.sparsity(), "a": Amat.sparsity()}, opts)
     w0 = ca.SX.sym("w0", L.n_w)
@@ -328,9 +328,18 @@ class PathMPC:
         pp, pt = self.path.window(s_bar)
         obs_n = np.zeros((M, N + 1, 2))
         obs_b = -1.0 * np.ones((M, N + 1))
+        lat = np.column_stack([-pt[:, 1], pt[:, 0]])
         for j, ob in enumerate(self.path.obstacles):
             c = np.asarray(ob.center)
             d = pos - c
+            # pass on the side of the path away from the centre: the guessed point is moved
+            # sideways to at least the inflated radius, so a head-on guess gives a tilted
+            # half-plane (a funnel around the circle) instead of a wall across the path
+            side = -np.sign(np.sum(lat * (c - pp), axis=1))
+            side[side == 0] = 1.0
+            along = np.sum(pt * d, axis=1)
+            off = np.maximum(side * np.sum(lat * d, axis=1), ob.radius + self.config.clearance)
+            d = pt * along[:, None] + lat * (side * off)[:, None]
             n = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
             obs_n[j] = n
             obs_b[j] = ob.radius + self.config.clearance + n @ c
