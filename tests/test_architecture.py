@@ -16,6 +16,7 @@ LAYERS = {
     "model": 2,
     "control": 3,
     "estimation": 3,
+    "guidance": 3,
     "sim": 4,
     "analysis": 5,
     "codegen": 5,

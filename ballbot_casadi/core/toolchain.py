@@ -97,7 +97,16 @@ def _strict_c(src: str) -> str:
     )
     src = re.sub(r"(CASADI_SYMBOL_EXPORT void \w+_(?:release|incref|decref)\(int mem\) \{\n)",
                  r"\1  (void)mem;\n", src)
+    # QP runtime (qrqp): its work-size and print helpers ignore some parameters
+    src = re.sub(r"^((?:int|void) casadi_(?:qp_work|qrqp_print_\w+)\(([^)]*)\) \{\n)",
+                 _void_params, src, flags=re.M)
     return src
+
+
+def _void_params(m: re.Match) -> str:
+    """The matched C function head followed by a ``(void)`` cast of each parameter."""
+    names = [a.strip().split()[-1].lstrip("*") for a in m.group(2).split(",") if a.strip()]
+    return m.group(1) + "".join(f"  (void){n};\n" for n in names)
 
 
 def generate_sources(name: str, functions: Iterable[ca.Function]) -> tuple[str, str]:

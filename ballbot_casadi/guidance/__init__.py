@@ -1,0 +1,1 @@
+"""Guidance: paths, path-following MPC and a pure-pursuit baseline (above the velocity loop)."""

@@ -1,0 +1,82 @@
+"""Paths: arc-length parametrisation, C2 smoothness, projection, validation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.guidance.paths import (
+    Obstacle,
+    arc_path,
+    figure_eight,
+    line_path,
+    waypoint_path,
+)
+
+
+def test_arc_length_parametrisation_unit_speed():
+    path = figure_eight(4.0, 2.0)
+    s = np.linspace(0.0, path.length, 4001)
+    np.testing.assert_allclose(np.linalg.norm(path.spline(s, 1), axis=1), 1.0, atol=1e-4)
+    # the curve spans 4 m x 2 m
+    pts = path.point(s)
+    np.testing.assert_allclose(np.ptp(pts, axis=0), [4.0, 2.0], atol=1e-3)
+
+
+def test_arc_length_and_curvature_of_a_circle():
+    path = arc_path((1.0, -1.0), 0.8, 0.0, 2 * math.pi)
+    assert path.closed
+    np.testing.assert_allclose(path.length, 2 * math.pi * 0.8, rtol=1e-6)
+    s = np.linspace(0.0, path.length, 200)
+    np.testing.assert_allclose(path.curvature(s), 1.0 / 0.8, rtol=1e-3)
+
+
+def test_c2_continuity_at_the_seam_of_a_closed_path():
+    path = figure_eight()
+    for order in (0, 1, 2):
+        np.testing.assert_allclose(path.spline(0.0, order), path.spline(path.length, order),
+                                   atol=1e-9)
+
+
+def test_projection_is_orthogonal_and_local():
+    path = figure_eight()
+    rng = np.random.default_rng(3)
+    for s0 in rng.uniform(0.0, path.length, 10):
+        n = np.array([-path.tangent(s0)[1], path.tangent(s0)[0]])
+        p = path.point(s0) + 0.05 * n
+        s = path.project(p, s_guess=s0 + 0.1)
+        np.testing.assert_allclose(s, s0, atol=1e-6)
+    # at the crossing the local projection keeps the branch of the guess
+    s_cross = path.length / 2.0
+    assert abs(path.project(path.point(s_cross), s_guess=s_cross - 0.05) - s_cross) < 1e-6
+
+
+def test_open_path_continues_straight_and_stops():
+    path = line_path((0.0, 0.0), (3.0, 0.0))
+    np.testing.assert_allclose(path.point([-1.0, 1.5, 4.0]), [[-1, 0], [1.5, 0], [4, 0]], atol=1e-12)
+    assert path.reference_speed(path.length) == 0.0
+    assert path.reference_speed(0.0) == pytest.approx(path.speed)
+
+
+def test_clearance_to_circles():
+    path = waypoint_path([(0, 0), (2, 0), (2, 2)], obstacles=[Obstacle((1.0, 1.0), 0.5)])
+    np.testing.assert_allclose(path.clearance([[1.0, 0.0], [3.0, 1.0]]), [0.5, 1.5])
+
+
+@pytest.mark.parametrize("make,key", [
+    (lambda: waypoint_path([(0, 0)]), "at least two points"),
+    (lambda: waypoint_path([(0, 0), (float("nan"), 1)]), "NaN"),
+    (lambda: waypoint_path([(0, 0), (0, 0), (1, 1)]), "coincide"),
+    (lambda: figure_eight(speed=0.6), "speed"),
+    (lambda: figure_eight(speed=0.0), "speed"),
+    (lambda: line_path((0, 0), (3, 0), obstacles=[(3.0, 0.1, 0.3)]), "obstacles[0]"),
+    (lambda: line_path((0, 0), (3, 0), obstacles=[(1.0, 1.0, -0.3)]), "obstacles[0].radius"),
+    (lambda: figure_eight(length=-1.0), "length"),
+])
+def test_bad_paths_refused_with_one_line(make, key):
+    with pytest.raises(ScenarioError) as err:
+        make()
+    assert key in str(err.value) and "\n" not in str(err.value)
