@@ -1,7 +1,7 @@
 """The C sources of the firmware library: the generated period and its API configuration.
 
 The period is ``ballbot_embedded_<ctrl>_<est>``, taken from the Functions the compiled
-mission exports (:func:`~ballbot_casadi.sim.closed_loop.closed_loop_functions`, as the
+mission runs (:func:`~ballbot_casadi.sim.embedded.embedded_software`, as the
 controller FMU takes it).  Its inputs split into the state ``c``, the readings ``meas``
 (:data:`~ballbot_casadi.sim.embedded.MEAS`), the references (:data:`REFERENCE_INPUTS`),
 the mode ``cascade`` and the parameters (every other input, in the Function's order:
@@ -32,11 +32,14 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.control.velocity import VELOCITY_NZ
-from ballbot_casadi.core.constants import N_SUB
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.firmware.toolchain import PRECISIONS
-from ballbot_casadi.sim.closed_loop import closed_loop_functions
-from ballbot_casadi.sim.embedded import MEAS, controller_layout, initial_controller_state
+from ballbot_casadi.sim.embedded import (
+    MEAS,
+    controller_layout,
+    embedded_software,
+    initial_controller_state,
+)
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
@@ -81,14 +84,7 @@ def firmware_function(controller: str = "flc", estimator: str = "ukf") -> ca.Fun
     """
     if estimator in ("true",) or not isinstance(estimator, str):
         raise ScenarioError(f"the firmware needs an estimator ('ukf' or 'ekf'), got {estimator!r}")
-    _, exported = closed_loop_functions(N_SUB, estimator)
-    name = f"ballbot_embedded_{controller}_{estimator}"
-    for f in exported:
-        if f.name() == name:
-            return f
-    allowed = sorted(f.name().removeprefix("ballbot_embedded_").rsplit("_", 1)[0]
-                     for f in exported if f.name().startswith("ballbot_embedded_"))
-    raise ScenarioError(f"unknown controller {controller!r}; allowed: {', '.join(allowed)}")
+    return embedded_software(controller, estimator)
 
 
 def param_inputs(f: ca.Function) -> list[str]:

@@ -32,7 +32,7 @@ from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import LoopModel, closed_velocity_loop
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.sim.closed_loop import ClosedLoop
-from ballbot_casadi.sim.scenarios import Scenario
+from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["Guidance", "velocity_loop_model", "make_loop_state", "run_path", "PathRun",
            "path_scenario"]
