@@ -218,7 +218,9 @@ class ClosedLoop:
         Steps with the COM observer (the package's) also take ``com_observer`` (the
         controllers use the estimate), ``k_obs`` (gains, default
         :data:`~ballbot_casadi.estimation.com_observer.COM_OBSERVER_DEFAULT_GAINS`) and
-        ``o0`` (its initial state, default: the controller model's COM, see
+        ``o0`` (its initial state, default: the controller model's COM, from the power-on
+        Function :func:`~ballbot_casadi.sim.embedded.initial_controller_state_function`
+        with an estimator, else
         :func:`~ballbot_casadi.estimation.com_observer.com_observer_initial_state`); the
         observer's state is the last part of the controller state.  With
         ``actuation_delay`` (an estimator only) the torque of period ``k`` acts on
