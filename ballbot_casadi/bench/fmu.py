@@ -35,6 +35,7 @@ from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.fmi.build import build_fmu, build_tool
 from ballbot_casadi.fmi.controller import controller_spec
 from ballbot_casadi.fmi.package import build_fmu_from_spec
+from ballbot_casadi.fmi.plant import X0_PREFIX
 from ballbot_casadi.fmi.sil import write_sil_ssp
 from ballbot_casadi.model.dynamics import STATE_NAMES
 from ballbot_casadi.model.numeric import make_state
@@ -170,7 +171,8 @@ def bench_fmu() -> dict[str, float]:
     py_fmu = build_pythonfmu(build_root() / "bench" / "pythonfmu")
     taus = {f"tau{i}": t for i, t in enumerate(_TAU)}
     x0 = make_state(roll=_ROLL0)
-    t_native, x_native = _fmpy_time(b.fmu, {**taus, **dict(zip(STATE_NAMES, x0.tolist()))})
+    t_native, x_native = _fmpy_time(b.fmu, {**taus, **dict(zip((X0_PREFIX + n for n in STATE_NAMES),
+                                                          x0.tolist()))})
     t_python, x_python = _fmpy_time(py_fmu, taus, reps=2)
     agree = float(np.max(np.abs(x_native - x_python)))
     return {

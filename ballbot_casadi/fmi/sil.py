@@ -68,7 +68,7 @@ from ballbot_casadi.fmi.controller import (
     embedded_function,
 )
 from ballbot_casadi.fmi.package import build_fmu_from_spec
-from ballbot_casadi.fmi.plant import WHEEL_ANGLE_NAMES
+from ballbot_casadi.fmi.plant import WHEEL_ANGLE_NAMES, X0_PREFIX
 from ballbot_casadi.fmi.reference import DISTURBANCE_NAMES, reference_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.ssp import SspComponent, SspConnection, read_ssp, write_ssp
@@ -81,6 +81,7 @@ __all__ = [
     "CONTROLLER",
     "REFERENCE",
     "MASTERS",
+    "GAUSS_SEIDEL_ORDER",
     "SCENARIO_RESOURCE",
     "SilRun",
     "plant_parameters",
@@ -95,6 +96,10 @@ __all__ = [
 PLANT, CONTROLLER, REFERENCE = "plant", "controller", "reference"
 #: Masters of :func:`run_ssp`.
 MASTERS = ("libcosim", "gauss-seidel")
+#: The Gauss-Seidel master's default order: the controller first, the plant after it, the
+#: reference last (the order that equals the compiled mission bit for bit; the reference
+#: first, as fmu-manipulation-toolbox recommends, hands the controller row k + 1 at t_k).
+GAUSS_SEIDEL_ORDER = (CONTROLLER, PLANT, REFERENCE)
 SCENARIO_RESOURCE = "scenario.json"
 _TORQUES = tuple(f"tau{i}" for i in range(3))
 #: Controller outputs recorded besides the connections (the estimate and diagnostics).
@@ -152,7 +157,8 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
                      ) -> dict[str, float | int | bool]:
     """The plant FMU's parameter set for ``scenario``: model parameters (``load_params``
     names), ``h_internal = Ts / n_sub``, ``Ts_sensor = Ts``, sensor parameters,
-    ``noise_on``, ``seed`` and the initial state (start values of the states).
+    ``noise_on``, ``seed`` and the initial state (the parameters ``x0_<state>`` the
+    plant's states start from).
 
     ``variables`` (the names a user's plant FMU has) drops the entries it lacks.
 
@@ -172,7 +178,7 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
         **dict(zip(SENSOR_VECTOR_NAMES, (float(v) for v in sensors))),
         "noise_on": bool(scenario.noise),
         "seed": int(scenario.seed),
-        **dict(zip(STATE.names, (float(v) for v in scenario.x0))),
+        **dict(zip((X0_PREFIX + n for n in STATE.names), (float(v) for v in scenario.x0))),
     }
     if variables is not None:
         values = {k: v for k, v in values.items() if k in set(variables)}
@@ -343,11 +349,12 @@ def _samples(obs: Any, slave: int, var: Any, n: int) -> np.ndarray:
 
 def _run_gauss_seidel(system: Any, unzipped: Mapping[str, Path], n: int, step: float,
                       variables: Mapping[str, Mapping[str, Any]],
-                      rec: Sequence[tuple[str, str]]) -> dict[str, np.ndarray]:
-    """Controller-first Gauss-Seidel: at t_k give the controller the plant's and the
-    reference's outputs and step it, give the plant the controller's new torque and step
-    it, then step the reference (it reads nothing)."""
-    order = [c for c in (CONTROLLER, PLANT, REFERENCE) if c in system.components]
+                      rec: Sequence[tuple[str, str]],
+                      first: Sequence[str] = GAUSS_SEIDEL_ORDER) -> dict[str, np.ndarray]:
+    """Gauss-Seidel in the order ``first`` (default controller first: at t_k give the
+    controller the plant's and the reference's outputs and step it, give the plant the
+    controller's new torque and step it, then step the reference)."""
+    order = [c for c in first if c in system.components]
     order += [c for c in system.components if c not in order]
     slaves: dict[str, FMU2Slave] = {}
     for comp in order:
@@ -409,7 +416,8 @@ def _run_gauss_seidel(system: Any, unzipped: Mapping[str, Path], n: int, step: f
     return out
 
 
-def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libcosim") -> SilRun:
+def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libcosim",
+            order: Sequence[str] | None = None) -> SilRun:
     """Co-simulate an SSP archive for ``duration`` s (default: its stop time).
 
     Parameters
@@ -421,6 +429,9 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
     master
         ``"libcosim"`` (``CosimExecution.from_ssp_file``, fixed-step Jacobi) or
         ``"gauss-seidel"`` (fmpy, controller before plant; see the module docstring).
+    order
+        Gauss-Seidel only: the components in the order they step at every ``t_k``
+        (default :data:`GAUSS_SEIDEL_ORDER`).
 
     Raises
     ------
@@ -433,6 +444,10 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
         raise ScenarioError(f"unknown master {master!r}; allowed: {', '.join(MASTERS)}")
     ssp = Path(ssp)
     system = read_ssp(ssp)
+    if order is not None and (master != "gauss-seidel" or sorted(order) != sorted(
+            system.components)):
+        raise ScenarioError(f"order {tuple(order)!r}: only for master 'gauss-seidel', a "
+                            f"permutation of {', '.join(system.components)}")
     if system.step is None:
         raise BuildError(f"{ssp}: the default experiment has no fixed step "
                          "(osp:FixedStepAlgorithm baseStepSize)")
@@ -454,7 +469,8 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
         if master == "libcosim":
             signals = _run_libcosim(ssp, system, n, system.step, variables, rec)
         else:
-            signals = _run_gauss_seidel(system, unzipped, n, system.step, variables, rec)
+            signals = _run_gauss_seidel(system, unzipped, n, system.step, variables, rec,
+                                        GAUSS_SEIDEL_ORDER if order is None else order)
         wall = time.perf_counter() - t_wall
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
