@@ -82,6 +82,7 @@ __all__ = [
     "REFERENCE",
     "MASTERS",
     "GAUSS_SEIDEL_ORDER",
+    "recorded_signals",
     "SCENARIO_RESOURCE",
     "SilRun",
     "plant_parameters",
@@ -262,7 +263,8 @@ def read_scenario(ssp: str | Path) -> tuple[Scenario | None, tuple[Mapping[str, 
 # ------------------------------------------------------------------ running
 
 
-def _recorded(system: Any, variables: Mapping[str, Mapping[str, Any]]) -> list[tuple[str, str]]:
+def recorded_signals(system: Any, variables: Mapping[str, Mapping[str, Any]]
+                     ) -> list[tuple[str, str]]:
     """``(component, variable)`` pairs to record: both ends of every connection, the
     plant's states and the controller's estimate and diagnostics (those the FMUs have)."""
     rec: list[tuple[str, str]] = []
@@ -464,7 +466,7 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
         unzipped = {c: Path(extract(str(tmp / src), unzipdir=str(tmp / "unzipped" / c)))
                     for c, src in system.components.items()}
         variables = _model_variables(unzipped)
-        rec = _recorded(system, variables)
+        rec = recorded_signals(system, variables)
         t_wall = time.perf_counter()
         if master == "libcosim":
             signals = _run_libcosim(ssp, system, n, system.step, variables, rec)
