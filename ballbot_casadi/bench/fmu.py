@@ -18,6 +18,8 @@
   in libcosim (``CosimExecution.from_ssp_file`` + ``simulate_until``, no observers), best
   of two; ``sil_vs_mission_ratio`` divides it by the compiled mission of the same
   scenario (``run_scenario``, best of two): the cost of going through FMI and the engine.
+* ``fmu3_vs_casadi_export_ratio`` and its companions: the FMI 3.0 plant beside CasADi's
+  own FMU export of the same ODE (:mod:`ballbot_casadi.bench.fmu3`).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from pathlib import Path
 import numpy as np
 from fmpy import extract, read_model_description, simulate_fmu
 
+from ballbot_casadi.bench.fmu3 import bench_fmu3_vs_casadi
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.fmi.build import build_fmu, build_tool
 from ballbot_casadi.fmi.controller import controller_spec
@@ -184,4 +187,5 @@ def bench_fmu() -> dict[str, float]:
         "fmu_vs_pythonfmu_state_diff": agree,
         **bench_controller_fmu(),
         **bench_sil(),
+        **bench_fmu3_vs_casadi(),
     }
