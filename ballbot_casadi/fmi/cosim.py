@@ -18,6 +18,7 @@ from ballbot_casadi.core.layout import DISTURBANCE, STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.build import MODEL_IDENTIFIER, build_fmu
+from ballbot_casadi.fmi.plant import X0_PREFIX
 from ballbot_casadi.model.dynamics import make_affine
 from ballbot_casadi.sim.period import control_period
 from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES, PeriodBlocks
@@ -85,6 +86,7 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
     md = read_model_description(str(unzipped))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     sx = [vr[n] for n in STATE.names]
+    sx0 = [vr[X0_PREFIX + n] for n in STATE.names]  # the parameters the state starts from
     su = [vr[f"tau{i}"] for i in range(3)]
     sd = [vr[f"tau_dist{i}"] for i in range(3)]
     const = {k: inp[k] for k in PERIOD_CONSTANTS}
@@ -102,7 +104,7 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
         plant.enterInitializationMode()
         plant.setReal([vr[p] for p in PARAM_NAMES], [float(v) for v in inp["p_plant"]])
         plant.setReal([vr["h_internal"]], [Ts / n_sub])
-        plant.setReal(sx, [float(v) for v in inp["x0"]])
+        plant.setReal(sx0, [float(v) for v in inp["x0"]])
         plant.exitInitializationMode()
         z = np.asarray(inp["z0"], float)
         zs[0] = z
