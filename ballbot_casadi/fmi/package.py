@@ -14,7 +14,8 @@ the API) and links only libc and libm.  Builds are cached under
 ``<out>/cache/<hash>/`` keyed by the SHA-256 of every source, the compiler and its
 flags, with a ``MANIFEST.json`` (size and SHA-256 of every file) that is verified on every
 use: a damaged cache is rebuilt, and an archive is checked (zip CRCs, binary hash) before
-it is published.  The FMI 2.0 headers are the ones shipped with fmpy (``fmpy/c-code``).
+it is published.  The FMI 2.0 and 3.0 headers are the ones shipped with fmpy
+(``fmpy/c-code``); ``fmi_version=3`` builds the same spec behind the FMI 3.0 entry points.
 The GUID is a hash of everything that defines the binary's behaviour.
 """
 
@@ -114,10 +115,10 @@ class FmuBuild:
 
 
 def fmi_headers_dir() -> Path:
-    """Directory of the FMI 2.0 headers shipped with fmpy (``fmpy/c-code``)."""
+    """Directory of the FMI 2.0 and 3.0 headers shipped with fmpy (``fmpy/c-code``)."""
     d = Path(fmpy.__file__).resolve().parent / "c-code"
-    if not (d / "fmi2Functions.h").is_file():
-        raise BuildError(f"the FMI 2.0 headers are missing from the fmpy installation ({d})")
+    if not all((d / h).is_file() for h in ("fmi2Functions.h", "fmi3Functions.h")):
+        raise BuildError(f"the FMI 2.0/3.0 headers are missing from the fmpy installation ({d})")
     return d
 
 
