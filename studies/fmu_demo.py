@@ -9,6 +9,7 @@ import numpy as np
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.masters.plant_loop import closed_loop_cosim, cosim_open_loop
+from ballbot_casadi.fmi.plant.plant import X0_PREFIX
 from ballbot_casadi.model.dynamics import STATE_NAMES, make_model_functions
 from ballbot_casadi.model.integrators import make_rk4
 from ballbot_casadi.model.numeric import make_state
@@ -27,7 +28,8 @@ def demo_step(out: Path) -> int:
     d.mkdir(parents=True, exist_ok=True)
     tau = np.array([0.02, -0.01, 0.005])
     x0 = make_state(roll=0.002)
-    res = cosim_open_loop(b.fmu, tau, 1.0, start_values=dict(zip(STATE_NAMES, x0.tolist())))
+    start = {X0_PREFIX + n: float(v) for n, v in zip(STATE_NAMES, x0)}  # the start state
+    res = cosim_open_loop(b.fmu, tau, 1.0, start_values=start)
     names = res.dtype.names
     np.savetxt(d / "cosim_open_loop.csv", np.column_stack([res[n] for n in names]),
                delimiter=",", header=",".join(names), comments="")

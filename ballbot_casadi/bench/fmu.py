@@ -18,6 +18,8 @@
   in libcosim (``CosimExecution.from_ssp_file`` + ``simulate_until``, no observers), best
   of two; ``sil_vs_mission_ratio`` divides it by the compiled mission of the same
   scenario (``run_scenario``, best of two): the cost of going through FMI and the engine.
+* ``fmu3_vs_casadi_export_ratio`` and its companions: the FMI 3.0 plant beside CasADi's
+  own FMU export of the same ODE (:mod:`ballbot_casadi.bench.fmu3`).
 """
 
 from __future__ import annotations
@@ -31,10 +33,12 @@ from pathlib import Path
 import numpy as np
 from fmpy import extract, read_model_description, simulate_fmu
 
+from ballbot_casadi.bench.fmu3 import bench_fmu3_vs_casadi
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.fmi.build import build_fmu, build_tool
 from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.fmi.package import build_fmu_from_spec
+from ballbot_casadi.fmi.plant.plant import X0_PREFIX
 from ballbot_casadi.fmi.system.sil import write_sil_ssp
 from ballbot_casadi.model.dynamics import STATE_NAMES
 from ballbot_casadi.model.numeric import make_state
@@ -170,7 +174,8 @@ def bench_fmu() -> dict[str, float]:
     py_fmu = build_pythonfmu(build_root() / "bench" / "pythonfmu")
     taus = {f"tau{i}": t for i, t in enumerate(_TAU)}
     x0 = make_state(roll=_ROLL0)
-    t_native, x_native = _fmpy_time(b.fmu, {**taus, **dict(zip(STATE_NAMES, x0.tolist()))})
+    t_native, x_native = _fmpy_time(b.fmu, {**taus, **dict(zip((X0_PREFIX + n for n in STATE_NAMES),
+                                                          x0.tolist()))})
     t_python, x_python = _fmpy_time(py_fmu, taus, reps=2)
     agree = float(np.max(np.abs(x_native - x_python)))
     return {
@@ -182,4 +187,5 @@ def bench_fmu() -> dict[str, float]:
         "fmu_vs_pythonfmu_state_diff": agree,
         **bench_controller_fmu(),
         **bench_sil(),
+        **bench_fmu3_vs_casadi(),
     }

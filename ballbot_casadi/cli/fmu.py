@@ -15,7 +15,7 @@ from ballbot_casadi.errors import PathError
 from ballbot_casadi.fmi.build import build_fmu, validate_fmu_archive
 from ballbot_casadi.fmi.system.container import CONTAINER_NAME, build_container
 from ballbot_casadi.fmi.controller.controller import controller_spec
-from ballbot_casadi.fmi.package import build_fmu_from_spec
+from ballbot_casadi.fmi.package import FMI_VERSIONS, build_fmu_from_spec
 from ballbot_casadi.fmi.masters.ssp_run import MASTERS
 from ballbot_casadi.fmi.system.sil import write_sil_ssp
 from ballbot_casadi.sim.scenario import load_scenario_file
@@ -32,8 +32,8 @@ def _default_fmu() -> Path:
 def _cmd_build(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_dir(args.out, "--out")
-    b = build_fmu(args.out)
-    print(f"{b.fmu}  (GUID {b.guid}, cache {b.digest}, {b.status})")
+    b = build_fmu(args.out, fmi_version=args.fmi_version)
+    print(f"{b.fmu}  (FMI {b.fmi_version}.0, GUID {b.guid}, cache {b.digest}, {b.status})")
     return 0
 
 
@@ -72,8 +72,9 @@ def _default_ssp() -> Path:
 def _cmd_build_controller(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_dir(args.out, "--out")
-    b = build_fmu_from_spec(controller_spec(args.controller, args.estimator), args.out)
-    print(f"{b.fmu}  (GUID {b.guid}, cache {b.digest}, {b.status})")
+    b = build_fmu_from_spec(controller_spec(args.controller, args.estimator), args.out,
+                            fmi_version=args.fmi_version)
+    print(f"{b.fmu}  (FMI {b.fmi_version}.0, GUID {b.guid}, cache {b.digest}, {b.status})")
     return 0
 
 
@@ -116,13 +117,21 @@ def _cmd_container(args: argparse.Namespace) -> int:
     return 0
 
 
+def _version_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fmi-version", type=int, choices=FMI_VERSIONS, default=2,
+                   help="FMI version: 2 (default) or 3 (the same model behind FMI 3.0 entry "
+                   "points)")
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``ballbot fmu build|info|validate``."""
     p = sub.add_parser("fmu", help="the plant and controller FMUs and the software-in-the-loop "
                        "system (SSP, libcosim, container FMU)")
     fsub = p.add_subparsers(dest="fmu_command", required=True, metavar="ACTION")
     b = fsub.add_parser("build", help="build BallbotPlant.fmu (gcc)")
-    b.add_argument("--out", default=None, help="output directory (default build/fmu)")
+    b.add_argument("--out", default=None, help="output directory (default build/fmu, FMI 3.0: "
+                   "build/fmu3)")
+    _version_arg(b)
     b.set_defaults(func=_cmd_build)
     i = fsub.add_parser("info", help="print the FMU's model description")
     i.add_argument("fmu", nargs="?", help="FMU file (default build/fmu/BallbotPlant.fmu)")
@@ -134,7 +143,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "software; other controller/estimator pairs as separate FMUs)")
     c.add_argument("--controller", default="flc", help="balance controller: flc (default), smc")
     c.add_argument("--estimator", default="ukf", help="estimators: ukf (default), ekf")
-    c.add_argument("--out", default=None, help="output directory (default build/fmu)")
+    c.add_argument("--out", default=None, help="output directory (default build/fmu, FMI 3.0: "
+                   "build/fmu3)")
+    _version_arg(c)
     c.set_defaults(func=_cmd_build_controller)
     s = fsub.add_parser("ssp", help="write the SIL system (plant + controller + reference FMUs, "
                         "connections, parameter set) as an SSP 1.0 archive")

@@ -70,15 +70,16 @@ def verify_cache(cache: Path) -> str | None:
     return package.verify_cache(Path(cache), MODEL_IDENTIFIER)
 
 
-def build_fmu(out: str | Path | None = None, cc: str | None = None) -> FmuBuild:
+def build_fmu(out: str | Path | None = None, cc: str | None = None,
+              fmi_version: int = 2) -> FmuBuild:
     """Generate, compile and zip ``BallbotPlant.fmu`` (cached by content hash, verified).
 
     See :func:`~ballbot_casadi.fmi.package.build_fmu_from_spec`; ``out`` defaults to
-    ``<build>/fmu`` and ``cc`` to ``$CC`` or ``gcc``.
+    ``<build>/fmu`` (FMI 3.0: ``<build>/fmu3``) and ``cc`` to ``$CC`` or ``gcc``.
 
     Raises
     ------
     BuildError
         Missing compiler, headers or sources, or a compile error.
     """
-    return build_fmu_from_spec(plant_spec(), out, cc)
+    return build_fmu_from_spec(plant_spec(), out, cc, fmi_version)

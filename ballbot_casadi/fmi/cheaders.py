@@ -171,7 +171,8 @@ def _descriptor(v: FmuVar) -> str:
     start = 0.0 if v.start is None else float(v.start)
     return (f"    {{{_c_str(v.name)}, {_KIND_C[v.kind]}, {v.index}, {_c_double(start)}, "
             f"{_c_double(lo)}, {_c_double(hi)}, {int(lo_open)}, {int(hi_open)}, "
-            f"{_c_str(text)}, {int(v.missing)}}}, /* vr {v.vr} */")
+            f"{_c_str(text)}, {int(v.missing)}, "
+            f"{0 if v.start_from is None else v.start_from + 1}}}, /* vr {v.vr} */")
 
 
 def vars_header(spec: FmuSpec) -> str:

@@ -16,9 +16,10 @@ from xml.sax.saxutils import quoteattr
 
 from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies, value_range
 
-__all__ = ["model_description_xml"]
+__all__ = ["model_description_xml", "LOG_CATEGORIES"]
 
-_LOG_CATEGORIES = (
+#: The log categories of the shared layer (``fmu/layer/fmi2_common.c``).
+LOG_CATEGORIES = (
     ("logStatusError", "errors (on by default)"),
     ("logStatusWarning", "warnings (on by default)"),
     ("logCalls", "trace of FMI calls (off by default)"),
@@ -87,7 +88,7 @@ def model_description_xml(spec: FmuSpec, guid: str, sources: Sequence[str]) -> s
         out += ["  <UnitDefinitions>", *[f'    <Unit name="{u}"/>' for u in units],
                 "  </UnitDefinitions>"]
     out += ["  <LogCategories>",
-            *[f'    <Category name="{n}" description="{d}"/>' for n, d in _LOG_CATEGORIES],
+            *[f'    <Category name="{n}" description="{d}"/>' for n, d in LOG_CATEGORIES],
             "  </LogCategories>",
             f'  <DefaultExperiment startTime="{start:g}" stopTime="{stop:g}" '
             f'stepSize="{step:g}"/>',
@@ -105,8 +106,8 @@ def model_description_xml(spec: FmuSpec, guid: str, sources: Sequence[str]) -> s
     sections = (
         ("Outputs", [v for v in rows if v.causality == "output"]),
         ("Derivatives", [v for v in rows if v.kind == "derivative"]),
-        ("InitialUnknowns", [v for v in rows if v.causality == "output" and v.kind != "state"
-                             or v.kind == "derivative"]),
+        ("InitialUnknowns", [v for v in rows if v.causality == "output" and v.initial !=
+                             "exact" or v.kind == "derivative"]),
     )
     deps = output_dependencies(rows, dict(spec.dependencies) if spec.dependencies else None)
     index = {v.name: v.vr + 1 for v in rows}

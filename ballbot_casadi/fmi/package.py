@@ -14,7 +14,8 @@ the API) and links only libc and libm.  Builds are cached under
 ``<out>/cache/<hash>/`` keyed by the SHA-256 of every source, the compiler and its
 flags, with a ``MANIFEST.json`` (size and SHA-256 of every file) that is verified on every
 use: a damaged cache is rebuilt, and an archive is checked (zip CRCs, binary hash) before
-it is published.  The FMI 2.0 headers are the ones shipped with fmpy (``fmpy/c-code``).
+it is published.  The FMI 2.0 and 3.0 headers are the ones shipped with fmpy
+(``fmpy/c-code``); ``fmi_version=3`` builds the same spec behind the FMI 3.0 entry points.
 The GUID is a hash of everything that defines the binary's behaviour.
 """
 
@@ -47,6 +48,7 @@ from ballbot_casadi.core.toolchain import (
 from ballbot_casadi.errors import BuildError, FileFormatError
 from ballbot_casadi.fmi.cheaders import info_header, vars_header, vr_header
 from ballbot_casadi.fmi.model_description import model_description_xml
+from ballbot_casadi.fmi.model_description3 import model_description3_xml
 from ballbot_casadi.fmi.spec import FmuSpec
 
 __all__ = [
@@ -55,6 +57,8 @@ __all__ = [
     "LDFLAGS",
     "COMMON_SOURCES",
     "COMMON_C_SOURCES",
+    "FMI3_SOURCES",
+    "FMI_VERSIONS",
     "TOOLS_DIR",
     "build_fmu_from_spec",
     "build_tool",
@@ -79,6 +83,14 @@ COMMON_SOURCES = ("layer/fmi2_common.c", "layer/fmi2_instance.c", "layer/fmi2_va
                   "layer/fmi2_common.h", "layer/fmi2_internal.h", "layer/fmu_casadi.h")
 #: The C files of :data:`COMMON_SOURCES`, compiled into every FMU (names in ``sources/``).
 COMMON_C_SOURCES = tuple(Path(s).name for s in COMMON_SOURCES if s.endswith(".c"))
+#: The FMI 3.0 entry points (a thin adapter over the layer), added to an FMI 3.0 build.
+FMI3_SOURCES = ("layer/fmi3_functions.c",)
+#: FMI versions :func:`build_fmu_from_spec` builds.
+FMI_VERSIONS = (2, 3)
+#: Linker version script of an FMI 3.0 binary: only the fmi3* entry points are exported
+#: (the layer's fmi2* functions stay inside).
+FMI3_EXPORTS = "fmi3_exports.map"
+_FMI3_EXPORTS_TEXT = "{\n  global: fmi3*;\n  local: *;\n};\n"
 #: Folder of the C tools (hosts, fuzzer) under :func:`fmu_source_dir`.
 TOOLS_DIR = "tools"
 #: What the C host programs (``fmu/tools/host.c``, ``fmu/tools/controller_host.c``) share.
@@ -99,13 +111,14 @@ class FmuBuild:
     digest: str
     model_identifier: str
     status: str = field(default="cached", compare=False)  #: cached, built or rebuilt: <why>
+    fmi_version: int = 2
 
 
 def fmi_headers_dir() -> Path:
-    """Directory of the FMI 2.0 headers shipped with fmpy (``fmpy/c-code``)."""
+    """Directory of the FMI 2.0 and 3.0 headers shipped with fmpy (``fmpy/c-code``)."""
     d = Path(fmpy.__file__).resolve().parent / "c-code"
-    if not (d / "fmi2Functions.h").is_file():
-        raise BuildError(f"the FMI 2.0 headers are missing from the fmpy installation ({d})")
+    if not all((d / h).is_file() for h in ("fmi2Functions.h", "fmi3Functions.h")):
+        raise BuildError(f"the FMI 2.0/3.0 headers are missing from the fmpy installation ({d})")
     return d
 
 
@@ -129,25 +142,28 @@ def fmu_source_dir() -> Path:
                      "reinstall the package or run from the source checkout")
 
 
-def platform_dir() -> str:
-    """FMI 2.0 platform directory name of this machine (e.g. ``linux64``)."""
-    return fmpy.platform
+def platform_dir(fmi_version: int = 2) -> str:
+    """Platform directory name of this machine: FMI 2.0 ``linux64``, FMI 3.0
+    ``x86_64-linux``."""
+    return fmpy.platform if fmi_version == 2 else fmpy.platform_tuple
 
 
-def binary_member(model_identifier: str) -> str:
+def binary_member(model_identifier: str, fmi_version: int = 2) -> str:
     """Archive path of an FMU binary, ``binaries/<platform>/<model_identifier>.so``."""
-    return f"binaries/{platform_dir()}/{model_identifier}.so"
+    return f"binaries/{platform_dir(fmi_version)}/{model_identifier}.so"
 
 
-def _model_identifier(xml: bytes, path: Path) -> str:
+def _model_identifier(xml: bytes, path: Path) -> tuple[str, int]:
+    """The model identifier and the FMI major version (2 or 3) of a model description."""
     try:
         root = ElementTree.fromstring(xml)
     except ElementTree.ParseError as exc:
         raise FileFormatError(f"{path}: modelDescription.xml is not valid XML ({exc})") from None
+    version = 3 if root.get("fmiVersion", "").startswith("3") else 2
     for tag in ("CoSimulation", "ModelExchange"):
         el = root.find(tag)
         if el is not None and el.get("modelIdentifier"):
-            return el.get("modelIdentifier")
+            return el.get("modelIdentifier"), version
     raise FileFormatError(f"{path}: modelDescription.xml names no modelIdentifier")
 
 
@@ -176,7 +192,7 @@ def validate_fmu_archive(path: str | Path, binary_sha256: str | None = None,
                 raise FileFormatError(f"{path} lacks modelDescription.xml")
             if not require_binary and binary_sha256 is None:
                 return
-            member = binary_member(_model_identifier(zf.read("modelDescription.xml"), path))
+            member = binary_member(*_model_identifier(zf.read("modelDescription.xml"), path))
             if member not in names:
                 raise FileFormatError(f"{path} lacks {member}")
             if binary_sha256 is not None:
@@ -199,10 +215,10 @@ def _write_zip(root: Path, target: Path) -> None:
     os.replace(tmp, target)
 
 
-def verify_cache(cache: Path, model_identifier: str) -> str | None:
+def verify_cache(cache: Path, model_identifier: str, fmi_version: int = 2) -> str | None:
     """``None`` if the cached build in ``cache`` matches its manifest (and the archive is
     sound), else the reason it cannot be used."""
-    member = binary_member(model_identifier)
+    member = binary_member(model_identifier, fmi_version)
     problem = check_manifest(cache, [f"{model_identifier}.fmu", f"unzipped/{member}",
                                      "unzipped/modelDescription.xml"], MANIFEST)
     if problem is not None:
@@ -216,10 +232,10 @@ def verify_cache(cache: Path, model_identifier: str) -> str | None:
 
 
 def _build_into(tmp: Path, spec: FmuSpec, xml: str, files: dict[str, str], c_sources: list[str],
-                ccmd: list[str]) -> None:
+                ccmd: list[str], fmi_version: int = 2) -> None:
     """Write, compile and zip one FMU into the empty folder ``tmp``; manifest last."""
     troot = tmp / "unzipped"
-    member = binary_member(spec.model_identifier)
+    member = binary_member(spec.model_identifier, fmi_version)
     (troot / "sources").mkdir(parents=True)
     (troot / member).parent.mkdir(parents=True)
     (troot / "modelDescription.xml").write_text(xml)
@@ -228,6 +244,8 @@ def _build_into(tmp: Path, spec: FmuSpec, xml: str, files: dict[str, str], c_sou
     cmd = [*ccmd, *CFLAGS, "-I", str(troot / "sources"), "-I", str(fmi_headers_dir()),
            *[str(troot / "sources" / s) for s in c_sources], *LDFLAGS, "-o",
            str(troot / member), "-lm"]
+    if fmi_version == 3:
+        cmd.insert(-1, f"-Wl,--version-script={troot / 'sources' / FMI3_EXPORTS}")
     run_tool(cmd, f"compiling {spec.model_identifier}")
     fmu_name = f"{spec.model_identifier}.fmu"
     _write_zip(troot, tmp / fmu_name)
@@ -261,13 +279,18 @@ def casadi_sources(spec: FmuSpec) -> tuple[str, str]:
     return "#define CASADI_SYMBOL_EXPORT\n" + cg_c, cg_h
 
 
-def generated_files(spec: FmuSpec, guid: str, cg: tuple[str, str] | None = None
-                    ) -> tuple[str, dict[str, str], list[str]]:
+def generated_files(spec: FmuSpec, guid: str, cg: tuple[str, str] | None = None,
+                    fmi_version: int = 2) -> tuple[str, dict[str, str], list[str]]:
     """``(modelDescription.xml, {source name: text}, C files to compile)`` of ``spec``.
 
     The sources are the shared layer, the per-model C file, the spec's extra sources,
-    the generated headers and the CasADi C ``cg`` (default :func:`casadi_sources`).
+    the generated headers and the CasADi C ``cg`` (default :func:`casadi_sources`);
+    FMI 3.0 adds the layer's FMI 3.0 entry points and their export list, and writes the
+    FMI 3.0 model description (:mod:`~ballbot_casadi.fmi.model_description3`) of the
+    same table.
     """
+    if fmi_version not in FMI_VERSIONS:
+        raise BuildError(f"FMI version {fmi_version!r} is not supported (allowed: 2, 3)")
     cg_c, cg_h = casadi_sources(spec) if cg is None else cg
     src_dir = fmu_source_dir()
     model = (Path(spec.model_source) if isinstance(spec.model_source, Path)
@@ -292,11 +315,17 @@ def generated_files(spec: FmuSpec, guid: str, cg: tuple[str, str] | None = None
     })
     c_sources = [*COMMON_C_SOURCES, model.name, f"{spec.cg_name}.c",
                  *[p.name for p in spec.extra_sources if p.suffix == ".c"]]
+    if fmi_version == 3:
+        for name in FMI3_SOURCES:
+            files[Path(name).name] = (src_dir / name).read_text()
+            c_sources.append(Path(name).name)
+        files[FMI3_EXPORTS] = _FMI3_EXPORTS_TEXT
+        return model_description3_xml(spec, guid), files, c_sources
     return model_description_xml(spec, guid, c_sources), files, c_sources
 
 
 def build_fmu_from_spec(spec: FmuSpec, out: str | Path | None = None,
-                        cc: str | None = None) -> FmuBuild:
+                        cc: str | None = None, fmi_version: int = 2) -> FmuBuild:
     """Generate, compile and zip ``<model_identifier>.fmu`` (cached by content hash, verified).
 
     The build lives in ``<out>/cache/<digest>/`` (the archive, the unpacked tree and a
@@ -315,20 +344,25 @@ def build_fmu_from_spec(spec: FmuSpec, out: str | Path | None = None,
         Directory that receives the FMU (default ``<build>/fmu``).
     cc
         C compiler command, default ``$CC`` or ``gcc`` (``"ccache gcc"`` allowed).
+    fmi_version
+        2 (default) or 3: the same table and per-model C behind the FMI 3.0 entry points
+        (``fmu/layer/fmi3_functions.c``), ``binaries/x86_64-linux/``.  Both versions
+        have the same file name, so the FMI 3.0 default ``out`` is ``<build>/fmu3``.
 
     Raises
     ------
     BuildError
         Missing compiler, headers or sources, or a compile error.
     """
-    out = Path(out) if out is not None else build_root() / "fmu"
+    default_out = "fmu" if fmi_version == 2 else "fmu3"
+    out = Path(out) if out is not None else build_root() / default_out
     ccmd = compiler_command(cc)
     cg = casadi_sources(spec)
-    probe_xml, probe_files, _ = generated_files(spec, "{GUID}", cg)
+    probe_xml, probe_files, _ = generated_files(spec, "{GUID}", cg, fmi_version)
     seed = hashlib.sha256("\0".join(
         [probe_xml, *[f"{k}\n{v}" for k, v in sorted(probe_files.items())]]).encode()).digest()
     guid = "{" + str(uuid.UUID(bytes=seed[:16])) + "}"
-    xml, files, c_sources = generated_files(spec, guid, cg)
+    xml, files, c_sources = generated_files(spec, guid, cg, fmi_version)
     digest = hashlib.sha256(
         "\0".join([xml, *[f"{k}\n{v}" for k, v in sorted(files.items())], *ccmd, *CFLAGS,
                    *LDFLAGS, platform_dir()]).encode()
@@ -338,15 +372,15 @@ def build_fmu_from_spec(spec: FmuSpec, out: str | Path | None = None,
     fmu_path = cache / f"{spec.model_identifier}.fmu"
     unz = cache / "unzipped"
     status = "cached"
-    problem = verify_cache(cache, spec.model_identifier)
+    problem = verify_cache(cache, spec.model_identifier, fmi_version)
     if problem is not None:
         with build_lock(cache_root / f".{digest}.lock"):
-            problem = verify_cache(cache, spec.model_identifier)  # maybe built meanwhile
+            problem = verify_cache(cache, spec.model_identifier, fmi_version)  # maybe built
             if problem is not None:
                 status = f"rebuilt: {problem}" if cache.exists() else "built"
                 tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=cache_root))
                 try:
-                    _build_into(tmp, spec, xml, files, c_sources, ccmd)
+                    _build_into(tmp, spec, xml, files, c_sources, ccmd, fmi_version)
                     if cache.exists():  # damaged: move aside, then delete
                         trash = Path(tempfile.mkdtemp(prefix=".trash-", dir=cache_root))
                         os.replace(cache, trash / "old")
@@ -357,8 +391,8 @@ def build_fmu_from_spec(spec: FmuSpec, out: str | Path | None = None,
     out.mkdir(parents=True, exist_ok=True)
     final = out / fmu_path.name
     _publish(fmu_path, final)
-    return FmuBuild(final, unz, unz / binary_member(spec.model_identifier), guid, digest,
-                    spec.model_identifier, status)
+    return FmuBuild(final, unz, unz / binary_member(spec.model_identifier, fmi_version), guid,
+                    digest, spec.model_identifier, status, fmi_version)
 
 
 def build_tool(build: FmuBuild, name: str, cc: str | None = None) -> Path:

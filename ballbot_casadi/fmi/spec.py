@@ -91,7 +91,11 @@ class FmuVar:
     ``(lo, hi)`` (Integer variables; default the 32-bit range).  ``missing`` (Real inputs)
     makes NaN an accepted value meaning "no value" (a missing sensor reading); Inf is
     still refused.  ``derivative_of`` is the
-    VR of the state of a derivative.  ``index`` is set by :class:`VarTable`: a state's
+    VR of the state of a derivative.  ``start_from`` (states) is the VR of the Real
+    parameter the state starts from (``x0_<name>``): the state is then ``initial =
+    "calculated"`` (no start value of its own), equal to that parameter until
+    initialisation ends, so an importer or an SSP parameter set binds a parameter rather
+    than the start value of an output.  ``index`` is set by :class:`VarTable`: a state's
     number, a derivative's state number, the Jacobian row of a continuous output or the
     column of a continuous input among its kind, else the position among its kind and
     type.
@@ -109,6 +113,7 @@ class FmuVar:
     bounds: tuple[float, float] | None = None
     index: int = 0
     missing: bool = False
+    start_from: int | None = None
 
     @property
     def variability(self) -> str:
@@ -129,6 +134,8 @@ class FmuVar:
         """``exact`` (start value given), ``calculated`` or ``None`` (inputs: no attribute)."""
         if self.kind in ("input", "discrete_input"):
             return None
+        if self.start_from is not None:
+            return "calculated"
         return "exact" if self.kind in _WITH_START else "calculated"
 
 
@@ -184,11 +191,14 @@ class VarTable:
     def add(self, name: str, kind: str, description: str, *, type: str = "Real",
             start: float | int | bool | None = None, unit: str | None = None,
             rule: str | None = None, bounds: tuple[float, float] | None = None,
-            derivative_of: str | None = None, missing: bool = False) -> None:
-        """Append one variable (see :class:`FmuVar`; ``derivative_of`` is a state's name)."""
+            derivative_of: str | None = None, missing: bool = False,
+            start_from: str | None = None) -> None:
+        """Append one variable (see :class:`FmuVar`; ``derivative_of`` is a state's name,
+        ``start_from`` a Real parameter's name)."""
         self._rows.append(dict(name=name, kind=kind, description=description, type=type,
                                start=start, unit=unit, rule=rule, bounds=bounds,
-                               derivative_of=derivative_of, missing=missing))
+                               derivative_of=derivative_of, missing=missing,
+                               start_from=start_from))
 
     def rows(self) -> tuple[FmuVar, ...]:
         """The table ordered by value reference (Reals, Integers, Booleans).
@@ -228,10 +238,18 @@ class VarTable:
                 index = state_no.get(der, -1)
                 if index < 0:
                     raise BuildError(f"{r['name']!r}: add the state before its derivative")
+            src = None
+            if r["start_from"] is not None:
+                p = ordered[vr_of[r["start_from"]]] if r["start_from"] in vr_of else None
+                if r["kind"] != "state" or p is None or p["kind"] != "parameter" or \
+                        p["type"] != "Real":
+                    raise BuildError(f"{r['name']!r}: only a state can start from a Real "
+                                     f"parameter, {r['start_from']!r} is none")
+                src = vr_of[r["start_from"]]
             v = FmuVar(name=r["name"], vr=vr, kind=r["kind"], start=r["start"], unit=r["unit"],
                        description=r["description"], rule=r["rule"], derivative_of=der,
                        type=r["type"], bounds=r["bounds"], index=index,
-                       missing=bool(r["missing"]))
+                       missing=bool(r["missing"]), start_from=src)
             _check_var(v)
             out.append(v)
         ders = sorted(v.derivative_of for v in out if v.kind == "derivative")
@@ -249,7 +267,11 @@ def _check_var(v: FmuVar) -> None:
         raise BuildError(f"{v.name!r}: bounds are for Integer variables")
     if v.missing and (v.type != "Real" or v.kind not in ("input", "discrete_input")):
         raise BuildError(f"{v.name!r}: only Real inputs may accept NaN as a missing value")
-    if (v.start is None) == (v.kind in _WITH_START):
+    if v.start_from is not None:
+        if v.start is not None:
+            raise BuildError(f"{v.name!r}: a state that starts from a parameter has no start "
+                             "value of its own")
+    elif (v.start is None) == (v.kind in _WITH_START):
         need = "needs" if v.kind in _WITH_START else "must not have"
         raise BuildError(f"{v.name!r}: a variable of kind {v.kind!r} {need} a start value")
     if v.start is not None:

@@ -303,6 +303,13 @@ void fmu_bind_values(fmu_values *v, void *block) {
     v->b = (fmi2Boolean *)(v->i + NVARS(FMU_INTEGER));
 }
 
+void fmu_apply_start_from(fmu_values *v) {
+    size_t k;
+    const fmu_var *d = fmu_model.vars->var[FMU_REAL];
+    for (k = 0; k < NVARS(FMU_REAL); ++k)
+        if (d[k].start_from != 0) v->r[k] = v->r[d[k].start_from - 1u];
+}
+
 void fmu_copy_values(fmu_values *dst, const fmu_values *src) {
     memcpy(dst->r, src->r, fmu_values_bytes()); /* one contiguous block */
 }

@@ -84,6 +84,9 @@ typedef struct {
     const char *rule;     /* text of the range, for messages (NULL: only finiteness) */
     unsigned char nan_missing; /* Real inputs: NaN is accepted and means "no value" (a
                                 * missing sensor reading); Inf is still refused */
+    unsigned short start_from; /* states: 1 + Real index of the parameter the state starts
+                                * from (initial = calculated: it equals that parameter until
+                                * initialisation ends and cannot be set itself); 0: none */
 } fmu_var;
 
 /* The variable table of a model (generated). */

@@ -20,6 +20,7 @@ static void load_start(fmu_instance *inst) {
         inst->v.i[k] = (fmi2Integer)V->var[FMU_INTEGER][k].start;
     for (k = 0; k < V->n[FMU_BOOLEAN]; ++k)
         inst->v.b[k] = V->var[FMU_BOOLEAN][k].start != 0.0 ? fmi2True : fmi2False;
+    fmu_apply_start_from(&inst->v);
     inst->time = 0.0;
     inst->t_start = 0.0;
     inst->dirty = inst->init_dirty = 1;

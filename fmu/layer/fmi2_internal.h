@@ -119,6 +119,10 @@ fmi2Status fmu_refresh(fmu_instance *inst, const char *fn);
 
 /* ------------------------------------------------------------------ values */
 
+/* States that start from a parameter (fmu_var.start_from) take its value: called whenever
+ * values may change before initialisation ends. */
+void fmu_apply_start_from(fmu_values *v);
+
 /* Bytes of one set of values (reals, integers, booleans). */
 size_t fmu_values_bytes(void);
 
@@ -127,5 +131,16 @@ void fmu_bind_values(fmu_values *v, void *block);
 
 /* Copy every value (one contiguous block). */
 void fmu_copy_values(fmu_values *dst, const fmu_values *src);
+
+/* ------------------------------------------------------------------ derivatives */
+
+/* Directional (adjoint = 0: out = J seed, nKnown seeds, nUnknown results) or adjoint
+ * (adjoint = 1: out = seed^T J, nUnknown seeds, nKnown results) derivatives of the
+ * unknowns (derivatives, continuous outputs, states) with respect to the knowns (states,
+ * continuous inputs) from the model Jacobian; fn names the call in messages.  Used by
+ * fmi2GetDirectionalDerivative and the FMI 3.0 entry points. */
+fmi2Status fmu_derivatives(fmi2Component c, const char *fn, const fmi2ValueReference unknown[],
+                           size_t nUnknown, const fmi2ValueReference known[], size_t nKnown,
+                           const double seed[], double out[], int adjoint);
 
 #endif /* FMI2_INTERNAL_H */

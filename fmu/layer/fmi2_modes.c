@@ -12,15 +12,23 @@
 
 /* ------------------------------------------------------------------ derivatives */
 
-fmi2Status fmi2GetDirectionalDerivative(fmi2Component c,
-                                        const fmi2ValueReference vUnknown_ref[],
-                                        size_t nUnknown, const fmi2ValueReference vKnown_ref[],
-                                        size_t nKnown, const fmi2Real dvKnown[],
-                                        fmi2Real dvUnknown[]) {
-    const char *fn = "fmi2GetDirectionalDerivative";
-    fmu_instance *inst = fmu_enter(c, CALL_DIRECTIONAL_DERIVATIVE);
+/* Entry (unknown du, known dk) of the model Jacobian computed into inst->jac (a state as
+ * an unknown: the identity). */
+static double jac_entry(const fmu_instance *inst, const fmu_var *du, fmi2ValueReference vu,
+                        const fmu_var *dk, fmi2ValueReference vk) {
     const fmu_variables *V = fmu_model.vars;
-    size_t i, j, ix = 0, nrow = V->n_states + V->n_outputs;
+    size_t nrow = V->n_states + V->n_outputs;
+    size_t row = du->kind == FMU_KIND_DERIVATIVE ? du->index : V->n_states + du->index;
+    size_t col = dk->kind == FMU_KIND_STATE ? dk->index : V->n_states + dk->index;
+    if (du->kind == FMU_KIND_STATE) return vu == vk ? 1.0 : 0.0;
+    return inst->jac[col * nrow + row];
+}
+
+fmi2Status fmu_derivatives(fmi2Component c, const char *fn, const fmi2ValueReference unknown[],
+                           size_t nUnknown, const fmi2ValueReference known[], size_t nKnown,
+                           const double seed[], double out[], int adjoint) {
+    fmu_instance *inst = fmu_enter(c, CALL_DIRECTIONAL_DERIVATIVE);
+    size_t i, j, ix = 0, nseed = adjoint ? nUnknown : nKnown, nout = adjoint ? nKnown : nUnknown;
     const fmu_var *d;
     int need_jac = 0;
     if (inst == NULL) return fmi2Error;
@@ -29,30 +37,32 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c,
                 fmu_model.model_identifier);
         return fmi2Error;
     }
-    if (!fmu_vrs_ok(inst, fn, FMU_REAL, vUnknown_ref, nUnknown) ||
-        !fmu_vrs_ok(inst, fn, FMU_REAL, vKnown_ref, nKnown))
+    if (!fmu_vrs_ok(inst, fn, FMU_REAL, unknown, nUnknown) ||
+        !fmu_vrs_ok(inst, fn, FMU_REAL, known, nKnown))
         return fmi2Error;
-    if ((nKnown > 0 && dvKnown == NULL) || (nUnknown > 0 && dvUnknown == NULL)) {
+    if ((nseed > 0 && seed == NULL) || (nout > 0 && out == NULL)) {
         LOG_ERR(inst, "%s: NULL value array", fn);
         return fmi2Error;
     }
     for (j = 0; j < nKnown; ++j) {
-        d = fmu_lookup(FMU_REAL, vKnown_ref[j], &ix);
+        d = fmu_lookup(FMU_REAL, known[j], &ix);
         if (d->kind != FMU_KIND_STATE && d->kind != FMU_KIND_INPUT) {
             LOG_ERR(inst, "%s: known '%s' (vr %lu) is not a state or a continuous input", fn,
-                    d->name, (unsigned long)vKnown_ref[j]);
+                    d->name, (unsigned long)known[j]);
             return fmi2Error;
         }
-        if (!isfinite(dvKnown[j])) {
-            LOG_ERR(inst, "%s: dvKnown[%lu] is not finite", fn, (unsigned long)j);
+    }
+    for (j = 0; j < nseed; ++j) {
+        if (!isfinite(seed[j])) {
+            LOG_ERR(inst, "%s: seed[%lu] is not finite", fn, (unsigned long)j);
             return fmi2Error;
         }
     }
     for (i = 0; i < nUnknown; ++i) {
-        d = fmu_lookup(FMU_REAL, vUnknown_ref[i], &ix);
+        d = fmu_lookup(FMU_REAL, unknown[i], &ix);
         if (d->kind != FMU_KIND_STATE && !fmu_evaluated(d->kind)) {
             LOG_ERR(inst, "%s: unknown '%s' (vr %lu) is not a derivative, state or continuous "
-                    "output", fn, d->name, (unsigned long)vUnknown_ref[i]);
+                    "output", fn, d->name, (unsigned long)unknown[i]);
             return fmi2Error;
         }
         need_jac |= d->kind != FMU_KIND_STATE;
@@ -63,27 +73,35 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c,
         LOG_ERR(inst, "%s: %s", fn, inst->msg);
         return fmi2Error;
     }
+    for (i = 0; i < nout; ++i) out[i] = 0.0;
     for (i = 0; i < nUnknown; ++i) {
-        const fmu_var *du = fmu_lookup(FMU_REAL, vUnknown_ref[i], &ix);
-        size_t row = du->kind == FMU_KIND_DERIVATIVE ? du->index : V->n_states + du->index;
-        double acc = 0.0;
+        const fmu_var *du = fmu_lookup(FMU_REAL, unknown[i], &ix);
         for (j = 0; j < nKnown; ++j) {
-            const fmu_var *dk = fmu_lookup(FMU_REAL, vKnown_ref[j], &ix);
-            size_t col = dk->kind == FMU_KIND_STATE ? dk->index : V->n_states + dk->index;
-            if (du->kind == FMU_KIND_STATE) /* a state as an unknown: identity */
-                acc += vUnknown_ref[i] == vKnown_ref[j] ? dvKnown[j] : 0.0;
+            const fmu_var *dk = fmu_lookup(FMU_REAL, known[j], &ix);
+            double e = jac_entry(inst, du, unknown[i], dk, known[j]);
+            if (adjoint)
+                out[j] += seed[i] * e; /* seed^T J */
             else
-                acc += inst->jac[col * nrow + row] * dvKnown[j];
+                out[i] += e * seed[j]; /* J seed */
         }
-        dvUnknown[i] = acc;
     }
-    for (i = 0; i < nUnknown; ++i) {
-        if (!isfinite(dvUnknown[i])) {
-            LOG_ERR(inst, "%s: the directional derivative is not finite", fn);
+    for (i = 0; i < nout; ++i) {
+        if (!isfinite(out[i])) {
+            LOG_ERR(inst, "%s: the %s derivative is not finite", fn,
+                    adjoint ? "adjoint" : "directional");
             return fmi2Error;
         }
     }
     return fmi2OK;
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c,
+                                        const fmi2ValueReference vUnknown_ref[],
+                                        size_t nUnknown, const fmi2ValueReference vKnown_ref[],
+                                        size_t nKnown, const fmi2Real dvKnown[],
+                                        fmi2Real dvUnknown[]) {
+    return fmu_derivatives(c, "fmi2GetDirectionalDerivative", vUnknown_ref, nUnknown,
+                           vKnown_ref, nKnown, dvKnown, dvUnknown, 0);
 }
 
 /* ------------------------------------------------------------------ Model Exchange */

@@ -109,6 +109,13 @@ static fmi2Status set_values(fmi2Component c, fmu_call call, fmu_vtype t,
         const fmu_var *d = fmu_lookup(t, vr[i], &ix);
         const set_rule *rule = &set_rules[d->kind < FMU_KIND_N ? d->kind : 0];
         double x = given(t, value, i);
+        if (d->start_from != 0 && (inst->state & ST_BEFORE_INIT_END)) {
+            LOG_ERR(inst, "%s: cannot set '%s' (vr %lu) before initialisation ends: it starts "
+                    "from the parameter '%s' (initial = calculated); set that instead", fn,
+                    d->name, (unsigned long)vr[i],
+                    fmu_model.vars->var[FMU_REAL][d->start_from - 1u].name);
+            return fmi2Error;
+        }
         if (!(inst->state & (inst->type == fmi2ModelExchange ? rule->me : rule->cs))) {
             LOG_ERR(inst, "%s: cannot set '%s' (vr %lu) in state %s: %s", fn, d->name,
                     (unsigned long)vr[i], fmu_state_name(inst->state), rule->why);
@@ -134,6 +141,7 @@ static fmi2Status set_values(fmi2Component c, fmu_call call, fmu_vtype t,
             inst->v.b[ix] = ((const fmi2Boolean *)value)[i];
     }
     if (nvr > 0) inst->dirty = inst->init_dirty = 1;
+    if (inst->state & ST_BEFORE_INIT_END) fmu_apply_start_from(&inst->v);
     return fmi2OK;
 }
 

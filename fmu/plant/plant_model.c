@@ -84,9 +84,10 @@ static int check_initial(const fmu_values *v, int restored, char *msg, size_t le
     double tol = restored ? PLANT_QUAT_TOL_RESTORED : PLANT_QUAT_TOL;
     if (!(fabs(n - 1.0) <= tol)) {
         snprintf(msg, len,
-                 "%s quaternion [q0, q1, q2, q3] = [%g, %g, %g, %g] has norm %.12g; it must "
+                 "%s quaternion [%s] = [%g, %g, %g, %g] has norm %.12g; it must "
                  "be a unit quaternion (norm 1 within %g)",
-                 restored ? "the restored" : "start", q[0], q[1], q[2], q[3], n, tol);
+                 restored ? "the restored" : "start", restored ? "q0, q1, q2, q3" :
+                 "x0_q0, x0_q1, x0_q2, x0_q3", q[0], q[1], q[2], q[3], n, tol);
         return 1;
     }
     return 0;

@@ -41,7 +41,7 @@ int main(int argc, char **argv) {
     for (k = 0; k < NX; ++k) vr_x[k] = (fmi2ValueReference)(PLANT_VR_x + k);
     for (k = 0; k < NOUT; ++k) vr_y[k] = (fmi2ValueReference)(PLANT_VR_roll + k);
     for (k = 0; k < 3; ++k) vr_tau[k] = (fmi2ValueReference)(PLANT_VR_tau0 + k);
-    for (k = 0; k < 4; ++k) vr_q[k] = (fmi2ValueReference)(PLANT_VR_q0 + k);
+    for (k = 0; k < 4; ++k) vr_q[k] = (fmi2ValueReference)(PLANT_VR_x0_q0 + k); /* the start state */
     lib = host_load(argv[1], &f);
     cb = host_callbacks();
     /* start quaternion of a roll about body x */

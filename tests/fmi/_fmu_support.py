@@ -12,6 +12,8 @@ from ballbot_casadi.fmi.build import FmuBuild, build_fmu, plant_variables
 STATES = ("x", "y", "q0", "q1", "q2", "q3", "dx", "dy", "dq0", "dq1", "dq2", "dq3")
 #: All continuous states of the FMU: the model states, then the wheel angles.
 ALL_STATES = (*STATES, "phi0", "phi1", "phi2")
+#: The parameters the model states start from (x0_<state>).
+X0_NAMES = tuple(f"x0_{n}" for n in STATES)
 NXW = len(ALL_STATES)
 SENSORS = ("sensor_acc_x", "sensor_acc_y", "sensor_acc_z", "sensor_gyro_x", "sensor_gyro_y",
            "sensor_gyro_z", "sensor_enc0", "sensor_enc1", "sensor_enc2")
@@ -101,7 +103,9 @@ class Plant:
                 list(self.fmu.getBoolean(vrs_of_type("Boolean"))))
 
     def init(self, start_time: float = 0.0, **values: float) -> None:
-        """Initialise: Reals by keyword; ``noise_on`` (bool) and ``seed`` (int) as such."""
+        """Initialise: Reals by keyword (a state's name sets its start parameter
+        ``x0_<name>``); ``noise_on`` (bool) and ``seed`` (int) as such."""
+        values = {(f"x0_{k}" if k in ALL_STATES else k): v for k, v in values.items()}
         self.fmu.setupExperiment(startTime=start_time)
         self.fmu.enterInitializationMode()
         if "noise_on" in values:

@@ -14,6 +14,7 @@ from _fmu_support import (
     NXW,
     SENSORS,
     STATES,
+    X0_NAMES,
     Plant,
     plant_build,
     python_rk4,
@@ -94,7 +95,7 @@ def test_parameters_before_initialisation_take_effect_fixed_ones_after_are_refus
     p.fmu.setupExperiment(startTime=0.0)
     p.set(Mb=20.0, l=0.3)  # in the instantiated state
     p.fmu.enterInitializationMode()
-    p.set(Jbz=0.2, **dict(zip(STATES, X_TILT.tolist())), tau0=TAU[0], tau1=TAU[1], tau2=TAU[2])
+    p.set(Jbz=0.2, **dict(zip(X0_NAMES, X_TILT.tolist())), tau0=TAU[0], tau1=TAU[1], tau2=TAU[2])
     p.fmu.exitInitializationMode()
     pv = P.replace(Mb=20.0, l=0.3, Jbz=0.2).to_vector()
     p.step(0.005)
@@ -325,7 +326,7 @@ def test_nan_and_inf_inputs_and_parameters_are_errors(value):
     p = Plant("cs")
     p.fmu.setupExperiment(startTime=0.0)
     p.fmu.enterInitializationMode()
-    for name in ("tau0", "Mb", "q0", "h_internal"):
+    for name in ("tau0", "Mb", "x0_q0", "h_internal"):
         st = p.raw_set_real(vrs(name), [value])
         _expect_error(p, st, "must be finite")
     p.fmu.exitInitializationMode()
@@ -357,15 +358,32 @@ def test_all_or_nothing_set_real():
     p.free()
 
 
+def test_the_state_starts_from_the_x0_parameters_and_cannot_be_set_before_init():
+    for kind in ("cs", "me"):
+        p = Plant(kind)
+        p.fmu.setupExperiment(startTime=0.0)
+        p.fmu.enterInitializationMode()
+        np.testing.assert_array_equal(p.get(*STATES), p.get(*X0_NAMES))  # the defaults
+        assert p.get("q0")[0] == 1.0
+        p.set(**dict(zip(X0_NAMES, X_TILT.tolist())))
+        np.testing.assert_array_equal(p.get(*STATES), X_TILT)  # follows x0_* at once
+        st = p.raw_set_real(vrs("q1"), [0.0])
+        _expect_error(p, st, "starts from the parameter 'x0_q1'")
+        p.fmu.exitInitializationMode()
+        np.testing.assert_array_equal(p.get(*STATES), X_TILT)
+        p.free()
+
+
 def test_non_unit_start_quaternion_is_refused_at_initialisation():
     for kind in ("cs", "me"):
         p = Plant(kind)
         p.fmu.setupExperiment(startTime=0.0)
         p.fmu.enterInitializationMode()
-        p.set(q0=1.0, q1=0.1)
+        p.set(x0_q0=1.0, x0_q1=0.1)
         st = p.raw("fmi2ExitInitializationMode")
         _expect_error(p, st, "must be a unit quaternion")
-        p.set(q0=float(np.sqrt(1 - 0.01)))  # fixed: now accepted
+        assert "x0_q0, x0_q1, x0_q2, x0_q3" in p.errors()[-1]  # names what to fix
+        p.set(x0_q0=float(np.sqrt(1 - 0.01)))  # fixed: now accepted
         p.fmu.exitInitializationMode()
         p.free()
 

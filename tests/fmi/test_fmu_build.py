@@ -18,6 +18,7 @@ from ballbot_casadi.cli import main as cli_main
 from ballbot_casadi.core.params import PARAM_INFO
 from ballbot_casadi.core.sensor_params import SENSOR_VECTOR_NAMES, load_sensor_params
 from ballbot_casadi.fmi.build import fmu_source_dir, plant_variables
+from ballbot_casadi.model.numeric import make_state
 
 
 @pytest.fixture(scope="module")
@@ -70,10 +71,18 @@ def test_model_description_matches_the_table(plant):
     assert (by_name["noise_on"].type, by_name["noise_on"].start) == ("Boolean", "false")
     seed = by_name["seed"]
     assert (seed.type, seed.start, seed.min, seed.max) == ("Integer", "0", "0", str(2**31 - 1))
-    # states are outputs with settable start values, derivatives point at them
+    # states are outputs calculated from the start parameters x0_<state> (what an SSP
+    # parameter set binds), derivatives point at them
     assert [s.variable.name for s in md.derivatives] == [f"der({n})" for n in ALL_STATES]
     assert [d.variable.derivative.name for d in md.derivatives] == list(ALL_STATES)
-    assert all(by_name[n].initial == "exact" for n in ALL_STATES)
+    assert all(by_name[n].initial == "calculated" and by_name[n].start is None
+               for n in ALL_STATES)
+    x0 = [by_name[f"x0_{n}"] for n in ALL_STATES]
+    assert all((v.causality, v.variability, v.initial) == ("parameter", "fixed", "exact")
+               for v in x0)
+    assert [float(v.start) for v in x0[:12]] == make_state().tolist()
+    initial_unknowns = {u.variable.name for u in md.initialUnknowns}
+    assert set(ALL_STATES) <= initial_unknowns
     outs = {u.variable.name for u in md.outputs}
     assert set(ALL_STATES) <= outs
     assert {"roll", "pitch", "yaw", "dphi0", "acc_z", "gyro_x", "enc2", *SENSORS} <= outs
@@ -148,7 +157,7 @@ def test_fmu_carries_sources_and_fmpy_compile_rebuilds_it(plant, tmp_path):
     with zipfile.ZipFile(copy) as zf:
         rebuilt = zf.read("binaries/linux64/BallbotPlant.so")
     assert rebuilt != plant.binary.read_bytes()  # really a new binary from the sources
-    sv = {"tau0": 0.02, "tau1": -0.01, "q1": 0.01, "q0": float(np.sqrt(1 - 1e-4))}
+    sv = {"tau0": 0.02, "tau1": -0.01, "x0_q1": 0.01, "x0_q0": float(np.sqrt(1 - 1e-4))}
     r0 = simulate_fmu(str(plant.fmu), fmi_type="CoSimulation", stop_time=0.5,
                       output_interval=0.005, start_values=sv, output=list(STATES))
     r1 = simulate_fmu(str(copy), fmi_type="CoSimulation", stop_time=0.5,

@@ -14,7 +14,7 @@ from ctypes import byref, c_char_p, c_double, c_int, c_uint, c_void_p
 
 import numpy as np
 import pytest
-from _fmu_support import NXW, STATES, Plant, vrs
+from _fmu_support import NXW, STATES, X0_NAMES, Plant, vrs
 from fmpy.fmi2 import fmi2EventInfo
 
 from ballbot_casadi.model.numeric import make_state
@@ -38,7 +38,7 @@ def _enter(kind: str, state: str) -> Plant:
     if state == "error":  # derivatives overflow: exiting initialisation fails
         x = make_state().tolist()
         x[STATES.index("dq1")] = 1e200
-        p.set(**dict(zip(STATES, x)))
+        p.set(**dict(zip(X0_NAMES, x)))
         assert p.raw("fmi2ExitInitializationMode") == 3
         assert "NaN or Inf" in p.errors()[-1]
         return p

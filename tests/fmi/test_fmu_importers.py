@@ -16,7 +16,7 @@ import subprocess
 import casadi as ca
 import numpy as np
 import pytest
-from _fmu_support import ALL_STATES, SENSORS, STATES, plant_build, python_rk4
+from _fmu_support import ALL_STATES, SENSORS, STATES, X0_NAMES, plant_build, python_rk4
 from scipy.integrate import solve_ivp
 
 from ballbot_casadi import load_params
@@ -54,7 +54,7 @@ def fmpy_cs(plant):
     from fmpy import simulate_fmu
 
     r = simulate_fmu(str(plant.fmu), fmi_type="CoSimulation", stop_time=T_END,
-                     output_interval=DT, start_values=dict(zip(STATES, X0.tolist())),
+                     output_interval=DT, start_values=dict(zip(X0_NAMES, X0.tolist())),
                      output=list(STATES))
     return r["time"], np.column_stack([r[n] for n in STATES])
 
@@ -74,7 +74,7 @@ def test_fmpy_model_exchange_cvode_matches_python(plant, reference):
     # it needs a tighter tolerance than without them (1e-12: 9.5e-7, 1e-13: 1.2e-7).
     r = simulate_fmu(str(plant.fmu), fmi_type="ModelExchange", solver="CVode",
                      relative_tolerance=1e-13, stop_time=T_END, output_interval=DT,
-                     start_values=dict(zip(STATES, X0.tolist())), output=list(STATES),
+                     start_values=dict(zip(X0_NAMES, X0.tolist())), output=list(STATES),
                      record_events=False)
     Xm = np.column_stack([r[n] for n in STATES])
     np.testing.assert_allclose(r["time"], t, rtol=0, atol=1e-9)
@@ -105,7 +105,7 @@ def test_libcosim_matches_fmpy(plant, fmpy_cs):
     ex = CosimExecution.from_step_size(step_size=int(round(DT * 1e9)))
     idx = ex.add_local_slave(CosimLocalSlave(fmu_path=str(plant.fmu), instance_name="plant"))
     ref = {v.name.decode(): v.reference for v in ex.slave_variables(idx)}
-    for name, value in zip(STATES, X0):
+    for name, value in zip(X0_NAMES, X0):
         assert ex.real_initial_value(idx, ref[name], float(value))
     assert ex.boolean_initial_value(idx, ref["noise_on"], True)  # Integer/Boolean values too
     assert ex.integer_initial_value(idx, ref["seed"], 21)
@@ -130,7 +130,7 @@ def test_libcosim_matches_fmpy(plant, fmpy_cs):
 
     r = simulate_fmu(str(plant.fmu), fmi_type="CoSimulation", stop_time=T_END,
                      output_interval=DT, output=[*SENSORS, "sensor_sample"],
-                     start_values={**dict(zip(STATES, X0.tolist())), "noise_on": True,
+                     start_values={**dict(zip(X0_NAMES, X0.tolist())), "noise_on": True,
                                    "seed": 21})
     assert samples == r["sensor_sample"][1:].tolist() == list(range(1, N + 1))
     np.testing.assert_allclose(np.array(readings), np.column_stack([r[n] for n in SENSORS])[1:],

@@ -27,8 +27,8 @@ def test_fmu_parameter_checks_equal_the_python_rules():
     p = Plant("cs", name="rules")
     checked = 0
     for v in plant_variables():
-        if v.kind != "parameter" or v.type != "Real":
-            continue
+        if v.kind != "parameter" or v.type != "Real" or v.name.startswith("x0_"):
+            continue  # the start state x0_* need only be finite (and a unit quaternion)
         rule = PARAM_RULES[v.rule]
         for value in _probes(rule.lo, rule.hi):
             st = p.raw("fmi2SetReal", (c_uint * 1)(v.vr), 1, (c_double * 1)(value))

@@ -16,7 +16,7 @@ from ctypes import c_double
 
 import numpy as np
 import pytest
-from _fmu_support import ALL_STATES, NXW, SENSORS, STATES, Plant
+from _fmu_support import ALL_STATES, NXW, SENSORS, X0_NAMES, Plant
 
 from ballbot_casadi import load_params
 from ballbot_casadi.core.rng import NoiseStream
@@ -69,7 +69,7 @@ def _fmu_run(step: float, noise_on: bool, seed: int = 42, sensors=S, **extra) ->
     """FMU states and readings at every communication point: (n + 1, 15 + 9)."""
     tau, dist = _per_step(TAU, step), _per_step(DIST, step)
     p = Plant("cs")
-    p.init(**dict(zip(STATES, X0.tolist())), noise_on=noise_on, seed=seed,
+    p.init(**dict(zip(X0_NAMES, X0.tolist())), noise_on=noise_on, seed=seed,
            **_sensor_params(sensors), **extra)
     rows = [np.r_[p.get(*ALL_STATES), p.get(*SENSORS)]]
     for i in range(len(tau)):
@@ -121,7 +121,7 @@ def test_the_step_size_does_not_move_the_sample_instants():
     runs = {}
     for step in (0.005, 0.01, 0.0025, 0.003):
         p = Plant("cs")
-        p.init(**dict(zip(STATES, X0.tolist())), tau0=0.2, tau1=-0.1, tau2=0.3, noise_on=True,
+        p.init(**dict(zip(X0_NAMES, X0.tolist())), tau0=0.2, tau1=-0.1, tau2=0.3, noise_on=True,
                seed=8)
         t, rows = 0.0, {0: p.get(*SENSORS)}
         for _ in range(int(round(0.3 / step))):
@@ -153,7 +153,7 @@ def test_sample_zero_conventions(sensor_fns):
     """Sample 0: the start state, zero torque (nothing acted yet), b_0, encoders read 0."""
     p = Plant("cs")
     tau = (0.4, -0.3, 0.2)
-    p.init(**dict(zip(STATES, X0.tolist())), tau0=tau[0], tau1=tau[1], tau2=tau[2],
+    p.init(**dict(zip(X0_NAMES, X0.tolist())), tau0=tau[0], tau1=tau[1], tau2=tau[2],
            noise_on=True, seed=5, **_sensor_params(BIASED))
     ns = NoiseStream(5)
     n_acc = ns.normal(NOISE_STREAMS["acc"], 1, 3)[0]
@@ -193,7 +193,7 @@ def test_encoder_counts_are_the_quantised_wheel_angles():
     np.testing.assert_allclose(np.round(dticks), np.diff(counts, axis=0), rtol=0, atol=0)
     # and the wheel angles are the integral of the wheel speeds (trapezoid, 5 ms)
     p = Plant("cs")
-    p.init(**dict(zip(STATES, X0.tolist())))
+    p.init(**dict(zip(X0_NAMES, X0.tolist())))
     speeds, angles = [p.get("dphi0", "dphi1", "dphi2")], [p.get("phi0", "phi1", "phi2")]
     for i in range(N):
         p.set(tau0=TAU[i, 0], tau1=TAU[i, 1], tau2=TAU[i, 2], tau_dist1=DIST[i, 1])
@@ -249,7 +249,7 @@ def test_start_time_and_sensor_period_parameters():
     ref = plant_sensor_oracle(X0, TAU[:40], step=0.005, Ts_sensor=0.01, start_time=1.25,
                                  noise_on=True, seed=3)
     p = Plant("cs")
-    p.init(start_time=1.25, **dict(zip(STATES, X0.tolist())), Ts_sensor=0.01, noise_on=True,
+    p.init(start_time=1.25, **dict(zip(X0_NAMES, X0.tolist())), Ts_sensor=0.01, noise_on=True,
            seed=3)
     rows = [p.get(*SENSORS)]
     for i in range(40):
@@ -278,7 +278,7 @@ def test_steps_with_too_many_samples_are_refused():
 
 def test_fmu_state_with_sensors_continues_bit_identically():
     p = Plant("cs", name="first")
-    p.init(**dict(zip(STATES, X0.tolist())), noise_on=True, seed=11, **_sensor_params(BIASED))
+    p.init(**dict(zip(X0_NAMES, X0.tolist())), noise_on=True, seed=11, **_sensor_params(BIASED))
 
     def run(q: Plant, start: int, n: int) -> list:
         out = []
@@ -305,7 +305,7 @@ def test_fmu_state_with_sensors_continues_bit_identically():
     assert run(q, 7, 30) == a
     assert a[-1][1][1] > 10  # sensor_sample advanced (Integer values are compared too)
     p.fmu.reset()  # reset, same start: the same noisy run
-    p.init(**dict(zip(STATES, X0.tolist())), noise_on=True, seed=11, **_sensor_params(BIASED))
+    p.init(**dict(zip(X0_NAMES, X0.tolist())), noise_on=True, seed=11, **_sensor_params(BIASED))
     b = run(p, 0, 37)
     assert b[7:] == a
     for x in (p, q):
@@ -318,7 +318,7 @@ def test_model_exchange_samples_at_time_events(sensor_fns):
     m.fmu.enterInitializationMode()
     m.set_bool(noise_on=True)
     m.set_int(seed=9)
-    m.set(**dict(zip(STATES, X0.tolist())), tau0=0.2, tau1=-0.1, tau2=0.05,
+    m.set(**dict(zip(X0_NAMES, X0.tolist())), tau0=0.2, tau1=-0.1, tau2=0.05,
           **_sensor_params(BIASED))
     m.fmu.exitInitializationMode()
     *_, defined, t_next = m.fmu.newDiscreteStates()
@@ -360,7 +360,7 @@ def test_fmpy_model_exchange_and_co_simulation_readings_agree():
     from fmpy import simulate_fmu
 
     fmu = str(plant_build().fmu)
-    sv = {**dict(zip(STATES, X0.tolist())), "tau0": 0.1, "tau1": -0.05, "noise_on": True,
+    sv = {**dict(zip(X0_NAMES, X0.tolist())), "tau0": 0.1, "tau1": -0.05, "noise_on": True,
           "seed": 4}
     out = [*SENSORS, "sensor_sample"]
     cs = simulate_fmu(fmu, fmi_type="CoSimulation", stop_time=0.5, output_interval=0.005,

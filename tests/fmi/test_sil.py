@@ -84,7 +84,7 @@ def test_the_ssp_is_valid_ssp_1_0_and_carries_the_system(work):
     sc, _ = _scenario("full_sine", SINE_S)
     plant = system.parameters["plant"]
     assert plant["seed"] == sc.seed and plant["noise_on"] is True
-    assert plant["h_internal"] == pytest.approx(sc.Ts / sc.n_sub) and plant["dq1"] == sc.x0[9]
+    assert plant["h_internal"] == pytest.approx(sc.Ts / sc.n_sub) and plant["x0_dq1"] == sc.x0[9]
     assert system.parameters["controller"]["feedforward"] is False  # thesis mode
     ends = {(c.end_element, c.end_connector) for c in system.connections}
     assert ("plant", "tau0") in ends and ("controller", "sensor_enc2") in ends

@@ -19,6 +19,7 @@ from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.masters.adapter import FmuSlave
+from ballbot_casadi.fmi.plant.plant import X0_PREFIX
 from ballbot_casadi.model.dynamics import make_affine
 from ballbot_casadi.sim.period import control_period
 from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES, PeriodBlocks
@@ -97,7 +98,7 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
         plant.setup(0.0)
         plant.set_reals(PARAM_NAMES, inp["p_plant"])
         plant.set_reals(["h_internal"], [Ts / n_sub])
-        plant.set_reals(STATE.names, inp["x0"])
+        plant.set_reals([X0_PREFIX + n for n in STATE.names], inp["x0"])  # the start state
         plant.exit_initialization()
         z = np.asarray(inp["z0"], float)
         zs[0] = z

@@ -26,7 +26,7 @@ import tempfile
 import time
 import zipfile
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from fmpy import extract, read_model_description
@@ -40,7 +40,7 @@ from ballbot_casadi.fmi.system.sil import (
     REFERENCE,
     SilRun,
     read_scenario,
-    recorded,
+    recorded_signals,
 )
 from ballbot_casadi.fmi.system.ssp import read_ssp
 
@@ -58,7 +58,8 @@ def _model_variables(unzipped: Mapping[str, Path]) -> dict[str, dict[str, Any]]:
             for c, d in unzipped.items()}
 
 
-def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libcosim") -> SilRun:
+def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libcosim",
+            order: Sequence[str] | None = None) -> SilRun:
     """Co-simulate an SSP archive for ``duration`` s (default: its stop time).
 
     Parameters
@@ -70,6 +71,9 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
     master
         ``"libcosim"`` (``CosimExecution.from_ssp_file``, fixed-step Jacobi) or
         ``"gauss-seidel"`` (fmpy, controller before plant; see the module docstring).
+    order
+        Gauss-Seidel only: the components in the order they step at every ``t_k``
+        (default :data:`GAUSS_SEIDEL_ORDER`).
 
     Raises
     ------
@@ -82,6 +86,10 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
         raise ScenarioError(f"unknown master {master!r}; allowed: {', '.join(MASTERS)}")
     ssp = Path(ssp)
     system = read_ssp(ssp)
+    if order is not None and (master != "gauss-seidel" or sorted(order) != sorted(
+            system.components)):
+        raise ScenarioError(f"order {tuple(order)!r}: only for master 'gauss-seidel', a "
+                            f"permutation of {', '.join(system.components)}")
     if system.step is None:
         raise BuildError(f"{ssp}: the default experiment has no fixed step "
                          "(osp:FixedStepAlgorithm baseStepSize)")
@@ -98,13 +106,13 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
         unzipped = {c: Path(extract(str(tmp / src), unzipdir=str(tmp / "unzipped" / c)))
                     for c, src in system.components.items()}
         variables = _model_variables(unzipped)
-        rec = recorded(system, variables)
+        rec = recorded_signals(system, variables)
         t_wall = time.perf_counter()
         if master == "libcosim":
             signals = run_libcosim(ssp, system, n, system.step, variables, rec)
         else:
             signals = run_gauss_seidel(system, unzipped, n, system.step, variables, rec,
-                                       first=GAUSS_SEIDEL_ORDER)
+                                       first=GAUSS_SEIDEL_ORDER if order is None else order)
         wall = time.perf_counter() - t_wall
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

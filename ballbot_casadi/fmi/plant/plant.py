@@ -61,6 +61,7 @@ from ballbot_casadi.sim.embedded import MEAS
 
 __all__ = [
     "MODEL_IDENTIFIER",
+    "X0_PREFIX",
     "H_INTERNAL_DEFAULT",
     "TS_SENSOR_DEFAULT",
     "MAX_SUBSTEPS",
@@ -77,6 +78,9 @@ __all__ = [
 ]
 
 MODEL_IDENTIFIER = "BallbotPlant"
+#: The state ``<name>`` starts from the parameter ``x0_<name>`` (bound by an SSP parameter
+#: set or set by an importer before initialisation; the state itself is calculated).
+X0_PREFIX = "x0_"
 #: Default internal RK4 step of fmi2DoStep (s).
 H_INTERNAL_DEFAULT = 1e-3
 #: Default sensor sample period (s): the robot's 200 Hz.
@@ -154,10 +158,12 @@ def plant_variables() -> tuple[FmuVar, ...]:
     sensors = load_sensor_params().to_vector()
     t = VarTable()
     for i, name in enumerate(STATE_NAMES):
-        t.add(name, "state", _STATE_DESC[i], start=float(x0[i]), unit=_STATE_UNITS[i])
+        t.add(name, "state", f"{_STATE_DESC[i]} (starts from {X0_PREFIX}{name})",
+              start_from=X0_PREFIX + name, unit=_STATE_UNITS[i])
     for i, name in enumerate(WHEEL_ANGLE_NAMES):
         t.add(name, "state", f"wheel {i} motor-shaft angle, the integral of dphi{i} (B.47) "
-              "that the encoder counts", start=0.0, unit="rad")
+              f"that the encoder counts (starts from {X0_PREFIX}{name})",
+              start_from=X0_PREFIX + name, unit="rad")
     for name in (*STATE_NAMES, *WHEEL_ANGLE_NAMES):
         t.add(f"der({name})", "derivative", f"time derivative of {name}", derivative_of=name)
     for i, name in enumerate(INPUT_NAMES):
@@ -185,6 +191,13 @@ def plant_variables() -> tuple[FmuVar, ...]:
         unit, desc, rule, _ = SENSOR_PARAM_INFO[base]
         t.add(name, "parameter", f"{desc}, component {name[len(base) + 1:]}",
               start=float(sensors[j]), unit=unit, rule=rule)
+    x0w = (*(float(v) for v in x0), *(0.0 for _ in WHEEL_ANGLE_NAMES))
+    for name, unit, desc, start in zip((*STATE_NAMES, *WHEEL_ANGLE_NAMES),
+                                       (*_STATE_UNITS, *("rad" for _ in WHEEL_ANGLE_NAMES)),
+                                       (*_STATE_DESC, *(f"wheel {i} motor-shaft angle"
+                                                        for i in range(NU))), x0w):
+        t.add(X0_PREFIX + name, "parameter", f"initial value of the state {name}: {desc}",
+              start=start, unit=unit)
     t.add("noise_on", "parameter", "sensor noise on: white IMU noise and the gyroscope bias "
           "random walk drawn from the counter-based generator (off: zero noise; bias, scale "
           "and misalignment still apply)", type="Boolean", start=False)

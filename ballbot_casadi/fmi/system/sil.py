@@ -21,7 +21,7 @@ master on fmpy) are in :mod:`ballbot_casadi.fmi.masters`
 module only composes the system.
 
 A run of the system is a :class:`SilRun` (every connection logged at every communication
-point, plus :func:`recorded`); :func:`~ballbot_casadi.fmi.system.sil_log.sil_log` turns it
+point, plus :func:`recorded_signals`); :func:`~ballbot_casadi.fmi.system.sil_log.sil_log` turns it
 into a :class:`~ballbot_casadi.sim.log.SimulationLog` in the mission's layout.
 """
 
@@ -51,7 +51,7 @@ from ballbot_casadi.fmi.controller.controller import (
     embedded_function,
 )
 from ballbot_casadi.fmi.package import build_fmu_from_spec
-from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
+from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES, X0_PREFIX
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_player_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.system.ssp import SspComponent, SspConnection, SspSystem, write_ssp
@@ -65,7 +65,7 @@ __all__ = [
     "CONTROLLER_RECORDED",
     "SCENARIO_RESOURCE",
     "SilRun",
-    "recorded",
+    "recorded_signals",
     "plant_parameters",
     "sil_connections",
     "sil_system",
@@ -132,7 +132,8 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
                      ) -> dict[str, float | int | bool]:
     """The plant FMU's parameter set for ``scenario``: model parameters (``load_params``
     names), ``h_internal = Ts / n_sub``, ``Ts_sensor = Ts``, sensor parameters,
-    ``noise_on``, ``seed`` and the initial state (start values of the states).
+    ``noise_on``, ``seed`` and the initial state (the parameters ``x0_<state>`` the
+    plant's states start from).
 
     ``variables`` (the names a user's plant FMU has) drops the entries it lacks.
 
@@ -152,7 +153,7 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
         **dict(zip(SENSOR_VECTOR_NAMES, (float(v) for v in sensors))),
         "noise_on": bool(scenario.noise),
         "seed": int(scenario.seed),
-        **dict(zip(STATE.names, (float(v) for v in scenario.x0))),
+        **dict(zip((X0_PREFIX + n for n in STATE.names), (float(v) for v in scenario.x0))),
     }
     if variables is not None:
         values = {k: v for k, v in values.items() if k in set(variables)}
@@ -233,7 +234,7 @@ def read_scenario(ssp: str | Path) -> tuple[Scenario | None, tuple[Mapping[str, 
     return Scenario.from_dict(meta["scenario"]), tuple(meta.get("specs", ()))
 
 
-def recorded(system: SspSystem, variables: Mapping[str, Mapping[str, Any]]) -> list[tuple[str, str]]:
+def recorded_signals(system: SspSystem, variables: Mapping[str, Mapping[str, Any]]) -> list[tuple[str, str]]:
     """``(component, variable)`` pairs to record: both ends of every connection, the
     plant's states and the controller's estimate and diagnostics (those the FMUs have)."""
     rec: list[tuple[str, str]] = []

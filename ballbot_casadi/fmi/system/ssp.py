@@ -8,13 +8,20 @@ values after checking every connector and parameter against the FMUs'
 ``modelDescription.xml`` (name, causality, type), so an engine never meets a dangling
 name; :func:`read_ssp` reads what the package's runner needs back.
 
-The default experiment carries the Open Simulation Platform annotation
-``osp:FixedStepAlgorithm baseStepSize`` that libcosim reads
-(``CosimExecution.from_ssp_file``); other engines ignore it.  libcosim applies a
-parameter set only to parameters and inputs (it logs a warning and skips anything else,
-e.g. an FMU's state start values, which the SSP standard allows);
-:attr:`SspComponent.initial_values` lists those, and
-the libcosim master (:mod:`ballbot_casadi.fmi.masters.libcosim`) applies them as initial values.
+SSP 1.0 has no standard place for a co-simulation step size (``ssd:DefaultExperiment``
+has only ``startTime`` and ``stopTime``; the FMUs' own ``DefaultExperiment stepSize``
+says 5 ms too), so the file carries the annotations of the engines it is run in: the
+default experiment the Open Simulation Platform's ``osp:FixedStepAlgorithm
+baseStepSize`` that libcosim reads (``CosimExecution.from_ssp_file``), the system
+OMSimulator's ``org.openmodelica`` ``oms:FixedStepMaster stepSize`` (without it
+OMSimulator's command line cannot import the file and its API defaults to 1 ms, which
+the controller refuses).  Engines ignore annotations of other types.  libcosim applies
+a parameter set only to parameters and inputs (it logs a warning and skips anything
+else, e.g. start values of outputs); the package's FMUs therefore expose everything a
+system sets as parameters (the plant's initial state ``x0_*``).  A user's FMU that
+has only state start values gets them through :attr:`SspComponent.initial_values`,
+which the libcosim master (:mod:`ballbot_casadi.fmi.masters.libcosim`) applies as
+initial values.
 
 The system of the software-in-the-loop run (plant, controller and reference FMUs of a
 scenario) is :func:`ballbot_casadi.fmi.system.sil.sil_system`.
@@ -54,8 +61,10 @@ NS = {
     "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
     "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
     "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+    "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
 }
 _OSP_TYPE = "com.opensimulationplatform"
+_OMS_TYPE = "org.openmodelica"
 _TYPES = ("Real", "Integer", "Boolean")
 _KIND = {"input": "input", "output": "output", "parameter": "parameter"}
 
@@ -206,7 +215,7 @@ def ssd_xml(name: str, components: Sequence[SspComponent], connections: Sequence
     connections and the default experiment (with the OSP fixed-step annotation)."""
     out = ['<?xml version="1.0" encoding="UTF-8"?>',
            f'<ssd:SystemStructureDescription xmlns:ssd="{NS["ssd"]}" xmlns:ssc="{NS["ssc"]}"',
-           f'    xmlns:ssv="{NS["ssv"]}" xmlns:osp="{NS["osp"]}"',
+           f'    xmlns:ssv="{NS["ssv"]}" xmlns:osp="{NS["osp"]}" xmlns:oms="{NS["oms"]}"',
            f'    version="1.0" name={quoteattr(name)} generationTool="ballbot-casadi">',
            f"  <ssd:System name={quoteattr(name)} description={quoteattr(description)}>",
            "    <ssd:Elements>"]
@@ -230,7 +239,16 @@ def ssd_xml(name: str, components: Sequence[SspComponent], connections: Sequence
                 f"startConnector={quoteattr(con.start_connector)} "
                 f"endElement={quoteattr(con.end_element)} "
                 f"endConnector={quoteattr(con.end_connector)}/>"]
-    out += ["    </ssd:Connections>", "  </ssd:System>",
+    out += ["    </ssd:Connections>",
+            # OMSimulator's fixed-step master (its own annotation of the system)
+            "    <ssd:Annotations>",
+            f'      <ssc:Annotation type="{_OMS_TYPE}">',
+            "        <oms:Annotations><oms:SimulationInformation>",
+            f'          <oms:FixedStepMaster description="oms-ma" stepSize="{step!r}"/>',
+            "        </oms:SimulationInformation></oms:Annotations>",
+            "      </ssc:Annotation>",
+            "    </ssd:Annotations>",
+            "  </ssd:System>",
             f'  <ssd:DefaultExperiment startTime="{start!r}" stopTime="{stop!r}">',
             "    <ssd:Annotations>",
             f'      <ssc:Annotation type="{_OSP_TYPE}">',
