@@ -371,6 +371,7 @@ def make_initial_controller_state(estimator: str, observer: bool = True) -> ca.F
     ScenarioError
         Unknown estimator.
     """
+    estimator_layout(estimator)  # refuses an unknown estimator (ScenarioError)
     att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[estimator])
     x0 = ca.SX.sym("x0", STATE.size)
     p = ca.SX.sym("p_ctrl", len(PARAM_NAMES))
