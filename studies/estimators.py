@@ -117,6 +117,12 @@ def estimators_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
         "ekf_heading_drift_deg": ekf_vel["estimator_heading_drift_deg"],
         "ukf_position_drift_m": ukf_vel["position_drift_m"],
         "ekf_position_drift_m": ekf_vel["position_drift_m"],
+        **{f"{f}_{k}": run[f"estimator_{k}"] for f, sine, vel in (("ukf", ukf_sine, ukf_vel),
+                                                                   ("ekf", ekf_sine, ekf_vel))
+           for run, keys in ((sine, ("q2_error_max", "q3_error_max", "rate_rms_dps")),
+                             (vel, ("vx_drift_mps", "vx_error_rms_mps", "vy_error_rms_mps",
+                                    "x_error_final_m")))
+           for k in keys},
         "ukf_nis_attitude_mean": ukf_sine["nis_attitude_mean"],
         "ukf_nis_velocity_mean": ukf_vel["nis_velocity_mean"],
         "covariance_repairs": int(sum(m.get("covariance_repairs", 0) for m in runs.values())),

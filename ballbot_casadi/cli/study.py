@@ -8,7 +8,7 @@ from pathlib import Path
 from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.sim.scenario import ESTIMATOR_CHOICES, FEEDFORWARD_MODES
+from ballbot_casadi.sim.scenario import ESTIMATOR_CHOICES, FEEDFORWARD_MODES, TORQUE_LIMIT_MODES
 from ballbot_casadi.studies import chirp as chirp_study
 from ballbot_casadi.studies.registry import (
     STUDIES,
@@ -50,7 +50,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
     params = load_params(args.params) if args.params else None
     overrides = parse_overrides(args.set or [])
     overrides += [(k, v) for k, v in (("estimator", args.estimator), ("seed", args.seed),
-                                      ("feedforward", args.feedforward)) if v is not None]
+                                      ("feedforward", args.feedforward),
+                                      ("torque_limit", args.torque_limit)) if v is not None]
     if (args.axis or args.amplitude is not None) and args.name != "chirp":
         raise ScenarioError("--axis and --amplitude apply to the chirp study only")
     if args.amplitude is not None and not 0 < args.amplitude <= 45:
@@ -60,7 +61,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
         overrides += chirp_study.axis_overrides(table, args.axis, args.amplitude)
     if args.name == "all":
         if overrides or params is not None:
-            raise ScenarioError("--set, --estimator, --seed, --feedforward and --params apply to one "
+            raise ScenarioError("--set, --estimator, --seed, --feedforward, --torque-limit and --params apply to one "
                                 "study, not to 'all'")
         table = run_all(Path(args.out) if args.out else None, plot=not args.no_plot)
         ok = True
@@ -101,6 +102,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--feedforward", choices=FEEDFORWARD_MODES,
                    help="balance controller feed-forward: exact reference acceleration, or none (the "
                         "thesis's FLC 8.44 and SMC); default: the study's files")
+    p.add_argument("--torque-limit", choices=TORQUE_LIMIT_MODES,
+                   help="the controller's torque limit: direction-preserving (ours) or per-wheel "
+                        "clipping only (the thesis's set-up, §9.1); default: the study's files")
     p.add_argument("--axis", choices=("roll", "pitch"), help="chirp: the excited axis (default roll)")
     p.add_argument("--amplitude", type=float, metavar="DEG", help="chirp: amplitude in deg (default 3)")
     p.add_argument("--quiet", action="store_true", help="print nothing")

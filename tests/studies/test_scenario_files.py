@@ -36,8 +36,10 @@ def test_files_reproduce_the_thesis_scenarios():
     q, dq, _ = sine.attitude_reference()
     np.testing.assert_allclose(sine.x0[2:6], q[0], rtol=0, atol=1e-15)   # on_reference
     np.testing.assert_allclose(sine.x0[8:12], dq[0], rtol=0, atol=1e-15)
-    exact, none = get_study("chirp").scenarios()
-    assert (exact.feedforward, none.feedforward) == ("exact", "none")
+    exact, per_wheel, none = get_study("chirp").scenarios()
+    assert (exact.feedforward, per_wheel.feedforward, none.feedforward) == ("exact", "none", "none")
+    assert (exact.torque_limit, per_wheel.torque_limit, none.torque_limit) == ("direction", "per-wheel",
+                                                                              "direction")
     assert none.attitude["roll"] == {"type": "chirp", "amplitude_deg": 3.0, "f0_hz": 0.05, "f1_hz": 5.0,
                                      "duration": 99.0}
     _, com, *_ = get_study("com").scenarios()

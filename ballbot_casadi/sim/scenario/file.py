@@ -128,6 +128,7 @@ from ballbot_casadi.sim.scenario.scenario import (
     FEEDFORWARD_MODES,
     PLANT_CHANGES,
     SENSOR_CHANGES,
+    TORQUE_LIMIT_MODES,
     Scenario,
     initial_state,
 )
@@ -258,7 +259,7 @@ class _Checker:
         return tuple(float(e) for e in v)
 
 
-_TOP = ("name", "description", "study", "controller", "duration_s", "cascade", "feedforward",
+_TOP = ("name", "description", "study", "controller", "duration_s", "cascade", "feedforward", "torque_limit",
         "estimator", "seed", "control_period_s", "rk4_substeps", "initial", "attitude", "velocity",
         "push", "torque_disturbance", "plant", "controller_model", "gains", "spec", "montecarlo",
         "noise", "estimator_model", "sensors", "sensor_dropout", "estimator_tuning", "com_observer")
@@ -406,6 +407,7 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         k_obs=c.vector(gains, "k_obs", "gains.k_obs"),
         Ts=Ts, n_sub=c.integer(table, "rk4_substeps", "rk4_substeps", 5, 1),
         feedforward=c.choice(table, "feedforward", "feedforward", "exact", FEEDFORWARD_MODES),
+        torque_limit=c.choice(table, "torque_limit", "torque_limit", "direction", TORQUE_LIMIT_MODES),
         estimator=c.choice(table, "estimator", "estimator", "true", ESTIMATOR_CHOICES),
         seed=c.integer(table, "seed", "seed", 0, 0),
         noise=c.boolean(table, "noise", "noise", True),

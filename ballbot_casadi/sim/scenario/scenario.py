@@ -35,7 +35,7 @@ from ballbot_casadi.control.velocity import VELOCITY_DEFAULT_LIMITS
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import DISTURBANCE
-from ballbot_casadi.core.params import Params, load_params
+from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
 from ballbot_casadi.core.rng import NoiseStream
 from ballbot_casadi.core.sensor_params import SensorParams, load_sensor_params
 from ballbot_casadi.core.validation import check_state
@@ -45,6 +45,7 @@ from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS, c
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.model.sensors import NOISE_STREAMS
 from ballbot_casadi.sim import references as R
+from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES, controller_torque_limit
 from ballbot_casadi.sim.scenario.changes import ParamChanges
 from ballbot_casadi.sim.scenario.signals import attitude_reference, check_attitude
 from ballbot_casadi.sim.embedded import (
@@ -57,6 +58,7 @@ from ballbot_casadi.sim.embedded import (
 __all__ = [
     "Scenario",
     "FEEDFORWARD_MODES",
+    "TORQUE_LIMIT_MODES",
     "ESTIMATOR_CHOICES",
     "ESTIMATOR_TUNING_KEYS",
     "ESTIMATOR_TUNING_TARGETS",
@@ -68,7 +70,7 @@ __all__ = [
 ]
 
 #: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
-FEEDFORWARD_MODES = ("exact", "none")
+FEEDFORWARD_MODES = ("exact", "none", "no-rate")
 #: What the controllers read: the true state, or estimates from noisy sensors.
 ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
 #: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
@@ -138,7 +140,14 @@ class Scenario:
     feedforward
         ``"exact"`` (default): the balance controller gets the reference's second
         derivative; ``"none"``: it gets zero, as the thesis's FLC (8.44) and the
-        predecessor's sliding mode did.
+        predecessor's sliding mode did; ``"no-rate"``: it gets neither the reference's rate
+        nor its acceleration (balance-only mode; thesis §7.2 item 5: "lag when tracking a
+        quaternion even though no angular velocity reference is provided").
+    torque_limit
+        ``"direction"`` (default): the controller scales its three torques together at
+        its ``tau_max`` before the motors' per-wheel saturation; ``"per-wheel"``: only the
+        per-wheel saturation, the thesis's set-up (§9.1), see
+        :mod:`~ballbot_casadi.sim.period` step 5.
     estimator
         What the controllers read: ``"true"`` (the true state, default), ``"ukf"``
         (noisy sensors, QUKF + VUKF, thesis ch. 4-5) or ``"ekf"`` (noisy sensors, the
@@ -197,6 +206,7 @@ class Scenario:
     Ts: float = TS_CONTROL
     n_sub: int = N_SUB
     feedforward: str = "exact"
+    torque_limit: str = "direction"
     estimator: str = "true"
     seed: int = 0
     noise: bool = True
@@ -232,7 +242,8 @@ class Scenario:
             raise ScenarioError(f"duration shorter than one control period ({self.Ts:g} s)", key="duration_s")
         if not _is_int(self.n_sub) or self.n_sub < 1:
             raise ScenarioError(f"n_sub must be an int >= 1, got {self.n_sub!r}", key="rk4_substeps")
-        for name, allowed in (("feedforward", FEEDFORWARD_MODES), ("estimator", ESTIMATOR_CHOICES)):
+        for name, allowed in (("feedforward", FEEDFORWARD_MODES), ("estimator", ESTIMATOR_CHOICES),
+                              ("torque_limit", TORQUE_LIMIT_MODES)):
             if getattr(self, name) not in allowed:
                 raise ScenarioError(f"{name} {getattr(self, name)!r} unknown; allowed: {', '.join(allowed)}",
                                     key=name)
@@ -264,6 +275,11 @@ class Scenario:
         SENSOR_CHANGES.check(self.sensor_changes)
         object.__setattr__(self, "x0", tuple(float(v) for v in check_state(self.x0, "initial state x0")))
         check_attitude(self.attitude, self.Ts)
+        if self.cascade and self.attitude:
+            axis = sorted(self.attitude)[0]
+            raise ScenarioError("an attitude reference is ignored with cascade = true (the velocity "
+                                "controller makes the attitude reference); drop it or set cascade = "
+                                "false", key=f"attitude.{axis}")
         for name, key in (("velocity_keyframes", "velocity"), ("pushes", "push"),
                           ("torque_disturbances", "torque_disturbance"), ("k_bal", "gains.k_bal"),
                           ("k_vel", "gains.k_vel"), ("k_obs", "gains.k_obs")):
@@ -363,10 +379,15 @@ class Scenario:
             k_vel = np.concatenate([np.zeros(VELOCITY_NKV - VELOCITY_DEFAULT_LIMITS.size),
                                     VELOCITY_DEFAULT_LIMITS])
         q, dq, ddq = self.attitude_reference(periods)
+        if self.feedforward == "no-rate":
+            dq, ddq = np.zeros_like(dq), np.zeros_like(ddq)
         for key, arr in (("q_ref", q), ("dq_ref", dq), ("ddq_ref", ddq)):
             if not np.all(np.isfinite(arr)):
                 raise ScenarioError(f"scenario {self.name!r}: {key} contains NaN or Inf")
         x0 = np.asarray(self.x0, float)
+        p_ctrl = p_ctrl.copy()  # the limit of the balance loop only, after the gain design
+        p_ctrl[PARAM_NAMES.index("tau_max")] = controller_torque_limit(
+            p_ctrl[PARAM_NAMES.index("tau_max")], self.torque_limit)
         return {
             "x0": x0,
             "p_plant": p_plant,
