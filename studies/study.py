@@ -45,6 +45,7 @@ from ballbot_casadi.core.params import Params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
+from ballbot_casadi.studies import thesis as TH
 from ballbot_casadi.studies.formatting import fmt
 from ballbot_casadi.studies.registry import (
     STUDY_NAMES,
@@ -54,7 +55,7 @@ from ballbot_casadi.studies.registry import (
     rebase_on_params,
 )
 
-__all__ = ["run_study", "run_file", "run_all", "demo_sine", "demo_com", "demo_chirp", "demo_full", "CONTROLLERS",
+__all__ = ["run_study", "run_file", "run_all", "run_thesis", "demo_sine", "demo_com", "demo_chirp", "demo_full", "CONTROLLERS",
            "OWNED_OUTPUTS", "format_summary", "plot_run", "jsonable"]
 
 CONTROLLERS = ("flc", "smc")
@@ -220,6 +221,10 @@ def run_study(
             plots.append(plot_run(f"study {name}", logs, tmp / "plot.png").name)
         if study.report is not None:
             extra = study.report(metrics)
+        rows = TH.study_rows(name, controller, result["metrics"])
+        if rows:
+            extra = [*extra, *TH.table_lines(rows, "## Thesis results this study measures "
+                                             "(whole table: `ballbot study thesis`)")]
         _report(tmp, f"Study `{name}`: {study.description}", result, plots,
                 [f"- run: {d}" for d in result["scenarios"]]
                 + [f"- scenario files: {', '.join(f'`{f}.toml`' for f in study.files)} "
@@ -303,6 +308,49 @@ def run_all(out: Path | None = None, plot: bool = True) -> dict[str, Any]:
             md.append(f"| {name} | {row['metric']} (§7.1 limit) | <= {fmt(row['limit'])} | | {cells[0]} | {cells[1]} |")
     (out / "summary.md").write_text("\n".join(md) + "\n")
     return table
+
+
+def run_thesis(out: Path | None = None, root: Path | None = None, rerun: bool = False,
+               plot: bool = False) -> dict[str, Any]:
+    """``ballbot study thesis``: the table of every thesis result (:mod:`~ballbot_casadi.studies.thesis`).
+
+    Reads each needed study's ``metrics.json`` under ``root`` (default
+    ``build/study/<name>/<controller>``, the studies' own outputs), running the studies
+    that have none (all of them with ``rerun``), and writes ``metrics.json`` (``rows``,
+    ``sources``) and ``report.md`` to ``out`` (default ``build/study/thesis``).
+    ``passed`` is false when a row names a metric the studies did not produce (a
+    renamed metric or a fallen run), never because a result differs from the thesis.
+    """
+    root = Path(root) if root is not None else DEFAULT_OUT
+    out = Path(out) if out is not None else DEFAULT_OUT / "thesis"
+    runs: dict[tuple[str, str], dict[str, Any]] = {}
+    sources: list[str] = []
+    for name, controller in TH.needed_runs():
+        if name not in STUDY_NAMES:
+            continue
+        path = root / name / controller / "metrics.json"
+        if rerun or not path.is_file():
+            res = run_study(name, controller, path.parent, plot=plot)
+            sources.append(f"`{name}` ({controller}): run now into `{path.parent}`")
+        else:
+            res = json.loads(path.read_text())
+            sources.append(f"`{name}` ({controller}): read from `{path}` (rerun: `ballbot study thesis --rerun`)")
+        runs[(name, controller)] = res["metrics"]
+    rows = TH.thesis_table(runs)
+    missing = [r["key"] for r in rows if r["verdict"] == "not reproducible" and r["source"]]
+    counts = {v: sum(r["verdict"] == v for r in rows) for v in TH.VERDICTS}
+    result = {"study": "thesis", "controller": "flc", "passed": not missing, "missing": missing,
+              "counts": counts, "rows": jsonable(rows), "sources": sources}
+    lines = ["# Every quantitative result of thesis chapters 6-9 beside ours", "",
+             f"{len(rows)} results: {counts['pass']} pass, {counts['differs']} differ, "
+             f"{counts['not reproducible']} not reproducible. Ours in the thesis's set-up is judged "
+             "against the thesis's claim (the *judged by* column, a stated tolerance); ours in our "
+             "set-up is shown beside it. Values are the studies' own `metrics.json`.", "",
+             *TH.table_lines(rows, "## The table"), "## Sources", "", *[f"- {s}" for s in sources], ""]
+    with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
+        (tmp / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        (tmp / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
+    return result
 
 
 def _demo(name: str, out: Path, sim: ClosedLoop | None = None) -> int:

@@ -22,6 +22,7 @@ from ballbot_casadi.studies.study import (
     format_summary,
     run_all,
     run_study,
+    run_thesis,
 )
 
 __all__ = ["add_parser", "list_text"]
@@ -59,6 +60,15 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if args.name == "chirp" and (args.axis or args.amplitude is not None):
         table = STUDIES["chirp"].tables(args.controller, overrides)[-1]
         overrides += chirp_study.axis_overrides(table, args.axis, args.amplitude)
+    if args.name == "thesis":
+        if overrides or params is not None or args.controller != "flc":
+            raise ScenarioError("--set, --estimator, --seed, --feedforward, --torque-limit, --params and "
+                                "--controller do not apply to 'thesis': it reads the studies as shipped")
+        res = run_thesis(Path(args.out) if args.out else None, rerun=args.rerun, plot=not args.no_plot)
+        if not args.quiet:
+            print("thesis table: " + ", ".join(f"{n} {v}" for v, n in res["counts"].items())
+                  + ("" if res["passed"] else f"; metrics missing for: {', '.join(res['missing'])}"))
+        return 0 if res["passed"] else 1
     if args.name == "all":
         if overrides or params is not None:
             raise ScenarioError("--set, --estimator, --seed, --feedforward, --torque-limit and --params apply to one "
@@ -84,10 +94,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "study",
         help="run a closed-loop study (exit 1 if its spec is not met, 2 on bad input)",
         description="Closed-loop studies of the thesis: " + ", ".join(STUDY_NAMES)
-        + "; 'all' runs every study for flc and smc. Each writes metrics.json, run.npz, plots and "
+        + "; 'all' runs every study for flc and smc; 'thesis' tables every result of thesis chapters 6-9 "
+        "beside ours (from the studies' metrics.json, running the missing ones). Each writes metrics.json, run.npz, plots and "
         "report.md (specs with the thesis's value beside ours; thesis §7.1 limits reported).",
     )
-    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, "all"])
+    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, "all", "thesis"])
     p.add_argument("--list", action="store_true", help="list the studies and shipped scenario files")
     p.add_argument("--controller", choices=CONTROLLERS, default="flc")
     p.add_argument("--params", metavar="FILE", help="parameter TOML file: another robot, known to the controller")
@@ -107,6 +118,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "clipping only (the thesis's set-up, §9.1); default: the study's files")
     p.add_argument("--axis", choices=("roll", "pitch"), help="chirp: the excited axis (default roll)")
     p.add_argument("--amplitude", type=float, metavar="DEG", help="chirp: amplitude in deg (default 3)")
+    p.add_argument("--rerun", action="store_true",
+                   help="thesis: rerun every study instead of reading its metrics.json")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.add_argument("--out", help="output directory (default build/study/<name>/<controller>)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG plots")
