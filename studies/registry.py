@@ -22,6 +22,7 @@ never decide pass/fail.
 ``chirp``      roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
 ``estimators`` noisy sine and velocity profile, QUKF + VUKF against QEKF + VEKF (ch. 6)
 ``full``       the complete system with noise and estimators, beside SMC + EKF (§9.3, §9.4)
+``thesis_tuning`` the complete system with the thesis's QUKF tuning (1e-5): failure, diagnosis
 ============== ==========================================================================
 """
 
@@ -35,6 +36,7 @@ from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
 from ballbot_casadi.analysis.metrics import run_metrics
+from ballbot_casadi.analysis.renormalisation import PROBE_EPS
 from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.core.specs import Spec, evaluate_specs, spec_ok
 from ballbot_casadi.errors import ScenarioError
@@ -56,7 +58,11 @@ from ballbot_casadi.studies import robustness as ROB
 
 __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenarios",
            "evaluate_specs", "spec_ok", "scenario_dir", "shipped_scenarios", "resolve_scenario",
-           "COM_CHANGES", "rebase_on_params", "parse_overrides"]
+           "COM_CHANGES", "rebase_on_params", "parse_overrides", "SET_EVERY_RUN"]
+
+#: Keys an override changes in every run of a study, even a ``set_main_only`` one: the
+#: set-up switches (``--estimator``, ``--seed``, ``--feedforward``, ``--torque-limit``).
+SET_EVERY_RUN = ("estimator", "seed", "feedforward", "torque_limit")
 
 #: COM offset of thesis §8.4.2 / §9.2: (-2, -3, +3) cm in the body frame.
 COM_CHANGES = MappingProxyType({"com_x": ("set", -0.02), "com_y": ("set", -0.03), "l": ("add", 0.03)})
@@ -148,6 +154,11 @@ class Study:
         main run's).
     report
         Optional ``metrics -> lines``: the study's own section of ``report.md``.
+    set_main_only
+        ``--set`` changes the main (last) run only: for studies that compare a changed run
+        with a reference run (robustness: with ``--set`` on every run the nominal run
+        would change too and the ratios would compare the change with itself).  The
+        set-up switches :data:`SET_EVERY_RUN` still change every run.
     """
 
     name: str
@@ -159,15 +170,18 @@ class Study:
     specs: tuple[Spec, ...] | None = field(default=None)
     plot: Callable[[Sequence[SimulationLog], dict[str, Any], Path], list[Path]] | None = None
     report: Callable[[dict[str, Any]], list[str]] | None = None
+    set_main_only: bool = False
 
     def tables(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> list[dict[str, Any]]:
         """The runs' scenario tables (friendly units) for ``controller``, ``--set`` applied."""
         shipped = shipped_scenarios()
         tables = []
-        for f in self.files:
+        for i, f in enumerate(self.files):
             t = set_value(_read_table(shipped[f]), "controller", controller)
+            main = not self.set_main_only or i == len(self.files) - 1
             for key, value in overrides:
-                t = set_value(t, key, value)
+                if main or key in SET_EVERY_RUN:
+                    t = set_value(t, key, value)
             tables.append(t)
         return self.expand(tables) if self.expand else tables
 
@@ -177,8 +191,10 @@ class Study:
         out = []
         for i, t in enumerate(self.tables(controller, overrides)):
             src = where[self.files[min(i, len(self.files) - 1)]]
+            changed = overrides and (not self.set_main_only or i >= len(self.files) - 1
+                                     or any(k in SET_EVERY_RUN for k, _ in overrides))
             label = src + (" (with --set " + ", ".join(f"{k}={v!r}" for k, v in overrides) + ")"
-                           if overrides else "")
+                           if changed else "")
             out.append(parse_scenario(t, label, t.get("name", self.name)))
         return out
 
@@ -212,16 +228,22 @@ def _chirp_expand(tables: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [exact, per_wheel, main]
 
 
-_NORM = Spec("quat_norm_max_dev", "<=", 1e-12,
-             "the QUKF keeps the quaternion unit by construction: no renormalisation anywhere",
-             "renormalising failed for the UKF (ch. 4)")
+_NORM = Spec("attitude_norm_probe_dev", ">=", PROBE_EPS / 10,
+             "the QUKF keeps the quaternion unit by its operations, not by renormalising: a prior "
+             f"{PROBE_EPS:g} off the unit sphere stays ~{PROBE_EPS:g} off after an update (a "
+             "renormalising filter returns 0; the logged norm, 1e-16 for both, cannot tell)",
+             "renormalising failed for the UKF (ch. 10)")
 _ESTIMATOR_SPECS = (
     Spec("ukf_roll_rms_deg", "<=", 0.1,
          "roll error RMS of the attitude estimate (QUKF + velocity-aided tilt) on the noisy sine"),
     Spec("ukf_pitch_rms_deg", "<=", 0.1,
          "pitch error RMS of the attitude estimate (QUKF + velocity-aided tilt) on the noisy sine"),
     Spec("ukf_velocity_rms_mps", "<=", 0.01, "VUKF velocity error RMS on the velocity profile"),
-    Spec("ukf_quat_norm_max_dev", "<=", 1e-12, _NORM.source, _NORM.thesis),
+    Spec("qukf_norm_probe_dev", ">=", PROBE_EPS / 10, _NORM.source, _NORM.thesis),
+    Spec("qukf_renorm_vs_qukf_tilt_rms_ratio", "abs<=", 1.01,
+         "renormalising the QUKF's quaternion after the update changes its tilt error by < 1 % "
+         "(replayed on the sine's readings): its norm is already 1 to rounding",
+         "the renormalised UKF 'deeply deviated' (ch. 10)"),
 )
 _FULL_SPECS = (
     Spec("tilt_error_max_deg", "<=", 1.0, "thesis §7.2: attitude within +-1 deg, both scenarios",
@@ -276,10 +298,10 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                 "know scales its stiffness by 1/3.2, its natural frequency by 1/sqrt(3.2) = "
                 "0.56, so a linear loop settles ~1.8x slower",
                 "tracks properly despite the change (Fig. 8.10)"),
-           Spec("peak_error_ratio", "<=", 1.05,
-                "no overshoot beyond the nominal run's peak error (+5 %)",
+           Spec("overshoot_deg", "<=", 1.0,
+                "swings past upright by at most 1 deg (the ±1 deg band of thesis §7.2)",
                 "reaches upright like the nominal model (Fig. 8.11)")),
-          report=ROB.robustness_report_lines),
+          report=ROB.robustness_report_lines, set_main_only=True),
     Study("com", "COM offset (-2, -3, +3) cm: runaway alone, held by the velocity loop "
           "(thesis §8.4.2, §9.2), and with the online COM observer and position hold, true state "
           "and QUKF + VUKF side by side with the loop without it",
@@ -318,6 +340,17 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
           "on the sine and the velocity profile, beside SMC + EKF (thesis §9.3, §9.4)",
           ("full_sine", "full_velocity"), E.full_metrics, expand=E.comparison_expand(E.BASELINE),
           specs=_FULL_SPECS, plot=E.plot_estimates, report=E.report_lines),
+    Study("thesis_tuning", "the complete system (QUKF + VUKF, FLC in the thesis mode) with the "
+          "thesis's QUKF body-rate process noise 1e-5 (4.39) instead of our tuned 3e-5: the failure "
+          "and its diagnosis (thesis §9.3)", ("full_sine", "full_velocity"), E.thesis_tuning_metrics,
+          expand=E.thesis_tuning_expand,
+          specs=(Spec("heading_error_max_deg", ">", 5.0,
+                      "the thesis's tuning misses §7.2's heading spec in the complete system (it is "
+                      "why the shipped files use 3e-5); passes while that failure reproduces",
+                      "heading within ±5° (§7.2)"),
+                 Spec("standing_tilt_error_rms_deg", ">", 0.05,
+                      "diagnosis: standing, the gyro low-pass limit-cycles with the FLC (a wobble)")),
+          plot=E.plot_estimates, report=E.thesis_tuning_report_lines),
 )})
 
 #: Names of the registered studies (``ballbot study <name>``).

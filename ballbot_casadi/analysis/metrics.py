@@ -43,6 +43,7 @@ __all__ = [
     "limit_rows",
     "LIMIT_KEYS",
     "robustness_metrics",
+    "overshoot_deg",
     "standing_metrics",
     "run_metrics",
 ]
@@ -375,11 +376,23 @@ def limit_rows(metrics: Mapping[str, Any], limits: Mapping[str, float]) -> list[
     return rows
 
 
+def overshoot_deg(log: Any, min_initial_deg: float = 0.1) -> float:
+    """How far the Euler-angle errors swing past zero (deg, >= 0), over the axes whose
+    initial error exceeds ``min_initial_deg`` (thesis §8.4.1: "reaches upright")."""
+    err = attitude_error_deg(_arrays(log))
+    e0 = err[0]
+    past = [np.max(-np.sign(e0[i]) * err[:, i]) for i in range(err.shape[1]) if abs(e0[i]) > min_initial_deg]
+    return float(max(0.0, *past)) if past else 0.0
+
+
 def robustness_metrics(nominal: Any, perturbed: Any, band_deg: float = 0.1) -> dict[str, Any]:
     """A perturbed run against the nominal one (thesis §8.4.1, Fig. 8.10-8.11).
 
-    ``settling_time_ratio`` and ``peak_error_ratio`` compare the perturbed run's
-    :func:`zero_metrics` with the nominal run's; ``deviation_<axis>_deg`` is the largest
+    ``settling_time_ratio`` compares the perturbed run's :func:`zero_metrics` with the
+    nominal run's; ``overshoot_deg`` (``nominal_overshoot_deg``) is how far the perturbed
+    (nominal) run swings past the reference on the axes that start off it
+    (:func:`overshoot_deg`; the largest error overall is the initial one, so a peak-error
+    ratio would be 1 by construction); ``deviation_<axis>_deg`` is the largest
     difference of that Euler angle between the two runs and ``relative_deviation_<axis>``
     divides it by the nominal run's largest excursion of the same angle.  The thesis
     observes that the inertia change affects yaw most; ``yaw_affected_most`` checks it in
@@ -397,7 +410,8 @@ def robustness_metrics(nominal: Any, perturbed: Any, band_deg: float = 0.1) -> d
         "nominal_settling_time_s": zn["settling_time_s"],
         "settling_time_ratio": zp["settling_time_s"] / zn["settling_time_s"] if zn["settling_time_s"] > 0 else math.inf,
         "nominal_max_error_deg": zn["max_error_deg"],
-        "peak_error_ratio": zp["max_error_deg"] / zn["max_error_deg"] if zn["max_error_deg"] > 0 else math.inf,
+        "overshoot_deg": overshoot_deg(perturbed),
+        "nominal_overshoot_deg": overshoot_deg(nominal),
     }
     for i, ax in enumerate(axes):
         out[f"deviation_{ax}_deg"] = float(dev[i])

@@ -109,3 +109,13 @@ def test_scenario_rejects_sine_without_frequency_and_above_nyquist():
     with pytest.raises(ScenarioError, match="Nyquist"):
         Scenario("s", attitude={"roll": {"type": "sine", "amplitude_deg": 1.0, "frequency_hz": 100.0}})
     Scenario("s", attitude={"roll": {"type": "sine", "amplitude_deg": 1.0, "frequency_hz": 99.0}})
+
+
+def test_set_changes_only_the_perturbed_run_of_the_robustness_study():
+    """With --set on every run the nominal run would change too and settling_time_ratio
+    would compare the change with itself (issue 20: 0.999 with x20 inertia)."""
+    nominal, perturbed = get_study("robustness").scenarios("flc", [("plant.Jbx", {"scale": 20.0}), ("seed", 3)])
+    assert perturbed.plant_params().Jbx == pytest.approx(20.0 * nominal.plant_params().Jbx)
+    assert nominal.seed == perturbed.seed == 3  # a set-up switch still changes both
+    sine_a, sine_b = get_study("full").scenarios("flc", [("duration_s", 2.0)])[:2]
+    assert sine_a.duration == sine_b.duration == 2.0  # other studies: every run
