@@ -22,7 +22,9 @@ never decide pass/fail.
 ``chirp``      roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
 ``estimators`` noisy sine and velocity profile, QUKF + VUKF against QEKF + VEKF (ch. 6)
 ``full``       the complete system with noise and estimators, beside SMC + EKF (§9.3, §9.4)
+``full_cascade`` the complete system's sine through the velocity controller (§9.3.1)
 ``thesis_tuning`` the complete system with the thesis's QUKF tuning (1e-5): failure, diagnosis
+``yaw_seeds``  mean yaw error of the velocity profile over noise seeds (§9.3.2)
 ============== ==========================================================================
 """
 
@@ -50,11 +52,13 @@ from ballbot_casadi.sim.scenario import (
     set_value,
 )
 from ballbot_casadi.sim.scenario.scenario import CONTROLLER_CHANGES, PLANT_CHANGES
+from ballbot_casadi.studies import cascade_sine as CS
 from ballbot_casadi.studies import chirp as CH
 from ballbot_casadi.studies import com as COM
 from ballbot_casadi.studies import estimators as E
 from ballbot_casadi.studies import lag as LAG
 from ballbot_casadi.studies import robustness as ROB
+from ballbot_casadi.studies import velocity as VEL
 
 __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenarios",
            "evaluate_specs", "spec_ok", "scenario_dir", "shipped_scenarios", "resolve_scenario",
@@ -320,7 +324,8 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                       "< 1 s")),
           report=LAG.lag_report_lines),
     Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", ("push",)),
-    Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2)", ("velocity",)),
+    Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2), also at the thesis's 1 m/s² "
+          "acceleration limit (§7.1)", ("velocity",), VEL.velocity_study_metrics, expand=VEL.accel_limit_expand),
     Study("chirp", "roll chirp 3 deg, 0.05 -> 5 Hz over 100 s: bandwidth, saturation, fall "
           "(thesis §9.1)", ("chirp",), CH.chirp_study_metrics,
           (Spec("cross_axis_error_max_deg", "<=", 0.1,
@@ -340,6 +345,16 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
           "on the sine and the velocity profile, beside SMC + EKF (thesis §9.3, §9.4)",
           ("full_sine", "full_velocity"), E.full_metrics, expand=E.comparison_expand(E.BASELINE),
           specs=_FULL_SPECS, plot=E.plot_estimates, report=E.report_lines),
+    Study("full_cascade", "the complete system's sine test through the cascade: the lateral velocity "
+          "whose lean is the 3° roll sine, noisy sensors, QUKF + VUKF, velocity LQR, FLC (thesis §9.3.1)",
+          ("full_sine",), CS.cascade_sine_metrics, expand=CS.cascade_sine_expand,
+          specs=(Spec("roll_amplitude_deg", "abs<=", 3.5,
+                      "the cascade reproduces the sine's lean (the velocity reference is built for 3°)"),
+                 Spec("roll_amplitude_deg", ">=", 2.0, "... and at least two thirds of it (the LQR follows the ramps with a delay)"),
+                 Spec("tilt_error_max_deg", "<=", 1.0, "thesis §7.2: attitude within ±1°",
+                      "pitch ±0.05° (Fig. 9.10)"),
+                 Spec("heading_error_max_deg", "<=", 5.0, "thesis §7.2: heading within ±5°",
+                      "yaw offset ±0.3° (Fig. 9.10)"))),
     Study("thesis_tuning", "the complete system (QUKF + VUKF, FLC in the thesis mode) with the "
           "thesis's QUKF body-rate process noise 1e-5 (4.39) instead of our tuned 3e-5: the failure "
           "and its diagnosis (thesis §9.3)", ("full_sine", "full_velocity"), E.thesis_tuning_metrics,
@@ -351,6 +366,17 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                  Spec("standing_tilt_error_rms_deg", ">", 0.05,
                       "diagnosis: standing, the gyro low-pass limit-cycles with the FLC (a wobble)")),
           plot=E.plot_estimates, report=E.thesis_tuning_report_lines),
+    Study("yaw_seeds", "mean yaw error of the complete system on the velocity profile over noise "
+          "seeds, beside the thesis's -0.2° (§9.3.2)", ("full_velocity",), E.yaw_spread_metrics,
+          expand=E.seeds_expand,
+          specs=(Spec("yaw_mean_std_deg", ">=", 0.3,
+                      "the mean yaw of one run is a draw: its spread over seeds is at least 0.3° "
+                      "(unobserved heading, integrated gyro noise)"),
+                 Spec("thesis_yaw_mean_z", "abs<=", 3.0,
+                      "the thesis's -0.2° lies within 3σ of our seeds' mean", "-0.2° on average"),
+                 Spec("shipped_seed_yaw_mean_z", "abs<=", 3.0,
+                      "our shipped seed's -1.14° lies within 3σ as well")),
+          report=E.yaw_spread_report_lines),
 )})
 
 #: Names of the registered studies (``ballbot study <name>``).

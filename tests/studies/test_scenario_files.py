@@ -119,3 +119,27 @@ def test_set_changes_only_the_perturbed_run_of_the_robustness_study():
     assert nominal.seed == perturbed.seed == 3  # a set-up switch still changes both
     sine_a, sine_b = get_study("full").scenarios("flc", [("duration_s", 2.0)])[:2]
     assert sine_a.duration == sine_b.duration == 2.0  # other studies: every run
+
+
+def test_sine_through_the_cascade_is_the_velocity_whose_lean_is_the_sine():
+    """full_cascade (thesis §9.3.1 with the velocity controller): cascade on, no attitude
+    reference, and a lateral velocity whose acceleration g tan(roll) is the 3° sine."""
+    (sc,) = get_study("full_cascade").scenarios()
+    assert sc.cascade and not sc.attitude and sc.estimator == "ukf"
+    v = sc.velocity_reference()[:, 1]
+    t = sc.time()
+    acc = np.gradient(v, t)
+    lean = np.degrees(np.arctan(acc / 9.81))
+    k = (t > 1.0) & (t < sc.duration - 1.0)
+    np.testing.assert_allclose(lean[k], 3.0 * np.sin(2 * np.pi * 0.5 * t[k]), atol=0.25)
+
+
+def test_velocity_study_also_runs_at_the_thesis_acceleration_limit():
+    fast, main = get_study("velocity").scenarios()
+    assert all(row[4] == 1.0 for row in fast.velocity_keyframes)
+    assert all(row[4] == 0.25 for row in main.velocity_keyframes)
+
+
+def test_yaw_seeds_study_runs_each_seed_once():
+    scs = get_study("yaw_seeds").scenarios()
+    assert [s.seed for s in scs] == [1, 2, 3, 4, 5, 6] and len({s.name for s in scs}) == 6
