@@ -9,23 +9,23 @@ limits its main run touches (peak tilt, tilt rate, torque; see
 :func:`~ballbot_casadi.analysis.metrics.limit_rows`); those rows never hide an excess and
 never decide pass/fail.
 
-============== ==========================================================================
-``zero``       zero reference from roll = pitch = 5 deg (thesis §8.2.3)
-``sine``       roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
-``sine_asym``  the same on a robot whose COM is off-axis, unknown to the controller
-``robustness`` plant mass +10 %, inertias x3.2, against the nominal run (thesis §8.4.1)
-``com``        COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2), cascade (§9.2),
-               and with the online COM observer and position hold (true state, QUKF + VUKF)
-``lag``        tracking lag of step, ramp and sine without rate reference (thesis §7.2)
-``push``       4 deg roll jump of the plant attitude (thesis §8.4.3)
-``velocity``   velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
-``chirp``      roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
-``estimators`` noisy sine and velocity profile, QUKF + VUKF against QEKF + VEKF (ch. 6)
-``full``       the complete system with noise and estimators, beside SMC + EKF (§9.3, §9.4)
-``full_cascade`` the complete system's sine through the velocity controller (§9.3.1)
-``thesis_tuning`` the complete system with the thesis's QUKF tuning (1e-5): failure, diagnosis
-``yaw_seeds``  mean yaw error of the velocity profile over noise seeds (§9.3.2)
-============== ==========================================================================
+================== ==========================================================================
+``zero``           zero reference from roll = pitch = 5 deg (thesis §8.2.3)
+``sine``           roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
+``sine_asym``      the same on a robot whose COM is off-axis, unknown to the controller
+``robustness``     plant mass +10 %, inertias x3.2, against the nominal run (thesis §8.4.1)
+``com``            COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2), cascade (§9.2),
+                   and with the online COM observer and position hold (true state, QUKF + VUKF)
+``lag``            tracking lag of step, ramp and sine without rate reference (thesis §7.2)
+``push``           4 deg roll jump of the plant attitude (thesis §8.4.3)
+``velocity``       velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
+``chirp``          roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
+``estimators``     noisy sine and velocity profile, QUKF + VUKF against QEKF + VEKF (ch. 6)
+``full``           the complete system with noise and estimators, beside SMC + EKF (§9.3, §9.4)
+``full_cascade``   the complete system's sine through the velocity controller (§9.3.1)
+``thesis_tuning``  the complete system with the thesis's QUKF tuning (1e-5): failure, diagnosis
+``yaw_seeds``      mean yaw error of the velocity profile over noise seeds (§9.3.2)
+================== ==========================================================================
 """
 
 from __future__ import annotations
@@ -175,6 +175,7 @@ class Study:
     plot: Callable[[Sequence[SimulationLog], dict[str, Any], Path], list[Path]] | None = None
     report: Callable[[dict[str, Any]], list[str]] | None = None
     set_main_only: bool = False
+    controllers: tuple[str, ...] = ("flc", "smc")
 
     def tables(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> list[dict[str, Any]]:
         """The runs' scenario tables (friendly units) for ``controller``, ``--set`` applied."""
@@ -322,7 +323,7 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                  Spec("ramp_lag_none_s", "abs<=", 0.1, "thesis §7.2 item 4 for a ramp", "< 0.1 s"),
                  Spec("sine_no_rate_lag_s", "abs<=", 1.0, "thesis §7.2 item 5: no rate reference",
                       "< 1 s")),
-          report=LAG.lag_report_lines),
+          report=LAG.lag_report_lines, controllers=("flc",)),
     Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", ("push",)),
     Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2), also at the thesis's 1 m/s² "
           "acceleration limit (§7.1)", ("velocity",), VEL.velocity_study_metrics, expand=VEL.accel_limit_expand),
@@ -354,7 +355,7 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                  Spec("tilt_error_max_deg", "<=", 1.0, "thesis §7.2: attitude within ±1°",
                       "pitch ±0.05° (Fig. 9.10)"),
                  Spec("heading_error_max_deg", "<=", 5.0, "thesis §7.2: heading within ±5°",
-                      "yaw offset ±0.3° (Fig. 9.10)"))),
+                      "yaw offset ±0.3° (Fig. 9.10)")), controllers=("flc",)),
     Study("thesis_tuning", "the complete system (QUKF + VUKF, FLC in the thesis mode) with the "
           "thesis's QUKF body-rate process noise 1e-5 (4.39) instead of our tuned 3e-5: the failure "
           "and its diagnosis (thesis §9.3)", ("full_sine", "full_velocity"), E.thesis_tuning_metrics,
@@ -365,7 +366,7 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                       "heading within ±5° (§7.2)"),
                  Spec("standing_tilt_error_rms_deg", ">", 0.05,
                       "diagnosis: standing, the gyro low-pass limit-cycles with the FLC (a wobble)")),
-          plot=E.plot_estimates, report=E.thesis_tuning_report_lines),
+          plot=E.plot_estimates, report=E.thesis_tuning_report_lines, controllers=("flc",)),
     Study("yaw_seeds", "mean yaw error of the complete system on the velocity profile over noise "
           "seeds, beside the thesis's -0.2° (§9.3.2)", ("full_velocity",), E.yaw_spread_metrics,
           expand=E.seeds_expand,
@@ -376,7 +377,7 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                       "the thesis's -0.2° lies within 3σ of our seeds' mean", "-0.2° on average"),
                  Spec("shipped_seed_yaw_mean_z", "abs<=", 3.0,
                       "our shipped seed's -1.14° lies within 3σ as well")),
-          report=E.yaw_spread_report_lines),
+          report=E.yaw_spread_report_lines, controllers=("flc",)),
 )})
 
 #: Names of the registered studies (``ballbot study <name>``).

@@ -47,6 +47,7 @@ from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
 from ballbot_casadi.studies import thesis as TH
 from ballbot_casadi.studies.formatting import fmt
+from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.studies.registry import (
     STUDY_NAMES,
     Spec,
@@ -201,6 +202,9 @@ def run_study(
     """
     out = Path(out) if out is not None else DEFAULT_OUT / name / controller
     study = get_study(name)
+    if controller not in study.controllers:
+        raise ScenarioError(f"study {name!r} runs with {', '.join(study.controllers)} only (a thesis "
+                            f"experiment of its FLC), not with {controller!r}")
     scenarios = study.scenarios(controller, overrides)
     if params is not None:
         scenarios = tuple(rebase_on_params(s, params) for s in scenarios)
@@ -290,7 +294,7 @@ def run_all(out: Path | None = None, plot: bool = True) -> dict[str, Any]:
     sim = ClosedLoop()
     table: dict[str, Any] = {}
     for name in STUDY_NAMES:
-        table[name] = {c: run_study(name, c, out / name / c, sim, plot) for c in CONTROLLERS}
+        table[name] = {c: run_study(name, c, out / name / c, sim, plot) for c in get_study(name).controllers}
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").write_text(json.dumps(table, indent=2) + "\n")
     md = ["| study | metric | spec | thesis | flc | smc |", "| --- | --- | --- | --- | --- | --- |"]
@@ -298,13 +302,13 @@ def run_all(out: Path | None = None, plot: bool = True) -> dict[str, Any]:
         for i, row in enumerate(res["flc"]["spec"]):
             cells = []
             for c in CONTROLLERS:
-                r = res[c]["spec"][i]
-                cells.append(fmt(r["value"]) + ("" if r["ok"] else " ✗"))
+                r = res[c]["spec"][i] if c in res else None
+                cells.append("—" if r is None else fmt(r["value"]) + ("" if r["ok"] else " ✗"))
             md.append(f"| {name} | {row['metric']} | {row['op']} {row['threshold']} | {row.get('thesis') or ''} "
                       f"| {cells[0]} | {cells[1]} |")
         for i, row in enumerate(res["flc"]["limits"]):
-            cells = [fmt(res[c]["limits"][i]["value"]) + (" ⚠" if res[c]["limits"][i]["exceeded"] else "")
-                     for c in CONTROLLERS]
+            cells = ["—" if c not in res else fmt(res[c]["limits"][i]["value"])
+                     + (" ⚠" if res[c]["limits"][i]["exceeded"] else "") for c in CONTROLLERS]
             md.append(f"| {name} | {row['metric']} (§7.1 limit) | <= {fmt(row['limit'])} | | {cells[0]} | {cells[1]} |")
     (out / "summary.md").write_text("\n".join(md) + "\n")
     return table

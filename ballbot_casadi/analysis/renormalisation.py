@@ -119,7 +119,7 @@ def norm_probe_metrics(log: Any) -> dict[str, float]:
     """``attitude_norm_probe_dev``: :func:`norm_probe_dev` of the attitude filter of
     ``log``'s estimator (``ukf``: the QUKF, ``ekf``: the QEKF) with the run's tuning."""
     sc = Scenario.from_dict(log.scenario)
-    est = sc.estimation_inputs((0, 1))
+    est = sc.estimation_inputs(periods=(0, 1))
     f, _, P0 = attitude_variant({"ukf": "qukf", "ekf": "qekf"}[sc.estimator], np.array([1.0, 0, 0, 0]),
                                 np.zeros(3))
     return {"attitude_norm_probe_dev": norm_probe_dev(f, P0, est["Qa"], est["Ra"], est["p_est"], sc.Ts)}

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from types import MappingProxyType
 from typing import Any, Mapping
 
@@ -249,7 +249,7 @@ class Scenario:
                                     key=name)
         if not _is_int(self.seed) or not 0 <= self.seed < 2**32:
             raise ScenarioError(f"seed must be an int in [0, 2^32), got {self.seed!r}", key="seed")
-        for name in ("noise", "com_observer", "cascade"):
+        for name in (f.name for f in fields(self) if f.type == "bool"):
             if not isinstance(getattr(self, name), bool):
                 raise ScenarioError(f"{name} must be true or false, got {getattr(self, name)!r}", key=name)
         if self.k_obs:
