@@ -319,9 +319,15 @@ def thesis_table(runs: Mapping[tuple[str, str], Mapping[str, Any]],
 
 
 def study_rows(study: str, controller: str, metrics: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """The rows a study's own run measures (its ``report.md`` section); values of other
-    studies are left out (``None``)."""
-    mine = [r for r in THESIS_RESULTS if study in r.studies()]
+    """The rows a study's own run judges (its ``report.md`` section: the judged value
+    comes from this study and controller alone); values of other studies are left out
+    (``None``)."""
+    def cols(c: Col | Ratio | None) -> tuple[Col, ...]:
+        return (c.num, c.den) if isinstance(c, Ratio) else (c,) if c is not None else ()
+
+    mine = [r for r in THESIS_RESULTS
+            if (judged := cols(r.thesis_setup if r.thesis_setup is not None else r.ours))
+            and all((c.study, c.controller) == (study, controller) for c in judged)]
     return thesis_table({(study, controller): metrics}, mine)
 
 

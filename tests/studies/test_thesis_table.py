@@ -110,3 +110,18 @@ def test_thesis_command_reads_the_studies_metrics(tmp_path, monkeypatch):
     report = (root / "thesis" / "report.md").read_text()
     assert "§9.1" in report and "not reproducible" in report
     assert main(["study", "thesis", "--controller", "smc", "--quiet"]) == 2
+
+
+def test_a_value_far_from_the_thesis_number_differs():
+    """Rows judged by their distance to the thesis's number (target): 24.5 s is within 3 s
+    of the thesis's 23 s, 40 s is not."""
+    near = _by_key(TH.thesis_table(_runs()))["pitch_degrades"]
+    far = _by_key(TH.thesis_table(_runs({("chirp", "flc"): {"per_wheel_cross_axis_onset_s": 40.0}})))
+    assert near["verdict"] == "pass" and far["pitch_degrades"]["verdict"] == "differs"
+    assert any("x − (23)" in line for line in TH.table_lines([near]))
+
+
+def test_a_study_report_shows_only_rows_it_can_judge():
+    rows = TH.study_rows("sine_asym", "flc", {"pitch_error_max_deg": 0.3})
+    keys = {r["key"] for r in rows}
+    assert "sine_pitch" in keys and "smc_pitch" not in keys  # the ratio needs the smc run too
