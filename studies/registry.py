@@ -9,19 +9,23 @@ limits its main run touches (peak tilt, tilt rate, torque; see
 :func:`~ballbot_casadi.analysis.metrics.limit_rows`); those rows never hide an excess and
 never decide pass/fail.
 
-============== ==========================================================================
-``zero``       zero reference from roll = pitch = 5 deg (thesis §8.2.3)
-``sine``       roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
-``sine_asym``  the same on a robot whose COM is off-axis, unknown to the controller
-``robustness`` plant mass +10 %, inertias x3.2, against the nominal run (thesis §8.4.1)
-``com``        COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2), cascade (§9.2),
-               and with the online COM observer and position hold (true state, QUKF + VUKF)
-``push``       4 deg roll jump of the plant attitude (thesis §8.4.3)
-``velocity``   velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
-``chirp``      roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
-``estimators`` noisy sine and velocity profile, QUKF + VUKF against QEKF + VEKF (ch. 6)
-``full``       the complete system with noise and estimators, beside SMC + EKF (§9.3, §9.4)
-============== ==========================================================================
+================== ==========================================================================
+``zero``           zero reference from roll = pitch = 5 deg (thesis §8.2.3)
+``sine``           roll sine 3 deg at 0.5 Hz (thesis §8.2.5)
+``sine_asym``      the same on a robot whose COM is off-axis, unknown to the controller
+``robustness``     plant mass +10 %, inertias x3.2, against the nominal run (thesis §8.4.1)
+``com``            COM offset (-2, -3, +3) cm: balance alone (runaway, §8.4.2), cascade (§9.2),
+                   and with the online COM observer and position hold (true state, QUKF + VUKF)
+``lag``            tracking lag of step, ramp and sine without rate reference (thesis §7.2)
+``push``           4 deg roll jump of the plant attitude (thesis §8.4.3)
+``velocity``       velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
+``chirp``          roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
+``estimators``     noisy sine and velocity profile, QUKF + VUKF against QEKF + VEKF (ch. 6)
+``full``           the complete system with noise and estimators, beside SMC + EKF (§9.3, §9.4)
+``full_cascade``   the complete system's sine through the velocity controller (§9.3.1)
+``thesis_tuning``  the complete system with the thesis's QUKF tuning (1e-5): failure, diagnosis
+``yaw_seeds``      mean yaw error of the velocity profile over noise seeds (§9.3.2)
+================== ==========================================================================
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
 from ballbot_casadi.analysis.metrics import run_metrics
+from ballbot_casadi.analysis.renormalisation import PROBE_EPS
 from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.core.specs import Spec, evaluate_specs, spec_ok
 from ballbot_casadi.errors import ScenarioError
@@ -47,14 +52,21 @@ from ballbot_casadi.sim.scenario import (
     set_value,
 )
 from ballbot_casadi.sim.scenario.scenario import CONTROLLER_CHANGES, PLANT_CHANGES
+from ballbot_casadi.studies import cascade_sine as CS
 from ballbot_casadi.studies import chirp as CH
 from ballbot_casadi.studies import com as COM
 from ballbot_casadi.studies import estimators as E
+from ballbot_casadi.studies import lag as LAG
 from ballbot_casadi.studies import robustness as ROB
+from ballbot_casadi.studies import velocity as VEL
 
 __all__ = ["Spec", "Study", "STUDIES", "STUDY_NAMES", "get_study", "study_scenarios",
            "evaluate_specs", "spec_ok", "scenario_dir", "shipped_scenarios", "resolve_scenario",
-           "COM_CHANGES", "rebase_on_params", "parse_overrides"]
+           "COM_CHANGES", "rebase_on_params", "parse_overrides", "SET_EVERY_RUN"]
+
+#: Keys an override changes in every run of a study, even a ``set_main_only`` one: the
+#: set-up switches (``--estimator``, ``--seed``, ``--feedforward``, ``--torque-limit``).
+SET_EVERY_RUN = ("estimator", "seed", "feedforward", "torque_limit")
 
 #: COM offset of thesis §8.4.2 / §9.2: (-2, -3, +3) cm in the body frame.
 COM_CHANGES = MappingProxyType({"com_x": ("set", -0.02), "com_y": ("set", -0.03), "l": ("add", 0.03)})
@@ -146,6 +158,11 @@ class Study:
         main run's).
     report
         Optional ``metrics -> lines``: the study's own section of ``report.md``.
+    set_main_only
+        ``--set`` changes the main (last) run only: for studies that compare a changed run
+        with a reference run (robustness: with ``--set`` on every run the nominal run
+        would change too and the ratios would compare the change with itself).  The
+        set-up switches :data:`SET_EVERY_RUN` still change every run.
     """
 
     name: str
@@ -157,15 +174,19 @@ class Study:
     specs: tuple[Spec, ...] | None = field(default=None)
     plot: Callable[[Sequence[SimulationLog], dict[str, Any], Path], list[Path]] | None = None
     report: Callable[[dict[str, Any]], list[str]] | None = None
+    set_main_only: bool = False
+    controllers: tuple[str, ...] = ("flc", "smc")
 
     def tables(self, controller: str = "flc", overrides: Sequence[tuple[str, Any]] = ()) -> list[dict[str, Any]]:
         """The runs' scenario tables (friendly units) for ``controller``, ``--set`` applied."""
         shipped = shipped_scenarios()
         tables = []
-        for f in self.files:
+        for i, f in enumerate(self.files):
             t = set_value(_read_table(shipped[f]), "controller", controller)
+            main = not self.set_main_only or i == len(self.files) - 1
             for key, value in overrides:
-                t = set_value(t, key, value)
+                if main or key in SET_EVERY_RUN:
+                    t = set_value(t, key, value)
             tables.append(t)
         return self.expand(tables) if self.expand else tables
 
@@ -175,8 +196,10 @@ class Study:
         out = []
         for i, t in enumerate(self.tables(controller, overrides)):
             src = where[self.files[min(i, len(self.files) - 1)]]
+            changed = overrides and (not self.set_main_only or i >= len(self.files) - 1
+                                     or any(k in SET_EVERY_RUN for k, _ in overrides))
             label = src + (" (with --set " + ", ".join(f"{k}={v!r}" for k, v in overrides) + ")"
-                           if overrides else "")
+                           if changed else "")
             out.append(parse_scenario(t, label, t.get("name", self.name)))
         return out
 
@@ -201,21 +224,31 @@ class Study:
 
 
 def _chirp_expand(tables: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The chirp file with the exact feed-forward, in the thesis's torque-limit set-up
+    (per-wheel clipping), and as written (the main run, last)."""
     main = tables[-1]
-    exact = set_value(set_value(main, "feedforward", "exact"), "name", f"{main.get('name', 'chirp')}_exact")
-    return [exact, main]
+    name = main.get("name", "chirp")
+    exact = set_value(set_value(main, "feedforward", "exact"), "name", f"{name}_exact")
+    per_wheel = set_value(set_value(main, "torque_limit", "per-wheel"), "name", f"{name}_per_wheel")
+    return [exact, per_wheel, main]
 
 
-_NORM = Spec("quat_norm_max_dev", "<=", 1e-12,
-             "the QUKF keeps the quaternion unit by construction: no renormalisation anywhere",
-             "renormalising failed for the UKF (ch. 4)")
+_NORM = Spec("attitude_norm_probe_dev", ">=", PROBE_EPS / 10,
+             "the QUKF keeps the quaternion unit by its operations, not by renormalising: a prior "
+             f"{PROBE_EPS:g} off the unit sphere stays ~{PROBE_EPS:g} off after an update (a "
+             "renormalising filter returns 0; the logged norm, 1e-16 for both, cannot tell)",
+             "renormalising failed for the UKF (ch. 10)")
 _ESTIMATOR_SPECS = (
     Spec("ukf_roll_rms_deg", "<=", 0.1,
          "roll error RMS of the attitude estimate (QUKF + velocity-aided tilt) on the noisy sine"),
     Spec("ukf_pitch_rms_deg", "<=", 0.1,
          "pitch error RMS of the attitude estimate (QUKF + velocity-aided tilt) on the noisy sine"),
     Spec("ukf_velocity_rms_mps", "<=", 0.01, "VUKF velocity error RMS on the velocity profile"),
-    Spec("ukf_quat_norm_max_dev", "<=", 1e-12, _NORM.source, _NORM.thesis),
+    Spec("qukf_norm_probe_dev", ">=", PROBE_EPS / 10, _NORM.source, _NORM.thesis),
+    Spec("qukf_renorm_vs_qukf_tilt_rms_ratio", "abs<=", 1.01,
+         "renormalising the QUKF's quaternion after the update changes its tilt error by < 1 % "
+         "(replayed on the sine's readings): its norm is already 1 to rounding",
+         "the renormalised UKF 'deeply deviated' (ch. 10)"),
 )
 _FULL_SPECS = (
     Spec("tilt_error_max_deg", "<=", 1.0, "thesis §7.2: attitude within +-1 deg, both scenarios",
@@ -270,20 +303,40 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                 "know scales its stiffness by 1/3.2, its natural frequency by 1/sqrt(3.2) = "
                 "0.56, so a linear loop settles ~1.8x slower",
                 "tracks properly despite the change (Fig. 8.10)"),
-           Spec("peak_error_ratio", "<=", 1.05,
-                "no overshoot beyond the nominal run's peak error (+5 %)",
+           Spec("overshoot_deg", "<=", 1.0,
+                "swings past upright by at most 1 deg (the ±1 deg band of thesis §7.2)",
                 "reaches upright like the nominal model (Fig. 8.11)")),
-          report=ROB.robustness_report_lines),
+          report=ROB.robustness_report_lines, set_main_only=True),
     Study("com", "COM offset (-2, -3, +3) cm: runaway alone, held by the velocity loop "
           "(thesis §8.4.2, §9.2), and with the online COM observer and position hold, true state "
           "and QUKF + VUKF side by side with the loop without it",
           ("com_balance_only", "com", "com_observer_true", "com_ukf", "com_observer_velocity",
            "com_observer_centred", "com_observer"), COM.com_study_metrics, _COM_SPECS, plot=COM.plot_com,
           report=COM.com_report_lines),
+    Study("lag", "tracking lag of a step, a ramp and a sine without rate reference (thesis §7.2 "
+          "items 4-5)", ("lag_step", "lag_step_smooth", "lag_ramp", "lag_sine_no_rate"),
+          LAG.lag_study_metrics,
+          specs=(Spec("step_lag_none_s", "<", 1.0, "an ideal step is followed at all (thesis mode)",
+                      "< 0.1 s (§7.2 item 4)"),
+                 Spec("step_lag_exact_s", "abs<=", 0.05, "a smooth step fed forward exactly: lag well inside 0.1 s",
+                      "< 0.1 s (§7.2 item 4)"),
+                 Spec("ramp_lag_none_s", "abs<=", 0.1, "thesis §7.2 item 4 for a ramp", "< 0.1 s"),
+                 Spec("sine_no_rate_lag_s", "abs<=", 1.0, "thesis §7.2 item 5: no rate reference",
+                      "< 1 s")),
+          report=LAG.lag_report_lines, controllers=("flc",)),
     Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", ("push",)),
-    Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2)", ("velocity",)),
+    Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2), also at the thesis's 1 m/s² "
+          "acceleration limit (§7.1)", ("velocity",), VEL.velocity_study_metrics, expand=VEL.accel_limit_expand),
     Study("chirp", "roll chirp 3 deg, 0.05 -> 5 Hz over 100 s: bandwidth, saturation, fall "
-          "(thesis §9.1)", ("chirp",), CH.chirp_study_metrics, expand=_chirp_expand,
+          "(thesis §9.1)", ("chirp",), CH.chirp_study_metrics,
+          (Spec("cross_axis_error_max_deg", "<=", 0.1,
+                "our direction-preserving limit keeps the torque direction: pitch untouched by the "
+                "roll chirp until the fall", "pitch degrades from ≈ 23 s (Fig. 9.1)"),
+           Spec("per_wheel_cross_axis_lead_s", ">=", 1.0,
+                "the thesis's per-wheel clipping: pitch degrades at least 1 s before the fall "
+                "(the saturated motor turns the torque vector)",
+                "pitch degrades ≈ 23 s, roll lost ≈ 25 s (§9.1)")),
+          expand=_chirp_expand,
           plot=CH.plot_chirp_study, report=CH.chirp_report_lines),
     Study("estimators", "noisy sine and velocity profile: QUKF + VUKF against the predecessor's "
           "QEKF + VEKF, estimates against the truth (thesis ch. 6)", ("full_sine", "full_velocity"),
@@ -293,6 +346,38 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
           "on the sine and the velocity profile, beside SMC + EKF (thesis §9.3, §9.4)",
           ("full_sine", "full_velocity"), E.full_metrics, expand=E.comparison_expand(E.BASELINE),
           specs=_FULL_SPECS, plot=E.plot_estimates, report=E.report_lines),
+    Study("full_cascade", "the complete system's sine test through the cascade: the lateral velocity "
+          "whose lean is the 3° roll sine, noisy sensors, QUKF + VUKF, velocity LQR, FLC (thesis §9.3.1)",
+          ("full_sine",), CS.cascade_sine_metrics, expand=CS.cascade_sine_expand,
+          specs=(Spec("roll_amplitude_deg", "abs<=", 3.5,
+                      "the cascade reproduces the sine's lean (the velocity reference is built for 3°)"),
+                 Spec("roll_amplitude_deg", ">=", 2.0, "... and at least two thirds of it (the LQR follows the ramps with a delay)"),
+                 Spec("tilt_error_max_deg", "<=", 1.0, "thesis §7.2: attitude within ±1°",
+                      "pitch ±0.05° (Fig. 9.10)"),
+                 Spec("heading_error_max_deg", "<=", 5.0, "thesis §7.2: heading within ±5°",
+                      "yaw offset ±0.3° (Fig. 9.10)")), controllers=("flc",)),
+    Study("thesis_tuning", "the complete system (QUKF + VUKF, FLC in the thesis mode) with the "
+          "thesis's QUKF body-rate process noise 1e-5 (4.39) instead of our tuned 3e-5: the failure "
+          "and its diagnosis (thesis §9.3)", ("full_sine", "full_velocity"), E.thesis_tuning_metrics,
+          expand=E.thesis_tuning_expand,
+          specs=(Spec("heading_error_max_deg", ">", 5.0,
+                      "the thesis's tuning misses §7.2's heading spec in the complete system (it is "
+                      "why the shipped files use 3e-5); passes while that failure reproduces",
+                      "heading within ±5° (§7.2)"),
+                 Spec("standing_tilt_error_rms_deg", ">", 0.05,
+                      "diagnosis: standing, the gyro low-pass limit-cycles with the FLC (a wobble)")),
+          plot=E.plot_estimates, report=E.thesis_tuning_report_lines, controllers=("flc",)),
+    Study("yaw_seeds", "mean yaw error of the complete system on the velocity profile over noise "
+          "seeds, beside the thesis's -0.2° (§9.3.2)", ("full_velocity",), E.yaw_spread_metrics,
+          expand=E.seeds_expand,
+          specs=(Spec("yaw_mean_std_deg", ">=", 0.3,
+                      "the mean yaw of one run is a draw: its spread over seeds is at least 0.3° "
+                      "(unobserved heading, integrated gyro noise)"),
+                 Spec("thesis_yaw_mean_z", "abs<=", 3.0,
+                      "the thesis's -0.2° lies within 3σ of our seeds' mean", "-0.2° on average"),
+                 Spec("shipped_seed_yaw_mean_z", "abs<=", 3.0,
+                      "our shipped seed's -1.14° lies within 3σ as well")),
+          report=E.yaw_spread_report_lines, controllers=("flc",)),
 )})
 
 #: Names of the registered studies (``ballbot study <name>``).

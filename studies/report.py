@@ -136,8 +136,10 @@ def write_report(out: Path, bench: Path | None = None) -> Path:
     out = Path(out)
     if bench is None:
         bench = build_root() / "bench.json"
-    lines = ["# ballbot-casadi demo report", "", "Default robot (thesis App. A), true-state "
-             "feedback. Regenerate with `make demo`.", ""]
+    lines = ["# ballbot-casadi demo report", "", "Default robot (thesis App. A). The controller "
+             "studies (sine, COM offset, chirp) feed the true state back; the complete system "
+             "(§9.3) reads noisy sensors through the QUKF + VUKF (and the SMC + EKF baseline). "
+             "Regenerate with `make demo`; every thesis result beside ours: `ballbot study thesis`.", ""]
     lines += _model_section()
     lines += _analysis_section(out)
     lines += _study_section(out, "sine", "Roll sine 3° at 0.5 Hz (thesis §8.2.5)",

@@ -42,11 +42,16 @@ __all__ = [
     "response_at",
     "chirp_metrics",
     "FALL_TILT_DEG",
+    "CROSS_AXIS_DEG",
 ]
 
 #: The robot has fallen once its tilt exceeds this (deg) or its state is not finite:
 #: far beyond the 5 deg limit of thesis §7.1, where the wheels lose the ball in reality.
 FALL_TILT_DEG = 30.0
+
+#: The other tilt axis "degrades" once its tracking error exceeds this (deg): the thesis's
+#: §9.1 reading of Fig. 9.1 (pitch starts to degrade at ~23 s while the roll chirp runs).
+CROSS_AXIS_DEG = 0.1
 
 #: Gain threshold of the bandwidth criterion (dB).
 GAIN_DB = -3.0
@@ -206,8 +211,11 @@ def chirp_metrics(log: Any, axis: str | None = None) -> dict[str, Any]:
         >= tau_max`` of any motor, with the chirp frequency then; ``None`` if never),
         ``first_saturation_motor``, ``saturation_s_per_motor``,
         ``saturation_hz_per_motor``, ``fell_at_s`` / ``fell_at_hz`` (tilt >
-        :data:`FALL_TILT_DEG` or non-finite state; ``None`` if not), ``chirp_axis`` and
-        the measured ``response`` (``f_hz``, ``gain_db``, ``phase_deg``).
+        :data:`FALL_TILT_DEG` or non-finite state; ``None`` if not), ``cross_axis_onset_s``
+        / ``cross_axis_onset_hz`` (first time the other tilt axis's tracking error exceeds
+        :data:`CROSS_AXIS_DEG` before the fall; ``None`` if never: thesis §9.1, pitch
+        degrades at ~23 s), ``cross_axis_error_max_deg`` (before the fall), ``chirp_axis``
+        and the measured ``response`` (``f_hz``, ``gain_db``, ``phase_deg``).
     """
     sc = log.scenario
     att = sc.get("attitude") or {}
@@ -227,8 +235,12 @@ def chirp_metrics(log: Any, axis: str | None = None) -> dict[str, Any]:
         bad = ~np.all(np.isfinite(x), axis=1) | ~(tilt <= FALL_TILT_DEG)
     k_fall = int(np.argmax(bad)) if np.any(bad) else None
     fell_at = float(t[k_fall]) if k_fall is not None else None
-    y = rpy_deg(np.nan_to_num(x[:, STATE["q"]], nan=0.0))[:, i_ax]
-    r = rpy_deg(a["q_ref"])[:, i_ax]
+    ang = rpy_deg(np.nan_to_num(x[:, STATE["q"]], nan=0.0))
+    ref = rpy_deg(a["q_ref"])
+    y, r = ang[:, i_ax], ref[:, i_ax]
+    other = 1 if i_ax == 0 else 0
+    cross = np.abs(ang[:, other] - ref[:, other])[:k_fall]
+    k_cross = np.nonzero(cross > CROSS_AXIS_DEG)[0]
     resp = sliding_response(t, y, r, phi, f, t_end=fell_at)
     bw, reason = bandwidth_from_response(resp["f_hz"], resp["gain_db"], resp["phase_deg"])
     if bw is None and fell_at is not None:
@@ -254,5 +266,8 @@ def chirp_metrics(log: Any, axis: str | None = None) -> dict[str, Any]:
         "saturation_hz_per_motor": sat_hz,
         "fell_at_s": fell_at,
         "fell_at_hz": float(np.interp(fell_at, t, f)) if fell_at is not None else None,
+        "cross_axis_onset_s": float(t[k_cross[0]]) if k_cross.size else None,
+        "cross_axis_onset_hz": float(f[k_cross[0]]) if k_cross.size else None,
+        "cross_axis_error_max_deg": float(np.max(cross)) if cross.size else 0.0,
         "response": {k: np.asarray(resp[k]).tolist() for k in ("f_hz", "gain_db", "phase_deg")},
     }

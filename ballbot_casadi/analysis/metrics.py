@@ -29,6 +29,8 @@ __all__ = [
     "tilt_deg",
     "attitude_error_deg",
     "sine_lag",
+    "crossing_lag",
+    "transition_metrics",
     "total_variation",
     "base_metrics",
     "zero_metrics",
@@ -41,6 +43,7 @@ __all__ = [
     "limit_rows",
     "LIMIT_KEYS",
     "robustness_metrics",
+    "overshoot_deg",
     "standing_metrics",
     "run_metrics",
 ]
@@ -113,6 +116,17 @@ def sine_lag(t: np.ndarray, y: np.ndarray, y_ref: np.ndarray, f: float) -> tuple
     amp_r, ph_r = _fit_phase(t, y_ref, f)
     dphi = (ph_r - ph + np.pi) % (2 * np.pi) - np.pi
     return float(dphi / (2 * np.pi * f)), float(amp / amp_r) if amp_r > 0 else math.nan
+
+
+def crossing_lag(t: np.ndarray, y: np.ndarray, y_ref: np.ndarray, level: float) -> float:
+    """Time by which ``y`` first reaches ``level`` after ``y_ref`` does (s; ``inf`` if
+    ``y`` never does).  Both start below ``level`` (an upward transition; flip the signs
+    for a downward one)."""
+    k_ref = np.nonzero(y_ref >= level)[0]
+    k = np.nonzero(y >= level)[0]
+    if k_ref.size == 0:
+        raise ValueError("the reference never reaches the level")
+    return float(t[k[0]] - t[k_ref[0]]) if k.size else math.inf
 
 
 def total_variation(u: np.ndarray) -> float:
@@ -201,6 +215,22 @@ def sine_metrics(log: Any, frequency_hz: float, t_from: float = 0.0) -> dict[str
     }
 
 
+def transition_metrics(log: Any, axis: str = "roll", level: float = 0.5) -> dict[str, float]:
+    """Tracking lag of a step or ramp reference on ``axis`` (thesis §7.2 item 4: < 0.1 s;
+    item 5: < 1 s without a rate reference): ``roll_lag_s`` is the time by which the
+    angle reaches ``level`` (50 %) of the transition after the reference does
+    (:func:`crossing_lag`; for a ramp that settles into tracking, its steady delay)."""
+    a = _arrays(log)
+    n = a["q_ref"].shape[0]
+    t = a["time"][:n]
+    i = ("roll", "pitch", "yaw").index(axis)
+    ang = rpy_deg(a["state"][:n, STATE["q"]])[:, i]
+    ref = rpy_deg(a["q_ref"])[:, i]
+    sign = 1.0 if ref[-1] >= ref[0] else -1.0
+    lvl = sign * (ref[0] + level * (ref[-1] - ref[0]))
+    return {f"{axis}_lag_s": crossing_lag(t, sign * ang, sign * ref, lvl)}
+
+
 def push_metrics(log: Any, t_push: float, band_deg: float = 0.1) -> dict[str, float]:
     """Recovery from an attitude jump at ``t_push`` (thesis §8.4.3)."""
     a = _arrays(log)
@@ -237,6 +267,12 @@ def velocity_metrics(log: Any, max_delay_s: float = 1.0) -> dict[str, float]:
     The ballbot is non-minimum phase (thesis §7.3: ramps are tracked with a constant
     delay), so besides the raw error the error after removing the best constant delay
     (searched in [0, ``max_delay_s``]) is reported.
+
+    Thesis §7.1 items 1-4 as measured results (not clamps): ``max_speed_mps`` (ball
+    speed), ``max_acceleration_mps2`` (ball acceleration, finite difference over one
+    control period), ``max_yaw_rate_rps`` and ``max_yaw_accel_rps2`` (heading rate and its
+    finite difference).  ``yaw_error_mean_deg`` is the mean heading error against the
+    velocity controller's attitude reference (thesis §9.3.2: -0.2 deg on average).
     """
     a = _arrays(log)
     n = a["v_ref"].shape[0]
@@ -251,7 +287,16 @@ def velocity_metrics(log: Any, max_delay_s: float = 1.0) -> dict[str, float]:
         if rms < best[0]:
             best = (rms, d * ts, float(np.max(ed)))
     yr = _yaw_rate(x)
+    v = x[:, [STATE.index("dx"), STATE.index("dy")]]
+    acc = np.hypot(*(np.diff(v, axis=0) / ts).T) if n > 1 else np.zeros(1)
+    yaw_err = (_wrap(rpy_deg(x[:, STATE["q"]]) - rpy_deg(a["q_ref"][:n]))[:, 2] if "q_ref" in a
+               else np.full(n, math.nan))
     return {
+        "max_speed_mps": float(np.max(np.hypot(v[:, 0], v[:, 1]))),
+        "max_acceleration_mps2": float(np.max(acc)),
+        "max_yaw_rate_rps": float(np.max(np.abs(yr))),
+        "max_yaw_accel_rps2": float(np.max(np.abs(np.diff(yr)) / ts)) if n > 1 else 0.0,
+        "yaw_error_mean_deg": float(np.mean(yaw_err)),
         "velocity_error_max_mps": float(np.max(e)),
         "velocity_error_rms_mps": float(np.sqrt(np.mean(e**2))),
         "velocity_lag_s": best[1],
@@ -331,11 +376,23 @@ def limit_rows(metrics: Mapping[str, Any], limits: Mapping[str, float]) -> list[
     return rows
 
 
+def overshoot_deg(log: Any, min_initial_deg: float = 0.1) -> float:
+    """How far the Euler-angle errors swing past zero (deg, >= 0), over the axes whose
+    initial error exceeds ``min_initial_deg`` (thesis §8.4.1: "reaches upright")."""
+    err = attitude_error_deg(_arrays(log))
+    e0 = err[0]
+    past = [np.max(-np.sign(e0[i]) * err[:, i]) for i in range(err.shape[1]) if abs(e0[i]) > min_initial_deg]
+    return float(max(0.0, *past)) if past else 0.0
+
+
 def robustness_metrics(nominal: Any, perturbed: Any, band_deg: float = 0.1) -> dict[str, Any]:
     """A perturbed run against the nominal one (thesis §8.4.1, Fig. 8.10-8.11).
 
-    ``settling_time_ratio`` and ``peak_error_ratio`` compare the perturbed run's
-    :func:`zero_metrics` with the nominal run's; ``deviation_<axis>_deg`` is the largest
+    ``settling_time_ratio`` compares the perturbed run's :func:`zero_metrics` with the
+    nominal run's; ``overshoot_deg`` (``nominal_overshoot_deg``) is how far the perturbed
+    (nominal) run swings past the reference on the axes that start off it
+    (:func:`overshoot_deg`; the largest error overall is the initial one, so a peak-error
+    ratio would be 1 by construction); ``deviation_<axis>_deg`` is the largest
     difference of that Euler angle between the two runs and ``relative_deviation_<axis>``
     divides it by the nominal run's largest excursion of the same angle.  The thesis
     observes that the inertia change affects yaw most; ``yaw_affected_most`` checks it in
@@ -353,7 +410,8 @@ def robustness_metrics(nominal: Any, perturbed: Any, band_deg: float = 0.1) -> d
         "nominal_settling_time_s": zn["settling_time_s"],
         "settling_time_ratio": zp["settling_time_s"] / zn["settling_time_s"] if zn["settling_time_s"] > 0 else math.inf,
         "nominal_max_error_deg": zn["max_error_deg"],
-        "peak_error_ratio": zp["max_error_deg"] / zn["max_error_deg"] if zn["max_error_deg"] > 0 else math.inf,
+        "overshoot_deg": overshoot_deg(perturbed),
+        "nominal_overshoot_deg": overshoot_deg(nominal),
     }
     for i, ax in enumerate(axes):
         out[f"deviation_{ax}_deg"] = float(dev[i])
@@ -389,7 +447,7 @@ def run_metrics(log: Any) -> dict[str, Any]:
 
     Always :func:`base_metrics`, :func:`limit_metrics` (thesis §7.1) and
     :func:`zero_metrics` (tracking error, settling); a roll sine adds
-    :func:`sine_metrics`, a push :func:`push_metrics`, a velocity profile
+    :func:`sine_metrics`, a roll step or ramp :func:`transition_metrics`, a push :func:`push_metrics`, a velocity profile
     :func:`velocity_metrics`, a cascade standing still :func:`standing_metrics`; every
     run gets the tilt/heading tracking errors and, with estimators in the loop, the
     estimation errors (:mod:`ballbot_casadi.analysis.estimates`); a run with the COM
@@ -407,6 +465,8 @@ def run_metrics(log: Any) -> dict[str, Any]:
         roll = (sc.get("attitude") or {}).get("roll", {})
         if roll.get("type") == "sine" and finite:
             out.update(sine_metrics(log, roll["frequency_hz"]))
+        if roll.get("type") in ("step", "ramp") and finite:
+            out.update(transition_metrics(log, "roll"))
         if sc.get("pushes"):
             out.update(push_metrics(log, sc["pushes"][0][0]))
         if sc.get("cascade") and sc.get("velocity_keyframes"):

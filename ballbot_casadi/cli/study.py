@@ -8,7 +8,7 @@ from pathlib import Path
 from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.sim.scenario import ESTIMATOR_CHOICES, FEEDFORWARD_MODES
+from ballbot_casadi.sim.scenario import ESTIMATOR_CHOICES, FEEDFORWARD_MODES, TORQUE_LIMIT_MODES
 from ballbot_casadi.studies import chirp as chirp_study
 from ballbot_casadi.studies.registry import (
     STUDIES,
@@ -22,6 +22,7 @@ from ballbot_casadi.studies.study import (
     format_summary,
     run_all,
     run_study,
+    run_thesis,
 )
 
 __all__ = ["add_parser", "list_text"]
@@ -50,7 +51,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
     params = load_params(args.params) if args.params else None
     overrides = parse_overrides(args.set or [])
     overrides += [(k, v) for k, v in (("estimator", args.estimator), ("seed", args.seed),
-                                      ("feedforward", args.feedforward)) if v is not None]
+                                      ("feedforward", args.feedforward),
+                                      ("torque_limit", args.torque_limit)) if v is not None]
     if (args.axis or args.amplitude is not None) and args.name != "chirp":
         raise ScenarioError("--axis and --amplitude apply to the chirp study only")
     if args.amplitude is not None and not 0 < args.amplitude <= 45:
@@ -58,9 +60,18 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if args.name == "chirp" and (args.axis or args.amplitude is not None):
         table = STUDIES["chirp"].tables(args.controller, overrides)[-1]
         overrides += chirp_study.axis_overrides(table, args.axis, args.amplitude)
+    if args.name == "thesis":
+        if overrides or params is not None or args.controller != "flc":
+            raise ScenarioError("--set, --estimator, --seed, --feedforward, --torque-limit, --params and "
+                                "--controller do not apply to 'thesis': it reads the studies as shipped")
+        res = run_thesis(Path(args.out) if args.out else None, rerun=args.rerun, plot=not args.no_plot)
+        if not args.quiet:
+            print("thesis table: " + ", ".join(f"{n} {v}" for v, n in res["counts"].items())
+                  + ("" if res["passed"] else f"; metrics missing for: {', '.join(res['missing'])}"))
+        return 0 if res["passed"] else 1
     if args.name == "all":
         if overrides or params is not None:
-            raise ScenarioError("--set, --estimator, --seed, --feedforward and --params apply to one "
+            raise ScenarioError("--set, --estimator, --seed, --feedforward, --torque-limit and --params apply to one "
                                 "study, not to 'all'")
         table = run_all(Path(args.out) if args.out else None, plot=not args.no_plot)
         ok = True
@@ -83,10 +94,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "study",
         help="run a closed-loop study (exit 1 if its spec is not met, 2 on bad input)",
         description="Closed-loop studies of the thesis: " + ", ".join(STUDY_NAMES)
-        + "; 'all' runs every study for flc and smc. Each writes metrics.json, run.npz, plots and "
+        + "; 'all' runs every study for flc and smc; 'thesis' tables every result of thesis chapters 6-9 "
+        "beside ours (from the studies' metrics.json, running the missing ones). Each writes metrics.json, run.npz, plots and "
         "report.md (specs with the thesis's value beside ours; thesis §7.1 limits reported).",
     )
-    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, "all"])
+    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, "all", "thesis"])
     p.add_argument("--list", action="store_true", help="list the studies and shipped scenario files")
     p.add_argument("--controller", choices=CONTROLLERS, default="flc")
     p.add_argument("--params", metavar="FILE", help="parameter TOML file: another robot, known to the controller")
@@ -101,8 +113,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--feedforward", choices=FEEDFORWARD_MODES,
                    help="balance controller feed-forward: exact reference acceleration, or none (the "
                         "thesis's FLC 8.44 and SMC); default: the study's files")
+    p.add_argument("--torque-limit", choices=TORQUE_LIMIT_MODES,
+                   help="the controller's torque limit: direction-preserving (ours) or per-wheel "
+                        "clipping only (the thesis's set-up, §9.1); default: the study's files")
     p.add_argument("--axis", choices=("roll", "pitch"), help="chirp: the excited axis (default roll)")
     p.add_argument("--amplitude", type=float, metavar="DEG", help="chirp: amplitude in deg (default 3)")
+    p.add_argument("--rerun", action="store_true",
+                   help="thesis: rerun every study instead of reading its metrics.json")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.add_argument("--out", help="output directory (default build/study/<name>/<controller>)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG plots")

@@ -60,6 +60,7 @@ __all__ = [
     "INPUT_NAMES",
     "make_attitude_measurement",
     "make_attitude_process",
+    "make_additive_ukf",
     "make_qekf",
     "make_qukf",
     "qekf_initial_covariance",
@@ -131,8 +132,8 @@ def _acceleration(args: tuple, p: ca.MX, compensate: bool) -> tuple[tuple, ca.MX
     return (*args, a), Q.rotate_inv(args[0][:4], a) / ParamView(p).g
 
 
-def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: bool = False
-              ) -> ca.Function:
+def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: bool = False,
+              renormalise: bool = False) -> ca.Function:
     """``ballbot_qukf``: one period of the quaternion UKF (thesis 4.1-4.40).
 
     Parameters
@@ -150,6 +151,13 @@ def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: b
         direction in {K} the velocity filter took from this filter's own heading - a
         circular, spurious heading measurement that drifts the heading systematically
         (the full study's report shows the heading error).
+    renormalise
+        Renormalise the quaternion after the update (``ballbot_qukf_renorm``): the forced
+        unit norm the thesis's conclusions (ch. 10) say made its first UKF "deeply
+        deviate".  Here every operation keeps the norm, so it changes the estimate only
+        at rounding level (:mod:`~ballbot_casadi.analysis.renormalisation`); the
+        deviation the thesis saw comes from the additive sigma points and weighted-sum
+        mean, :func:`make_additive_ukf`.
 
     Returns
     -------
@@ -163,12 +171,34 @@ def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: b
         normalised square, ``n_valid`` the number of valid components, ``n_repair`` the
         number of covariance repairs, ``P_att = P_next[:3, :3]`` (the VUKF input).
     """
-    model = FilterModel(attitude(mean_iterations), make_attitude_process(),
+    model = FilterModel(attitude(mean_iterations, renormalise), make_attitude_process(),
                         make_attitude_measurement(), noise="pre")
     args = xhat, P, z, Qn, R, dt, p = _inputs(6)
     args, u = _acceleration(args, p, compensate_acceleration)
     out = ukf_step(model, xhat, P, _normalised_z(z, p), u, Qn, R, dt, p, kappa=0.0)
-    return _function("ballbot_qukf", args, out, out["P_next"][:3, :3])
+    return _function("ballbot_qukf_renorm" if renormalise else "ballbot_qukf", args, out,
+                     out["P_next"][:3, :3])
+
+
+def make_additive_ukf() -> ca.Function:
+    """``ballbot_qukf_additive``: the classical UKF on the additive ``[q, omega]`` chart with
+    the quaternion renormalised after every correction - the thesis's first QUKF (ch. 10:
+    "the resultant quaternion estimate was deeply deviated"), as the QEKF treats the
+    quaternion but with sigma points.
+
+    Same inputs and outputs as :func:`make_qekf`: ``P`` is 7 x 7 on ``[q0..q3, omega]``,
+    ``Q`` the 6 x 6 tangent matrix added as ``G Q G^T``; sigma points are ``xhat +- s L``
+    (additive, off the unit sphere), the mean is their weighted sum, deviations are
+    differences (thesis 3.20-3.31 without the quaternion algebra of ch. 4).
+    """
+    model = FilterModel(attitude_additive(), make_attitude_process(), make_attitude_measurement(),
+                        noise="additive")
+    args = xhat, P, z, Qn, R, dt, p = _inputs(7)
+    G = tangent_map(xhat[:4])
+    out = ukf_step(model, xhat, P, _normalised_z(z, p), _NO_INPUT, ca.mtimes([G, Qn, G.T]), R, dt, p)
+    q_next = out["xhat_next"][:4]
+    T = 2 * Q.Phi(q_next).T[1:, :]
+    return _function("ballbot_qukf_additive", args, out, ca.mtimes([T, out["P_next"][:4, :4], T.T]))
 
 
 def tangent_map(q: Any) -> Any:

@@ -75,8 +75,18 @@ def euclidean(n: int) -> Manifold:
     return Manifold(f"R{n}", n, n, oplus, ominus, _weighted_sum_mean(n))
 
 
-def attitude(mean_iterations: int = MEAN_ITERATIONS) -> Manifold:
-    """``S^3 x R^3`` of the QUKF state ``[q, omega]`` (thesis 4.1, 4.10-4.12, 4.19-4.25)."""
+def _normalise_q() -> ca.Function:
+    """``[q, omega] -> [q / |q|, omega]``: the forced renormalisation of the quaternion."""
+    x = ca.SX.sym("x", 7)
+    q = x[:4]
+    return ca.Function("normalise_q", [x], [ca.vertcat(q / ca.norm_2(q), x[4:])], ["x"], ["x_unit"])
+
+
+def attitude(mean_iterations: int = MEAN_ITERATIONS, renormalise: bool = False) -> Manifold:
+    """``S^3 x R^3`` of the QUKF state ``[q, omega]`` (thesis 4.1, 4.10-4.12, 4.19-4.25).
+
+    ``renormalise`` adds the forced renormalisation of ``q`` after every correction (the
+    variant the thesis's conclusions discuss); the QUKF itself has none."""
     x, d, y = ca.SX.sym("x", 7), ca.SX.sym("d", 6), ca.SX.sym("x_ref", 7)
     x_next = ca.vertcat(Q.mul(x[:4], Q.from_rotation_vector(d[:3])), x[4:] + d[3:])
     oplus = ca.Function("oplus_att", [x, d], [x_next], ["x", "d"], ["x_next"], {"cse": True})
@@ -89,14 +99,11 @@ def attitude(mean_iterations: int = MEAN_ITERATIONS) -> Manifold:
         xm = ca.vertcat(qmean(X[:4, :], w, x0[:4]), ca.mtimes(X[4:, :], w))
         return ca.Function(f"mean_att{n}", [X, w, x0], [xm], ["X", "w", "x_init"], ["x_mean"])
 
-    return Manifold("S3xR3", 7, 6, oplus, ominus, mean)
+    return Manifold("S3xR3" + ("/normalised" if renormalise else ""), 7, 6, oplus, ominus, mean,
+                    _normalise_q() if renormalise else None)
 
 
 def attitude_additive() -> Manifold:
     """The predecessor's additive ``[q, omega]`` chart with renormalisation after updates."""
     base = euclidean(7)
-    x = ca.SX.sym("x", 7)
-    q = x[:4]
-    normalise = ca.Function("normalise_q", [x], [ca.vertcat(q / ca.norm_2(q), x[4:])],
-                            ["x"], ["x_unit"])
-    return Manifold("R7/normalised", 7, 7, base.oplus, base.ominus, base.mean, normalise)
+    return Manifold("R7/normalised", 7, 7, base.oplus, base.ominus, base.mean, _normalise_q())

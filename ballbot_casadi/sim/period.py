@@ -16,7 +16,12 @@ The sequence of one period ``[t_k, t_k + Ts)`` is
    mode controller did (``feedforward = 1``: the exact reference acceleration);
 5. **torque limits** - a direction-preserving limit at the controller's ``tau_max``
    (:func:`~ballbot_casadi.control.saturate_torques`), then the plant's physical
-   per-wheel saturation at the plant's ``tau_max``;
+   per-wheel saturation at the plant's ``tau_max``.  The limit is a switch
+   (:data:`TORQUE_LIMIT_MODES`, a scenario's ``torque_limit``): ``"direction"`` (ours,
+   default) scales all three torques together so the torque direction - and with it the
+   decoupling of the FLC - survives saturation; ``"per-wheel"`` (the thesis's set-up,
+   §9.1: each motor clips on its own, motor 0 first) lifts the controller's own limit
+   (:func:`controller_torque_limit`) so only the per-wheel saturation acts;
 6. **disturbance** - the wheel-torque disturbance ``w[tau_dist]`` is added *after* the
    saturation (it is an external torque on the wheel axes, not a motor command);
 7. **plant** - the resulting torque is held over the period (zero-order hold) while the
@@ -32,6 +37,7 @@ model's ODE (:func:`rk4_plant`), or an FMU stepped by ``fmi2DoStep``.
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Mapping
 
 import casadi as ca
@@ -41,6 +47,7 @@ from ballbot_casadi.control import saturate_torques
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import DISTURBANCE, STATE
 from ballbot_casadi.core.params import PARAM_NAMES
+from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.model.integrators import make_rk4_n
 from ballbot_casadi.sim.ports import PeriodBlocks, controller_state
 
@@ -50,7 +57,12 @@ __all__ = [
     "controller_part",
     "control_period",
     "rk4_plant",
+    "TORQUE_LIMIT_MODES",
+    "controller_torque_limit",
 ]
+
+#: The torque-limit switch (module docstring, step 5): ours first (the default).
+TORQUE_LIMIT_MODES = ("direction", "per-wheel")
 
 _TAU_MAX = PARAM_NAMES.index("tau_max")
 _SYMBOLIC = (ca.SX, ca.MX)
@@ -85,6 +97,17 @@ def apply_push(x: Any, push: Any) -> Any:
     if n > STATE.size:  # further plant states (wheel angles) are not rotated
         parts.append(x[STATE.size:])
     return ca.vertcat(*parts) if _symbolic(x, push) else np.concatenate([np.ravel(p) for p in parts])
+
+
+def controller_torque_limit(tau_max: float, mode: str) -> float:
+    """The controller's own limit of step 5 for torque-limit ``mode``
+    (:data:`TORQUE_LIMIT_MODES`): ``tau_max`` for ``"direction"``, ``+inf`` for
+    ``"per-wheel"`` (no limit of its own, so only the plant's per-wheel saturation at its
+    ``tau_max`` acts, thesis §9.1 Fig. 9.2)."""
+    if mode not in TORQUE_LIMIT_MODES:
+        raise ScenarioError(f"torque_limit {mode!r} unknown; allowed: {', '.join(TORQUE_LIMIT_MODES)}",
+                            key="torque_limit")
+    return float(tau_max) if mode == "direction" else math.inf
 
 
 def actuate(tau_lim: Any, tau_dist: Any, tau_max: Any) -> Any:

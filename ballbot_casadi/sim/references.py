@@ -32,6 +32,7 @@ __all__ = [
     "Signal",
     "SPEC",
     "step",
+    "ramp",
     "sine",
     "chirp",
     "velocity_profile",
@@ -98,6 +99,24 @@ def step(
     dy = amplitude * (30 * s**2 - 60 * s**3 + 30 * s**4) / rise_time * inside
     ddy = amplitude * (60 * s - 180 * s**2 + 120 * s**3) / rise_time**2 * inside
     return Signal(y, dy, ddy)
+
+
+def ramp(t: Any, amplitude: float = 1.0, t_start: float = 0.0, rate: float = 1.0,
+         offset: float = 0.0) -> Signal:
+    """Ramp from ``offset`` at ``t_start`` with slope ``rate`` (> 0, units of amplitude
+    per second, towards the sign of ``amplitude``), held at ``offset + amplitude`` once
+    reached (thesis §7.2 item 4: lag when tracking a ramp).  The derivative is the slope
+    inside the ramp and zero outside; the second derivative is zero (the Dirac parts at
+    the corners are not representable)."""
+    t = _time(t)
+    amplitude, t_start = _finite("amplitude", amplitude), _finite("t_start", t_start)
+    rate, offset = _finite("rate", rate), _finite("offset", offset)
+    if rate <= 0:
+        raise ScenarioError(f"rate must be > 0, got {rate}")
+    sign = 1.0 if amplitude >= 0 else -1.0
+    y = offset + sign * np.clip(rate * (t - t_start), 0.0, abs(amplitude))
+    inside = (t >= t_start) & (t < t_start + abs(amplitude) / rate)
+    return Signal(y, sign * rate * inside.astype(float), np.zeros_like(t))
 
 
 def sine(

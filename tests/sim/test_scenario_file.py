@@ -36,8 +36,10 @@ def test_files_reproduce_the_thesis_scenarios():
     q, dq, _ = sine.attitude_reference()
     np.testing.assert_allclose(sine.x0[2:6], q[0], rtol=0, atol=1e-15)   # on_reference
     np.testing.assert_allclose(sine.x0[8:12], dq[0], rtol=0, atol=1e-15)
-    exact, none = get_study("chirp").scenarios()
-    assert (exact.feedforward, none.feedforward) == ("exact", "none")
+    exact, per_wheel, none = get_study("chirp").scenarios()
+    assert (exact.feedforward, per_wheel.feedforward, none.feedforward) == ("exact", "none", "none")
+    assert (exact.torque_limit, per_wheel.torque_limit, none.torque_limit) == ("direction", "per-wheel",
+                                                                              "direction")
     assert none.attitude["roll"] == {"type": "chirp", "amplitude_deg": 3.0, "f0_hz": 0.05, "f1_hz": 5.0,
                                      "duration": 99.0}
     _, com, *_ = get_study("com").scenarios()
@@ -107,3 +109,37 @@ def test_scenario_rejects_sine_without_frequency_and_above_nyquist():
     with pytest.raises(ScenarioError, match="Nyquist"):
         Scenario("s", attitude={"roll": {"type": "sine", "amplitude_deg": 1.0, "frequency_hz": 100.0}})
     Scenario("s", attitude={"roll": {"type": "sine", "amplitude_deg": 1.0, "frequency_hz": 99.0}})
+
+
+def test_set_changes_only_the_perturbed_run_of_the_robustness_study():
+    """With --set on every run the nominal run would change too and settling_time_ratio
+    would compare the change with itself (issue 20: 0.999 with x20 inertia)."""
+    nominal, perturbed = get_study("robustness").scenarios("flc", [("plant.Jbx", {"scale": 20.0}), ("seed", 3)])
+    assert perturbed.plant_params().Jbx == pytest.approx(20.0 * nominal.plant_params().Jbx)
+    assert nominal.seed == perturbed.seed == 3  # a set-up switch still changes both
+    sine_a, sine_b = get_study("full").scenarios("flc", [("duration_s", 2.0)])[:2]
+    assert sine_a.duration == sine_b.duration == 2.0  # other studies: every run
+
+
+def test_sine_through_the_cascade_is_the_velocity_whose_lean_is_the_sine():
+    """full_cascade (thesis §9.3.1 with the velocity controller): cascade on, no attitude
+    reference, and a lateral velocity whose acceleration g tan(roll) is the 3° sine."""
+    (sc,) = get_study("full_cascade").scenarios()
+    assert sc.cascade and not sc.attitude and sc.estimator == "ukf"
+    v = sc.velocity_reference()[:, 1]
+    t = sc.time()
+    acc = np.gradient(v, t)
+    lean = np.degrees(np.arctan(acc / 9.81))
+    k = (t > 1.0) & (t < sc.duration - 1.0)
+    np.testing.assert_allclose(lean[k], 3.0 * np.sin(2 * np.pi * 0.5 * t[k]), atol=0.25)
+
+
+def test_velocity_study_also_runs_at_the_thesis_acceleration_limit():
+    fast, main = get_study("velocity").scenarios()
+    assert all(row[4] == 1.0 for row in fast.velocity_keyframes)
+    assert all(row[4] == 0.25 for row in main.velocity_keyframes)
+
+
+def test_yaw_seeds_study_runs_each_seed_once():
+    scs = get_study("yaw_seeds").scenarios()
+    assert [s.seed for s in scs] == [1, 2, 3, 4, 5, 6] and len({s.name for s in scs}) == 6

@@ -20,3 +20,12 @@ def test_report_lists_every_section_and_uses_step_numbers(tmp_path):
     for fragment in ("## Model", "controllability rank 10", "0.0123", "## COM offset", "not run",
                      "| `ode_ns` | 271.5 |", "3× rule (thesis §7.1): yes", "`beta`"):
         assert fragment in text, fragment
+
+
+def test_report_intro_says_what_the_runs_feed_back(tmp_path):
+    """The intro must not claim true-state feedback only: the complete system runs the
+    estimators (issue 20)."""
+    text = write_report(tmp_path, tmp_path / "no_bench.json").read_text()
+    intro = text.split("\n## ")[0]
+    assert "QUKF + VUKF" in intro and "true state" in intro
+    assert "ballbot study thesis" in intro

@@ -27,14 +27,31 @@ def study_out(tmp_path_factory):
     return tmp_path_factory.mktemp("study")
 
 
+class _Results(dict):
+    """Study results, each run on first use (the long studies only by their slow tests)."""
+
+    def __init__(self, sim, out):
+        super().__init__()
+        self.sim, self.out = sim, out
+
+    def __missing__(self, key):
+        name, controller = key
+        self[key] = study.run_study(name, controller, self.out / name / controller, self.sim, plot=False)
+        return self[key]
+
+
 @pytest.fixture(scope="module")
 def results(sim, study_out) -> dict:
-    return {(n, c): study.run_study(n, c, study_out / n / c, sim, plot=False)
-            for n in STUDY_NAMES for c in study.CONTROLLERS}
+    return _Results(sim, study_out)
 
 
-@pytest.mark.parametrize("controller", study.CONTROLLERS)
-@pytest.mark.parametrize("name", STUDY_NAMES)
+#: Studies of several 100 s runs with estimators: slow tests.
+_LONG = ("yaw_seeds", "thesis_tuning")
+
+
+@pytest.mark.parametrize("name,controller", [
+    pytest.param(n, c, marks=[pytest.mark.slow] if n in _LONG else [])
+    for n in STUDY_NAMES for c in STUDIES[n].controllers])
 def test_study_meets_spec(results, name, controller):
     res = results[(name, controller)]
     failed = [f"{r['metric']}={r['value']} (spec {r['op']} {r['threshold']})" for r in res["spec"] if not r["ok"]]

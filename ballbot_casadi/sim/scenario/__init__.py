@@ -32,6 +32,7 @@ from ballbot_casadi.sim.scenario.scenario import (
     ESTIMATOR_TUNING_KEYS,
     ESTIMATOR_TUNING_TARGETS,
     FEEDFORWARD_MODES,
+    TORQUE_LIMIT_MODES,
     Scenario,
     initial_state,
 )
@@ -40,4 +41,4 @@ from ballbot_casadi.sim.scenario.toml_write import dump_toml, set_value
 __all__ = ["Scenario", "ScenarioFile", "ScenarioFileError", "ParamChanges", "CHANGE_OPS",
            "apply_changes", "initial_state", "load_scenario_file", "parse_scenario", "dump_toml",
            "set_value", "DISPERSION_TARGETS", "ESTIMATOR_CHOICES", "ESTIMATOR_TUNING_KEYS",
-           "ESTIMATOR_TUNING_TARGETS", "FEEDFORWARD_MODES"]
+           "ESTIMATOR_TUNING_TARGETS", "FEEDFORWARD_MODES", "TORQUE_LIMIT_MODES"]

@@ -14,6 +14,8 @@ Format (every key optional unless marked; units in the names)::
     duration_s = 10.0               # required, > 0
     cascade = false                 # close the velocity loop (thesis Fig. 7.1)
     feedforward = "exact"           # exact | none (thesis mode: zero reference acceleration)
+                                    # | no-rate (neither rate nor acceleration, thesis §7.2 item 5)
+    torque_limit = "direction"      # direction (ours) | per-wheel (the thesis's clipping, §9.1)
     estimator = "true"              # true | ukf | ekf (noisy sensors + QUKF/VUKF or QEKF/VEKF)
     seed = 0                        # sensor-noise seed, int >= 0
     noise = true                    # with an estimator: draw sensor noise (false: noise-free sensors)
@@ -32,10 +34,11 @@ Format (every key optional unless marked; units in the names)::
     on_reference = false            # start on the attitude reference (angle and rate at t = 0)
 
     [attitude.roll]                 # also attitude.pitch, attitude.yaw; default 0
-    type = "sine"                   # const | sine | step | chirp
+    type = "sine"                   # const | sine | step | ramp | chirp (not with cascade = true)
     amplitude_deg = 3.0             # sine, step, chirp
     frequency_hz = 0.5              # sine (below the 100 Hz Nyquist frequency)
-    # phase_rad, offset_deg; step: t_step_s, rise_time_s; chirp: f0_hz, f1_hz, sweep_s;
+    # phase_rad, offset_deg; step: t_step_s, rise_time_s; ramp: t_start_s, rate_deg_s;
+    # chirp: f0_hz, f1_hz, sweep_s;
     # const: value_deg
 
     [[velocity]]                    # velocity-profile keyframes (cascade only)

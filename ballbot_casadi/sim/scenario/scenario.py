@@ -32,7 +32,7 @@ from ballbot_casadi.control import (
 from ballbot_casadi.control.velocity import VELOCITY_DEFAULT_LIMITS
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import DISTURBANCE
-from ballbot_casadi.core.params import Params, load_params
+from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
 from ballbot_casadi.core.rng import NoiseStream
 from ballbot_casadi.core.sensor_params import SensorParams, load_sensor_params
 from ballbot_casadi.errors import ScenarioError
@@ -41,6 +41,7 @@ from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.model.sensors import NOISE_STREAMS
 from ballbot_casadi.sim import references as R
+from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES, controller_torque_limit
 from ballbot_casadi.sim.embedded import (
     ESTIMATOR_FILTERS,
     NOISE,
@@ -74,6 +75,7 @@ __all__ = [
     "Scenario",
     "SCENARIO_FIELDS",
     "FEEDFORWARD_MODES",
+    "TORQUE_LIMIT_MODES",
     "ESTIMATOR_CHOICES",
     "ESTIMATOR_TUNING_KEYS",
     "ESTIMATOR_TUNING_TARGETS",
@@ -88,10 +90,12 @@ __all__ = [
 SCENARIO_FIELDS = (
     "name", "controller", "duration", "x0", "cascade", "attitude", "velocity_keyframes", "pushes",
     "torque_disturbances", "plant_changes", "ctrl_changes", "k_bal", "k_vel", "Ts", "n_sub",
-    "feedforward", "estimator", "seed", "noise", "sensor_changes", "est_changes", "estimator_tuning",
+    "feedforward", "torque_limit", "estimator", "seed", "noise", "sensor_changes", "est_changes", "estimator_tuning",
     "sensor_dropouts", "com_observer", "k_obs", "study", "description",
 )
 #: Attribute -> the section holding it.
+#: Position of the torque limit in the parameter vector.
+_TAU_MAX = PARAM_NAMES.index("tau_max")
 _SECTION_OF = {f: name for name, cls in SCENARIO_SECTIONS for f in cls.FIELDS}
 
 
@@ -328,10 +332,14 @@ class Scenario:
             k_vel = np.concatenate([np.zeros(VELOCITY_NKV - VELOCITY_DEFAULT_LIMITS.size),
                                     VELOCITY_DEFAULT_LIMITS])
         q, dq, ddq = self.attitude_reference(periods)
+        if self.feedforward == "no-rate":
+            dq, ddq = np.zeros_like(dq), np.zeros_like(ddq)
         for key, arr in (("q_ref", q), ("dq_ref", dq), ("ddq_ref", ddq)):
             if not np.all(np.isfinite(arr)):
                 raise ScenarioError(f"scenario {self.name!r}: {key} contains NaN or Inf")
         x0 = np.asarray(self.x0, float)
+        p_ctrl = p_ctrl.copy()  # the limit of the balance loop only, after the gain design
+        p_ctrl[_TAU_MAX] = controller_torque_limit(p_ctrl[_TAU_MAX], self.torque_limit)
         return {
             "x0": x0,
             "p_plant": p_plant,

@@ -41,6 +41,7 @@ from ballbot_casadi.errors import ArgumentError, ScenarioError
 from ballbot_casadi.estimation.com_observer import check_com_observer_gains
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.embedded import VALID
+from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES
 from ballbot_casadi.sim.ports import GAIN_CONSTANTS
 from ballbot_casadi.sim.scenario.changes import ParamChanges
 from ballbot_casadi.sim.scenario.checker import FileChecker
@@ -60,7 +61,7 @@ __all__ = [
 ]
 
 #: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
-FEEDFORWARD_MODES = ("exact", "none")
+FEEDFORWARD_MODES = ("exact", "none", "no-rate")
 #: What the controllers read: the true state, or estimates from noisy sensors.
 ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
 #: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
@@ -134,7 +135,11 @@ class RunSection:
 
     ``duration`` and ``Ts`` in s (file ``duration_s``, ``control_period_s``), ``n_sub``
     RK4 sub-steps per period (``rk4_substeps``); ``cascade`` closes the velocity loop
-    (thesis Fig. 7.1); ``feedforward`` ``exact`` or ``none`` (thesis mode).
+    (thesis Fig. 7.1); ``feedforward`` ``exact``, ``none`` (thesis mode: zero reference
+    acceleration) or ``no-rate`` (neither rate nor acceleration, thesis §7.2 item 5);
+    ``torque_limit`` ``direction`` (ours: the controller scales its three torques together
+    at its ``tau_max``) or ``per-wheel`` (the thesis's set-up, §9.1: only the motors'
+    per-wheel saturation), :mod:`~ballbot_casadi.sim.period` step 5.
     """
 
     name: str = "scenario"
@@ -144,15 +149,17 @@ class RunSection:
     Ts: float = TS_CONTROL
     n_sub: int = N_SUB
     feedforward: str = "exact"
+    torque_limit: str = "direction"
     study: str = ""
     description: str = ""
 
-    FIELDS = ("name", "controller", "duration", "cascade", "Ts", "n_sub", "feedforward", "study",
-              "description")
+    FIELDS = ("name", "controller", "duration", "cascade", "Ts", "n_sub", "feedforward",
+              "torque_limit", "study", "description")
     #: Field -> file key.
     FILE = MappingProxyType({"name": "name", "description": "description", "study": "study",
                              "controller": "controller", "duration": "duration_s", "cascade": "cascade",
-                             "feedforward": "feedforward", "Ts": "control_period_s",
+                             "feedforward": "feedforward", "torque_limit": "torque_limit",
+                             "Ts": "control_period_s",
                              "n_sub": "rk4_substeps"})
     TABLE_KEYS = tuple(FILE.values())
 
@@ -176,6 +183,9 @@ class RunSection:
         if self.feedforward not in FEEDFORWARD_MODES:
             raise ScenarioError(f"feedforward {self.feedforward!r} unknown; allowed: "
                                 f"{', '.join(FEEDFORWARD_MODES)}", key="feedforward")
+        if self.torque_limit not in TORQUE_LIMIT_MODES:
+            raise ScenarioError(f"torque_limit {self.torque_limit!r} unknown; allowed: "
+                                f"{', '.join(TORQUE_LIMIT_MODES)}", key="torque_limit")
         if not isinstance(self.cascade, bool):
             raise ScenarioError(f"cascade must be true or false, got {self.cascade!r}", key="cascade")
 
@@ -193,6 +203,8 @@ class RunSection:
                    controller=c.choice(table, "controller", "controller", "flc", tuple(BALANCE_CONTROLLERS)),
                    cascade=c.boolean(table, "cascade", "cascade", False),
                    feedforward=c.choice(table, "feedforward", "feedforward", "exact", FEEDFORWARD_MODES),
+                   torque_limit=c.choice(table, "torque_limit", "torque_limit", "direction",
+                                         TORQUE_LIMIT_MODES),
                    study=c.text(table, "study", "study"),
                    description=c.text(table, "description", "description"))
 
@@ -279,6 +291,11 @@ class ReferencesSection:
 
     def check(self, run: RunSection) -> None:
         check_attitude(self.attitude, run.Ts)
+        if run.cascade and self.attitude:
+            axis = sorted(self.attitude)[0]
+            raise ScenarioError("an attitude reference is ignored with cascade = true (the velocity "
+                                "controller makes the attitude reference); drop it or set cascade = "
+                                "false", key=f"attitude.{axis}")
         _frozen(self, "velocity_keyframes", "velocity")
         if self.velocity_keyframes:
             _argument(R.velocity_profile, "velocity", np.zeros(1), self.velocity_keyframes)

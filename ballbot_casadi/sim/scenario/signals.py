@@ -51,6 +51,8 @@ SIGNAL_KEYS: Mapping[str, tuple[SignalKey, ...]] = {
              SignalKey("phase_rad", "phase_rad"), _OFFSET),
     "step": (_AMP, SignalKey("t_step", "t_step_s", lo=0.0), SignalKey("rise_time", "rise_time_s", lo=0.0),
              _OFFSET),
+    "ramp": (_AMP, SignalKey("t_start", "t_start_s", lo=0.0), SignalKey("rate", "rate_deg_s", True, 0.0, open=True),
+             _OFFSET),
     "chirp": (_AMP, SignalKey("f0_hz", "f0_hz", True, 0.0, frequency=True),
               SignalKey("f1_hz", "f1_hz", True, 0.0, frequency=True),
               SignalKey("duration", "sweep_s", True, 0.0, open=True), _OFFSET),
@@ -137,6 +139,9 @@ def make_signal(spec: Mapping[str, Any], t: np.ndarray) -> R.Signal:
                       d(spec.get("offset_deg", 0.0)))
     if kind == "step":
         return R.step(t, d(spec["amplitude_deg"]), spec.get("t_step", 0.0), spec.get("rise_time", 0.0),
+                      d(spec.get("offset_deg", 0.0)))
+    if kind == "ramp":
+        return R.ramp(t, d(spec["amplitude_deg"]), spec.get("t_start", 0.0), d(spec["rate"]),
                       d(spec.get("offset_deg", 0.0)))
     return R.chirp(t, d(spec["amplitude_deg"]), spec["f0_hz"], spec["f1_hz"], spec["duration"],
                    d(spec.get("offset_deg", 0.0)))
