@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.params import load_params
+from ballbot_casadi.control import BALANCE_CONTROLLERS
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.scenario import ESTIMATOR_CHOICES, FEEDFORWARD_MODES
 from ballbot_casadi.studies import chirp as chirp_study
@@ -88,7 +89,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, "all"])
     p.add_argument("--list", action="store_true", help="list the studies and shipped scenario files")
-    p.add_argument("--controller", choices=CONTROLLERS, default="flc")
+    p.add_argument("--controller", choices=tuple(BALANCE_CONTROLLERS), default="flc",
+                   help=f"balance controller of the runs (default flc; 'all' runs "
+                        f"{' and '.join(CONTROLLERS)})")
     p.add_argument("--params", metavar="FILE", help="parameter TOML file: another robot, known to the controller")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change a scenario-file key of every run, e.g. duration_s=20 or "

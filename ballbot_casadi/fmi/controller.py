@@ -253,6 +253,8 @@ def initial_controller_state(inp: Mapping[str, Any], layout: Layout, estimator: 
     parts = {"z": inp["z0"], **{f: e0[E[f]] for f in E.fields}}
     if "obs" in layout.fields:
         parts["obs"] = com_observer_initial_state(inp["x0"], inp["p_ctrl"])
+    if "bal" in layout.fields:
+        parts["bal"] = np.zeros(layout.size_of("bal"))  # the balance controller's own state
     try:
         return layout.pack(parts)
     except ValueError as e:

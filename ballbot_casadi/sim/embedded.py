@@ -67,7 +67,7 @@ from ballbot_casadi.estimation import (
     make_vekf,
     make_vukf,
 )
-from ballbot_casadi.estimation.com_observer import make_com_observer
+from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_observer
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.model.sensors import make_encoders, make_gyro_bias_step, make_imu
 from ballbot_casadi.sim.period import controller_part
@@ -165,20 +165,24 @@ def estimator_layout(estimator: str) -> Layout:
                                       ("pos", 2)])
 
 
-def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0) -> Layout:
+def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0,
+                      n_bal: int = 0) -> Layout:
     """Layout of the embedded software's state ``c``: velocity controller ``z``, then the
     filters, then (``n_obs > 0``) the COM observer's state ``obs``, then (``n_guide > 0``)
-    the guidance block's state ``guide``."""
+    the guidance block's state ``guide``, then (``n_bal > 0``) the balance controller's
+    own state ``bal``."""
     e = estimator_layout(estimator)
     z = VELOCITY_CONTROLLER_STATE if nz == VELOCITY_CONTROLLER_STATE.size else nz
     return Layout("controller state c", [
         ("z", z), *((f, e.part(f) if f in ("xa", "xv") else e.size_of(f)) for f in e.fields),
-        *((("obs", n_obs),) if n_obs else ()), *((("guide", n_guide),) if n_guide else ())])
+        *((("obs", n_obs),) if n_obs else ()), *((("guide", n_guide),) if n_guide else ()),
+        *((("bal", n_bal),) if n_bal else ())])
 
 
 def software_layout(embedded: ca.Function, estimator: str) -> Layout:
     """The controller-state layout of an embedded-software Function (with the COM
-    observer's state ``obs`` last when the Function has the observer's inputs).
+    observer's state ``obs`` when the Function has the observer's inputs, and the balance
+    controller's own state ``bal`` last: the rest of the state).
 
     Raises
     ------
@@ -187,11 +191,12 @@ def software_layout(embedded: ca.Function, estimator: str) -> Layout:
     """
     has_obs = OBSERVER_CONSTANTS[0] in embedded.name_in()
     base = controller_layout(estimator, VELOCITY_NZ)
-    n_obs = embedded.size1_in(0) - base.size
-    if n_obs < 0 or (n_obs > 0) != has_obs:
+    n_obs = COM_OBSERVER_STATE.size if has_obs else 0
+    n_bal = embedded.size1_in(0) - base.size - n_obs
+    if n_bal < 0:
         raise BuildError(f"{embedded.name()}: state of {embedded.size1_in(0)} entries does not "
                          f"match the layout {base}")
-    return controller_layout(estimator, VELOCITY_NZ, n_obs)
+    return controller_layout(estimator, VELOCITY_NZ, n_obs, n_bal=n_bal)
 
 
 def _drop(y: Any, ok: Any) -> Any:
@@ -243,7 +248,8 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     blocks = PeriodBlocks(balance, velocity, observer)
     NP = len(PARAM_NAMES)
     Z = controller_state(blocks, NP)
-    C = controller_layout(est.name, Z.size_of("z"), Z.size_of("obs") if Z.has("obs") else 0)
+    C = controller_layout(est.name, Z.size_of("z"), *(Z.size_of(f) if Z.has(f) else 0
+                                                      for f in ("obs", "guide", "bal")))
     na = int(round(np.sqrt(C.size_of("Pa"))))
     nv = int(round(np.sqrt(C.size_of("Pv"))))
     ports = embedded_ports(blocks, NP, C, MEAS.size, {"Qa": 36, "Ra": 36, "Qv": nv * nv, "Rv": 36})
