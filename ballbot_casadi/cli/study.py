@@ -17,8 +17,10 @@ from ballbot_casadi.studies.registry import (
     parse_overrides,
     shipped_scenarios,
 )
+from ballbot_casadi.studies.extra import EXTRA_DESCRIPTIONS, EXTRA_STUDIES, run_extra_study
 from ballbot_casadi.studies.study import (
     CONTROLLERS,
+    DEFAULT_OUT,
     OWNED_OUTPUTS,
     format_summary,
     run_all,
@@ -33,6 +35,7 @@ def list_text() -> str:
     lines = ["studies (ballbot study NAME):"]
     lines += [f"  {n:12s} {s.description}  [files: {', '.join(f + '.toml' for f in s.files)}]"
               for n, s in STUDIES.items()]
+    lines += [f"  {n:12s} {d}" for n, d in EXTRA_DESCRIPTIONS.items()]
     lines.append("shipped scenario files (copy one, edit it, run it with `ballbot simulate FILE`):")
     lines += [f"  {p}" for p in shipped_scenarios().values()]
     return "\n".join(lines)
@@ -43,7 +46,10 @@ def _cmd_study(args: argparse.Namespace) -> int:
         print(list_text())
         return 0
     if args.name is None:
-        raise ScenarioError("give a study name (or --list); studies: " + ", ".join(STUDY_NAMES))
+        raise ScenarioError("give a study name (or --list); studies: "
+                            + ", ".join([*STUDY_NAMES, *EXTRA_STUDIES]))
+    if args.name in EXTRA_STUDIES:
+        return _cmd_extra(args)
     if args.params is not None:
         check_input_file(args.params, "--params")
     if args.out:
@@ -78,6 +84,22 @@ def _cmd_study(args: argparse.Namespace) -> int:
     return 0 if result["passed"] else 1
 
 
+def _cmd_extra(args: argparse.Namespace) -> int:
+    """The studies of :mod:`ballbot_casadi.studies.extra` (no scenario options)."""
+    given = [o for o, v in (("--set", args.set), ("--params", args.params),
+                            ("--estimator", args.estimator), ("--seed", args.seed),
+                            ("--feedforward", args.feedforward)) if v]
+    if given:
+        raise ScenarioError(f"{', '.join(given)} do not apply to the {args.name} study")
+    out = Path(args.out) if args.out else DEFAULT_OUT / args.name
+    if args.out:
+        check_output_dir(args.out, "--out", owned=OWNED_OUTPUTS)
+    m = run_extra_study(args.name, out, plot=not args.no_plot)
+    if not args.quiet:
+        print(f"{args.name}: {'PASS' if m['passed'] else 'FAIL'}  ({out / 'report.md'})")
+    return 0 if m["passed"] else 1
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``ballbot study <name>``."""
     p = sub.add_parser(
@@ -87,7 +109,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         + "; 'all' runs every study for flc and smc. Each writes metrics.json, run.npz, plots and "
         "report.md (specs with the thesis's value beside ours; thesis §7.1 limits reported).",
     )
-    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, "all"])
+    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, *EXTRA_STUDIES, "all"])
     p.add_argument("--list", action="store_true", help="list the studies and shipped scenario files")
     p.add_argument("--controller", choices=tuple(BALANCE_CONTROLLERS), default="flc",
                    help=f"balance controller of the runs (default flc; 'all' runs "
