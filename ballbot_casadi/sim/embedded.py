@@ -264,9 +264,12 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                        Q=ca.reshape(sym["Qa"], 6, 6), R=ca.reshape(sym["Ra"], 6, 6), dt=Ts, p=p_est,
                        a=ca.vertcat(xv_prev[XV["a"]], 0))
     xa = att["xhat_next"]
+    # a velocity filter with the body-rate covariance input gets the attitude filter's
+    # (the rate is the last 3 x 3 block of its covariance)
+    rate = {"P_rate": att["P_next"][-3:, -3:]} if "P_rate" in est.velocity.name_in() else {}
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
                        att=xa, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
-                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est)
+                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate)
     xv = vel["xhat_next"]
     # the velocity filter's horizontal accelerometer bias is the attitude filter's slow
     # tilt error (velocity-aided tilt, estimation.tilt_aiding): the controllers read q_c
