@@ -11,8 +11,11 @@ the true state and with the QUKF + VUKF (noisy sensors, seed 0):
 
 Each run is the standing robot (velocity cascade on, zero velocity reference), the
 disturbance at ``t = 0.5 s``, 4 s in all.  *Recovered* means the run stays finite and,
-over its last 0.5 s, the tilt is within 0.5 deg and the tilt rate within 2 deg/s of
-upright and the heading within the §7.1 band of ±5 deg.  The thesis's FLC +
+over its last 0.5 s, is back to the controller's own undisturbed behaviour: the tilt
+within ``max(0.5 deg, 2x)`` and the tilt rate within ``max(2 deg/s, 2x)`` of what the
+undisturbed run (same controller, estimator and noise) shows there, and the heading
+within the §7.1 band of ±5 deg (with the UKFs the sensor noise alone keeps the tilt rate
+at 2-12 deg/s, so fixed thresholds would call every run unrecovered).  The thesis's FLC +
 disturbance-observer extension is not built (see the report).  Writes ``metrics.json``,
 ``report.md`` and ``envelope.png`` (polar plot of the push envelope).
 """
@@ -36,7 +39,8 @@ from ballbot_casadi.core.layout import STATE  # noqa: E402
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario  # noqa: E402
 from ballbot_casadi.sim.scenario import Scenario  # noqa: E402
 
-__all__ = ["ENVELOPE_CONTROLLERS", "PUSH_DIRECTIONS", "recovered", "run_envelope_study",
+__all__ = ["ENVELOPE_CONTROLLERS", "PUSH_DIRECTIONS", "final_motion", "recovered",
+           "run_envelope_study",
            "envelope_report_lines"]
 
 #: Balance controllers of the study.
@@ -48,19 +52,27 @@ _T_DIST, _DURATION, _PULSE = 0.5, 4.0, 0.5
 _FINAL_S, _TILT_OK, _RATE_OK, _YAW_OK = 0.5, 0.5, 2.0, 5.0
 
 
-def recovered(log: Any) -> bool:
-    """The recovery predicate of the study (module docstring) on a run's log."""
+def final_motion(log: Any) -> tuple[float, float, float]:
+    """Largest tilt (deg), tilt rate (deg/s) and |heading| (deg) over the run's last
+    0.5 s (inf when the run is not finite)."""
     x = np.asarray(log["state"], float)
     if not np.all(np.isfinite(x)):
-        return False
+        return math.inf, math.inf, math.inf
     t = np.asarray(log["time"], float)
     late = t >= t[-1] - _FINAL_S
-    rpy = np.degrees(Q.to_rpy(x[late][:, STATE["q"]]))
     q, dq = x[late][:, STATE["q"]], x[late][:, STATE["dq"]]
     w = np.degrees([2 * Q.vee(Q.mul(Q.conj(a), b)) for a, b in zip(q, dq)])
     tilt = np.degrees(np.arccos(np.clip(1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2), -1, 1)))
-    return bool(tilt.max() <= _TILT_OK and np.linalg.norm(w[:, :2], axis=1).max() <= _RATE_OK
-                and np.abs(rpy[:, 2]).max() <= _YAW_OK)
+    yaw = np.degrees(Q.to_rpy(q)[:, 2])
+    return float(tilt.max()), float(np.linalg.norm(w[:, :2], axis=1).max()), float(np.abs(yaw).max())
+
+
+def recovered(log: Any, base: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> bool:
+    """The recovery predicate of the study (module docstring) on a run's log; ``base`` is
+    :func:`final_motion` of the undisturbed run."""
+    tilt, rate, yaw = final_motion(log)
+    return bool(tilt <= max(_TILT_OK, 2 * base[0]) and rate <= max(_RATE_OK, 2 * base[1])
+                and yaw <= _YAW_OK)
 
 
 def _scenario(controller: str, estimator: str, k_bal: Sequence[float], push_deg=(0.0, 0.0),
@@ -84,15 +96,18 @@ def run_envelope_study(out: Path, plot: bool = True, controllers: Sequence[str] 
         table[est] = {}
         for c in controllers:
             k_bal = Scenario(name="k", controller=c, duration=0.01).inputs()["k_bal"]
-            row: dict[str, Any] = {}
+            base = final_motion(run_scenario(_scenario(c, est, k_bal), sim))
+            row: dict[str, Any] = {"undisturbed_final_tilt_deg": base[0],
+                                   "undisturbed_final_tilt_rate_deg_s": base[1]}
             for d, (u, v) in PUSH_DIRECTIONS.items():
                 def ok(a: float, u=u, v=v) -> bool:
-                    return recovered(run_scenario(_scenario(c, est, k_bal, (a * u, a * v)), sim))
+                    return recovered(run_scenario(_scenario(c, est, k_bal, (a * u, a * v)), sim),
+                                     base)
                 r = largest_recovered(ok, 0.0, push_max, push_tol)
                 row[f"push_{d}_deg"] = r.value
                 row[f"push_{d}_bracketed"] = r.bracketed
             r = largest_recovered(lambda a: recovered(run_scenario(
-                _scenario(c, est, k_bal, torque=a), sim)), 0.0, torque_max, torque_tol)
+                _scenario(c, est, k_bal, torque=a), sim), base), 0.0, torque_max, torque_tol)
             row["torque_step_nm"] = r.value
             row["torque_bracketed"] = r.bracketed
             table[est][c] = row
@@ -129,9 +144,9 @@ def envelope_report_lines(m: dict[str, Any]) -> list[str]:
     lines = ["# Push-recovery envelope per balance controller", "",
              f"Standing robot (velocity cascade), disturbance at t = {m['disturbance_time_s']} s, "
              f"{m['duration_s']} s runs; recovered = finite and, over the last "
-             f"{m['recovery']['final_window_s']} s, tilt <= {m['recovery']['tilt_deg']} deg, "
-             f"tilt rate <= {m['recovery']['tilt_rate_deg_s']} deg/s, heading within "
-             f"±{m['recovery']['heading_deg']} deg.  Bisection to {m['push_tol_deg']} deg / "
+             f"{m['recovery']['final_window_s']} s, tilt <= max({m['recovery']['tilt_deg']} deg, "
+             f"2x undisturbed), tilt rate <= max({m['recovery']['tilt_rate_deg_s']} deg/s, 2x "
+             f"undisturbed), heading within ±{m['recovery']['heading_deg']} deg.  Bisection to {m['push_tol_deg']} deg / "
              f"{m['torque_tol_nm']} N m (the largest value verified recovered; '>=' when the "
              "search's upper end was recovered).", ""]
     for est, rows in m["table"].items():
