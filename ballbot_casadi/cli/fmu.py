@@ -9,6 +9,7 @@ from pathlib import Path
 from fmpy import dump
 from fmpy.validation import validate_fmu
 
+from ballbot_casadi.control import BALANCE_CONTROLLERS
 from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.errors import PathError
@@ -141,7 +142,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     v.set_defaults(func=_cmd_validate)
     c = fsub.add_parser("build-controller", help="build BallbotController.fmu (the embedded "
                         "software; other controller/estimator pairs as separate FMUs)")
-    c.add_argument("--controller", default="flc", help="balance controller: flc (default), smc")
+    c.add_argument("--controller", default="flc", help="balance controller: "
+                   + ", ".join(f"{n} (default)" if n == "flc" else n for n in BALANCE_CONTROLLERS))
     c.add_argument("--estimator", default="ukf", help="estimators: ukf (default), ekf")
     c.add_argument("--out", default=None, help="output directory (default build/fmu, FMI 3.0: "
                    "build/fmu3)")

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ballbot_casadi.core.files import check_input_file, check_output_dir
 from ballbot_casadi.core.params import load_params
+from ballbot_casadi.control import BALANCE_CONTROLLERS
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.scenario import ESTIMATOR_CHOICES, FEEDFORWARD_MODES, TORQUE_LIMIT_MODES
 from ballbot_casadi.studies import chirp as chirp_study
@@ -16,8 +17,10 @@ from ballbot_casadi.studies.registry import (
     parse_overrides,
     shipped_scenarios,
 )
+from ballbot_casadi.studies.extra import EXTRA_DESCRIPTIONS, EXTRA_STUDIES, run_extra_study
 from ballbot_casadi.studies.study import (
     CONTROLLERS,
+    DEFAULT_OUT,
     OWNED_OUTPUTS,
     format_summary,
     run_all,
@@ -33,6 +36,7 @@ def list_text() -> str:
     lines = ["studies (ballbot study NAME):"]
     lines += [f"  {n:12s} {s.description}  [files: {', '.join(f + '.toml' for f in s.files)}]"
               for n, s in STUDIES.items()]
+    lines += [f"  {n:12s} {d}" for n, d in EXTRA_DESCRIPTIONS.items()]
     lines.append("shipped scenario files (copy one, edit it, run it with `ballbot simulate FILE`):")
     lines += [f"  {p}" for p in shipped_scenarios().values()]
     return "\n".join(lines)
@@ -43,7 +47,10 @@ def _cmd_study(args: argparse.Namespace) -> int:
         print(list_text())
         return 0
     if args.name is None:
-        raise ScenarioError("give a study name (or --list); studies: " + ", ".join(STUDY_NAMES))
+        raise ScenarioError("give a study name (or --list); studies: "
+                            + ", ".join([*STUDY_NAMES, *EXTRA_STUDIES]))
+    if args.name in EXTRA_STUDIES:
+        return _cmd_extra(args)
     if args.params is not None:
         check_input_file(args.params, "--params")
     if args.out:
@@ -88,6 +95,22 @@ def _cmd_study(args: argparse.Namespace) -> int:
     return 0 if result["passed"] else 1
 
 
+def _cmd_extra(args: argparse.Namespace) -> int:
+    """The studies of :mod:`ballbot_casadi.studies.extra` (no scenario options)."""
+    given = [o for o, v in (("--set", args.set), ("--params", args.params),
+                            ("--estimator", args.estimator), ("--seed", args.seed),
+                            ("--feedforward", args.feedforward)) if v]
+    if given:
+        raise ScenarioError(f"{', '.join(given)} do not apply to the {args.name} study")
+    out = Path(args.out) if args.out else DEFAULT_OUT / args.name
+    if args.out:
+        check_output_dir(args.out, "--out", owned=OWNED_OUTPUTS)
+    m = run_extra_study(args.name, out, plot=not args.no_plot)
+    if not args.quiet:
+        print(f"{args.name}: {'PASS' if m['passed'] else 'FAIL'}  ({out / 'report.md'})")
+    return 0 if m["passed"] else 1
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``ballbot study <name>``."""
     p = sub.add_parser(
@@ -98,9 +121,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "beside ours (from the studies' metrics.json, running the missing ones). Each writes metrics.json, run.npz, plots and "
         "report.md (specs with the thesis's value beside ours; thesis §7.1 limits reported).",
     )
-    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, "all", "thesis"])
+    p.add_argument("name", nargs="?", choices=[*STUDY_NAMES, *EXTRA_STUDIES, "all", "thesis"])
     p.add_argument("--list", action="store_true", help="list the studies and shipped scenario files")
-    p.add_argument("--controller", choices=CONTROLLERS, default="flc")
+    p.add_argument("--controller", choices=tuple(BALANCE_CONTROLLERS), default="flc",
+                   help=f"balance controller of the runs (default flc; 'all' runs "
+                        f"{' and '.join(CONTROLLERS)})")
     p.add_argument("--params", metavar="FILE", help="parameter TOML file: another robot, known to the controller")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change a scenario-file key of every run, e.g. duration_s=20 or "

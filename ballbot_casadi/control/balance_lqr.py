@@ -1,6 +1,6 @@
 """Balance LQR: the linear baseline balance controller (the predecessor's design, thesis §1.2).
 
-``ballbot_balance_lqr(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)``, the interface of
+``ballbot_lqr(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)``, the interface of
 :func:`~ballbot_casadi.control.flc.make_flc`.
 
 Control law
@@ -125,7 +125,7 @@ def design_balance_lqr(linear: Any, Ts: float = TS_CONTROL, Qw: Any = None,
 
 
 def make_balance_lqr(affine: ca.Function) -> ca.Function:
-    """Build the balance LQR ``ballbot_balance_lqr`` (module docstring).
+    """Build the balance LQR ``ballbot_lqr`` (module docstring).
 
     Parameters
     ----------
@@ -135,7 +135,7 @@ def make_balance_lqr(affine: ca.Function) -> ca.Function:
     Returns
     -------
     casadi.Function
-        ``ballbot_balance_lqr(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[18]) ->
+        ``ballbot_lqr(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[18]) ->
         (tau[3], diag[12])``; ``tau`` unsaturated.
     """
     _, np_ = check_affine(affine)
@@ -148,5 +148,5 @@ def make_balance_lqr(affine: ca.Function) -> ca.Function:
     tau = -ca.mtimes(K, ca.vertcat(o["y"], o["dy"]))
     v = o["D"] + ca.mtimes(o["E"], tau)
     diag = ca.vertcat(0, 1, o["sigma"], o["y"], o["dy"], v)
-    return ca.Function("ballbot_balance_lqr", [x, q_ref, dq_ref, ddq_ref, p, k], [tau, diag],
+    return ca.Function("ballbot_lqr", [x, q_ref, dq_ref, ddq_ref, p, k], [tau, diag],
                        ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"], ["tau", "diag"])

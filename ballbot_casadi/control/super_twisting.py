@@ -1,6 +1,6 @@
 """Super-twisting (second-order) sliding-mode balance controller (thesis ch. 11 future work).
 
-``ballbot_super_twisting(x, q_ref, dq_ref, ddq_ref, p, k, zb) -> (tau, diag, zb_next)``:
+``ballbot_sta(x, q_ref, dq_ref, ddq_ref, p, k, zb) -> (tau, diag, zb_next)``:
 the interface of :func:`~ballbot_casadi.control.flc.make_flc` plus a *balance-controller
 state* ``zb`` (3, the integral term of the algorithm) as the last input and its next
 value as the last output.
@@ -59,16 +59,14 @@ settles within 1 s (tests/control/test_super_twisting.py).  The V2019 tilt slope
 would ask the tilt rate ``15 x tilt`` on the manifold, i.e. more than 20 deg/s unless
 the reaching is too slow to settle in 1 s.
 
-State slot (the smallest extension of the period)
--------------------------------------------------
-The balance controllers of :mod:`ballbot_casadi.sim.period` are stateless.  To run this
-one, the period has to carry ``zb`` (3 floats, initial value zeros) exactly as it
-carries the COM observer's state: append it to the controller state ``z`` (after the
-velocity controller's part), pass it as the 7th argument of the balance controller
-and store the 3rd output as its next value; ``check_blocks`` has to accept
-``n_in == 7, n_out == 3`` with ``numel_in(6) == numel_out(2)``.  In balance-only mode
-(``cascade = 0``) ``zb`` must still be advanced (it belongs to the balance controller,
-not to the velocity loop).  ``h`` must equal the period's ``Ts``.
+State slot
+----------
+The period carries ``zb`` (3 floats, initial value zeros) as the last field ``bal`` of
+the controller state (:mod:`ballbot_casadi.sim.ports`, the balance-controller state
+slot), passes it as the 7th argument and stores the 3rd output as its next value, in
+balance-only mode (``cascade = 0``) too: it belongs to the balance controller, not to the
+velocity loop.  ``h`` must equal the period's ``Ts`` (the default gains of
+:func:`~ballbot_casadi.control.default_balance_gains` set it).
 """
 
 from __future__ import annotations
@@ -185,7 +183,7 @@ def make_super_twisting(
     Returns
     -------
     casadi.Function
-        ``ballbot_super_twisting(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[10],
+        ``ballbot_sta(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[10],
         zb[3]) -> (tau[3], diag[12], zb_next[3])``; ``diag`` as the FLC's
         (:data:`~ballbot_casadi.control.flc.DIAG_NAMES`).
     """
@@ -204,7 +202,7 @@ def make_super_twisting(
     )  # (8.26)
     diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
     return ca.Function(
-        "ballbot_super_twisting",
+        "ballbot_sta",
         [x, q_ref, dq_ref, ddq_ref, p, k, zb],
         [tau, diag, zb_next],
         ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k", "zb"],

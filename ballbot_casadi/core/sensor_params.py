@@ -1,8 +1,9 @@
 """Sensor parameters (thesis §3.1) as an immutable, validated record.
 
-Every sensor parameter is a 3-vector: one entry per IMU axis (x, y, z of the IMU
-frame, which is the body frame unless ``imu_misalignment`` rotates it) or per wheel
-encoder (wheels 0, 1, 2 in the thesis wheel order).  The flat vector ``s``
+Every IMU and encoder parameter is a 3-vector: one entry per IMU axis (x, y, z of the
+IMU frame, which is the body frame unless ``imu_misalignment`` rotates it) or per wheel
+encoder (wheels 0, 1, 2 in the thesis wheel order); the heading sensor's parameters
+have one entry (``yaw``).  The flat vector ``s``
 (:meth:`SensorParams.to_vector`, order of :data:`SENSOR_VECTOR_NAMES`) is a runtime
 input of the noisy sensor Functions of :mod:`ballbot_casadi.model.sensors`, like the
 model parameter vector ``p``.
@@ -22,6 +23,9 @@ gyro_bias_rw        rad/s/sqrt(s)         [2e-5, 2e-5, 2e-5]                    
 imu_position        m                     [0, 0, 0]                               ball centre (5.18)
 imu_misalignment    rad                   [0, 0, 0]                               calibrated (3.6)
 enc_noise_var       tick^2                [1/9, 1/9, 1/9]                         (3.16)-(3.17)
+heading_noise_var   rad^2                 [(0.2 deg)^2] = [1.2185e-5]             see below
+heading_bias        rad                   [0]                                     see below
+heading_rate        Hz                    [10]                                    see below
 ==================  ====================  ======================================  ==================
 
 * The noise covariances (3.4) and (3.8) were measured on an MPU-9250 (thesis §3.1,
@@ -51,6 +55,14 @@ enc_noise_var       tick^2                [1/9, 1/9, 1/9]                       
   (``ballbot_encoders``) quantise instead of adding this noise; their actual error
   variance is about 1/6 tick^2 when the wheels turn through many ticks per sample.
 * ``n_ticks`` (encoder ticks per revolution) stays a model parameter (App. A).
+* The **heading sensor** is not part of the thesis's robot (§3.1; its ch. 11 names the
+  missing heading correction): an absolute yaw reading (ZYX yaw of the body in {K}, e.g.
+  a dual-antenna GNSS compass or an external optical tracker) sampled at
+  ``heading_rate`` (0 = no heading sensor) with white noise of variance
+  ``heading_noise_var`` and a constant offset ``heading_bias``.  0.2 deg standard
+  deviation at 10 Hz is an order-of-magnitude value of a dual-antenna GNSS heading with
+  a 2 m baseline or an optical tracker (a magnetometer indoors is far worse and biased
+  by the motors).
 """
 
 from __future__ import annotations
@@ -77,6 +89,7 @@ __all__ = [
     "SENSOR_PARAM_NAMES",
     "SENSOR_VECTOR_NAMES",
     "NS",
+    "SENSOR_SLICES",
     "SensorParams",
     "SensorView",
     "load_sensor_params",
@@ -84,6 +97,7 @@ __all__ = [
 
 _XYZ = ("x", "y", "z")
 _WHEELS = ("0", "1", "2")
+_YAW = ("yaw",)
 
 # name: (unit, description, rule key of params.PARAM_RULES, component labels)
 SENSOR_PARAM_INFO: Mapping[str, tuple[str, str, str, tuple[str, ...]]] = MappingProxyType({
@@ -103,6 +117,9 @@ SENSOR_PARAM_INFO: Mapping[str, tuple[str, str, str, tuple[str, ...]]] = Mapping
                          "misalignment", _XYZ),
     "enc_noise_var": ("tick2", "encoder count variance per sample, diag of Sigma_enc (3.17)",
                       "nonneg", _WHEELS),
+    "heading_noise_var": ("rad2", "heading-sensor white-noise variance", "nonneg", _YAW),
+    "heading_bias": ("rad", "heading-sensor constant offset", "any", _YAW),
+    "heading_rate": ("Hz", "heading-sensor sample rate (0: no heading sensor)", "nonneg", _YAW),
 })
 
 #: Sensor parameter names (each a 3-vector), in vector order.
@@ -115,6 +132,12 @@ SENSOR_VECTOR_NAMES: tuple[str, ...] = tuple(
 
 #: Length of the sensor parameter vector ``s``.
 NS = len(SENSOR_VECTOR_NAMES)
+
+#: Position of each sensor parameter in ``s`` (a slice over its components).
+SENSOR_SLICES: Mapping[str, slice] = MappingProxyType({
+    name: slice(SENSOR_VECTOR_NAMES.index(f"{name}_{info[3][0]}"),
+                SENSOR_VECTOR_NAMES.index(f"{name}_{info[3][0]}") + len(info[3]))
+    for name, info in SENSOR_PARAM_INFO.items()})
 
 
 def _to_triple(name: str, value: Any) -> tuple[float, float, float]:
@@ -139,8 +162,8 @@ def _to_triple(name: str, value: Any) -> tuple[float, float, float]:
 class SensorParams:
     """Immutable, validated sensor parameter set (thesis §3.1; SI units, radians).
 
-    Build it with :func:`load_sensor_params`.  Each field is a tuple of 3 floats; see
-    the module docstring for units, defaults and sources.
+    Build it with :func:`load_sensor_params`.  Each field is a tuple of floats (3, or 1
+    for the heading sensor); see the module docstring for units, defaults and sources.
     """
 
     acc_noise_var: tuple[float, float, float]
@@ -153,6 +176,9 @@ class SensorParams:
     imu_position: tuple[float, float, float]
     imu_misalignment: tuple[float, float, float]
     enc_noise_var: tuple[float, float, float]
+    heading_noise_var: tuple[float]
+    heading_bias: tuple[float]
+    heading_rate: tuple[float]
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -167,8 +193,8 @@ class SensorParams:
         """Sensor parameter vector ``s`` (float64, length :data:`NS`)."""
         return np.array([v for n in SENSOR_PARAM_NAMES for v in getattr(self, n)], dtype=float)
 
-    def as_dict(self) -> dict[str, tuple[float, float, float]]:
-        """Plain ``{name: (v0, v1, v2)}`` dictionary in vector order."""
+    def as_dict(self) -> dict[str, tuple[float, ...]]:
+        """Plain ``{name: (v0, ...)}`` dictionary in vector order."""
         return {n: getattr(self, n) for n in SENSOR_PARAM_NAMES}
 
     def replace(self, **overrides: Any) -> "SensorParams":
@@ -182,7 +208,7 @@ class SensorParams:
         arr = np.asarray(s, dtype=float).reshape(-1)
         if arr.size != NS:
             raise ParameterError(f"sensor parameter vector has {arr.size} entries, expected {NS}")
-        return cls(**{n: arr[3 * i:3 * i + 3].tolist() for i, n in enumerate(SENSOR_PARAM_NAMES)})
+        return cls(**{n: arr[SENSOR_SLICES[n]].tolist() for n in SENSOR_PARAM_NAMES})
 
     @property
     def acc_noise_cov(self) -> np.ndarray:
@@ -251,9 +277,9 @@ def load_sensor_params(path: str | Path | None = None, **overrides: Any) -> Sens
 
 
 class SensorView:
-    """Attribute access to the 3-vectors of a sensor vector ``s`` (numpy or CasADi).
+    """Attribute access to the parameters of a sensor vector ``s`` (numpy or CasADi).
 
-    ``SensorView(s).acc_bias`` is ``s[3:6]``; used by the symbolic sensor models so that
+    ``SensorView(s).acc_bias`` is ``s[SENSOR_SLICES["acc_bias"]]``; used by the symbolic sensor models so that
     sensor parameters stay runtime inputs of the generated Functions.
     """
 
@@ -269,7 +295,7 @@ class SensorView:
 
     def __getattr__(self, name: str) -> Any:
         try:
-            i = SENSOR_PARAM_NAMES.index(name)
-        except ValueError:
+            sl = SENSOR_SLICES[name]
+        except KeyError:
             raise AttributeError(f"unknown sensor parameter {name!r}") from None
-        return self._s[3 * i:3 * i + 3]
+        return self._s[sl]

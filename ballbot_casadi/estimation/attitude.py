@@ -171,7 +171,7 @@ def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: b
         normalised square, ``n_valid`` the number of valid components, ``n_repair`` the
         number of covariance repairs, ``P_att = P_next[:3, :3]`` (the VUKF input).
     """
-    model = FilterModel(attitude(mean_iterations, renormalise), make_attitude_process(),
+    model = FilterModel(attitude(mean_iterations, renormalise=renormalise), make_attitude_process(),
                         make_attitude_measurement(), noise="pre")
     args = xhat, P, z, Qn, R, dt, p = _inputs(6)
     args, u = _acceleration(args, p, compensate_acceleration)

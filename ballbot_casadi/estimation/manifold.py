@@ -75,32 +75,41 @@ def euclidean(n: int) -> Manifold:
     return Manifold(f"R{n}", n, n, oplus, ominus, _weighted_sum_mean(n))
 
 
-def _normalise_q() -> ca.Function:
-    """``[q, omega] -> [q / |q|, omega]``: the forced renormalisation of the quaternion."""
-    x = ca.SX.sym("x", 7)
+def _normalise_q(nx: int = 7) -> ca.Function:
+    """``[q, v] -> [q / |q|, v]``: the forced renormalisation of the quaternion."""
+    x = ca.SX.sym("x", nx)
     q = x[:4]
-    return ca.Function("normalise_q", [x], [ca.vertcat(q / ca.norm_2(q), x[4:])], ["x"], ["x_unit"])
+    return ca.Function("normalise_q" + ("" if nx == 7 else f"_{nx}"), [x],
+                       [ca.vertcat(q / ca.norm_2(q), x[4:])], ["x"], ["x_unit"])
 
 
-def attitude(mean_iterations: int = MEAN_ITERATIONS, renormalise: bool = False) -> Manifold:
-    """``S^3 x R^3`` of the QUKF state ``[q, omega]`` (thesis 4.1, 4.10-4.12, 4.19-4.25).
+def attitude(mean_iterations: int = MEAN_ITERATIONS, n_vec: int = 3,
+             renormalise: bool = False) -> Manifold:
+    """``S^3 x R^n_vec`` of the QUKF state ``[q, omega]`` (thesis 4.1, 4.10-4.12,
+    4.19-4.25; ``n_vec = 3``), or ``[q, omega, b]`` with further vector entries (the
+    heading-aided filter's gyroscope bias, :mod:`~ballbot_casadi.estimation.heading`).
 
     ``renormalise`` adds the forced renormalisation of ``q`` after every correction (the
     variant the thesis's conclusions discuss); the QUKF itself has none."""
-    x, d, y = ca.SX.sym("x", 7), ca.SX.sym("d", 6), ca.SX.sym("x_ref", 7)
+    if n_vec < 0:
+        raise ShapeError(f"attitude manifold needs n_vec >= 0, got {n_vec}")
+    nx, nd = 4 + n_vec, 3 + n_vec
+    tag = "" if n_vec == 3 else f"_{n_vec}"
+    x, d, y = ca.SX.sym("x", nx), ca.SX.sym("d", nd), ca.SX.sym("x_ref", nx)
     x_next = ca.vertcat(Q.mul(x[:4], Q.from_rotation_vector(d[:3])), x[4:] + d[3:])
-    oplus = ca.Function("oplus_att", [x, d], [x_next], ["x", "d"], ["x_next"], {"cse": True})
+    oplus = ca.Function(f"oplus_att{tag}", [x, d], [x_next], ["x", "d"], ["x_next"], {"cse": True})
     dev = ca.vertcat(Q.to_rotation_vector(Q.mul(Q.conj(y[:4]), x[:4])), x[4:] - y[4:])
-    ominus = ca.Function("ominus_att", [x, y], [dev], ["x", "x_ref"], ["d"], {"cse": True})
+    ominus = ca.Function(f"ominus_att{tag}", [x, y], [dev], ["x", "x_ref"], ["d"], {"cse": True})
 
     def mean(n: int) -> ca.Function:
         qmean = make_karcher_mean(n, mean_iterations)
-        X, w, x0 = ca.SX.sym("X", 7, n), ca.SX.sym("w", n), ca.SX.sym("x_init", 7)
+        X, w, x0 = ca.SX.sym("X", nx, n), ca.SX.sym("w", n), ca.SX.sym("x_init", nx)
         xm = ca.vertcat(qmean(X[:4, :], w, x0[:4]), ca.mtimes(X[4:, :], w))
-        return ca.Function(f"mean_att{n}", [X, w, x0], [xm], ["X", "w", "x_init"], ["x_mean"])
+        return ca.Function(f"mean_att{tag}{n}", [X, w, x0], [xm], ["X", "w", "x_init"],
+                           ["x_mean"])
 
-    return Manifold("S3xR3" + ("/normalised" if renormalise else ""), 7, 6, oplus, ominus, mean,
-                    _normalise_q() if renormalise else None)
+    return Manifold(f"S3xR{n_vec}" + ("/normalised" if renormalise else ""), nx, nd, oplus, ominus,
+                    mean, _normalise_q(nx) if renormalise else None)
 
 
 def attitude_additive() -> Manifold:

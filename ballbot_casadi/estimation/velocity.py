@@ -137,22 +137,44 @@ def make_velocity_model(wheel_speeds: ca.Function, midpoint: bool = False) -> Fi
     return FilterModel(euclidean(NX), process, measurement, "additive", noise)
 
 
-def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = False) -> ca.Function:
+def _encoder_rate_jacobian(wheel_speeds: ca.Function) -> ca.Function:
+    """``J_w = d enc / d omega`` (3 x 3): the encoder increments' sensitivity to the body
+    rate.  The wheel speeds are linear in ``(v, dq)`` at a fixed attitude, so ``J_w``
+    depends on ``q`` (and ``dt``, ``p``) only."""
+    att, dt, p = ca.MX.sym("att", 7), ca.MX.sym("dt"), ca.MX.sym("p", _NP)
+    w = ca.MX.sym("omega", 3)
+    q = att[:4]
+    dphi = wheel_speeds(ca.vertcat(0, 0, q, 0, 0, 0.5 * Q.mul(q, Q.hat(w))), p)
+    enc = ParamView(p).n_ticks / (2 * math.pi) * dt * dphi
+    J = ca.substitute(ca.jacobian(enc, w), w, att[4:7])
+    return ca.Function("enc_rate_jacobian", [att, dt, p], [J], ["att", "dt", "p"], ["J_w"])
+
+
+def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = False,
+           rate_covariance: bool = False) -> ca.Function:
     model = make_velocity_model(wheel_speeds, midpoint)
     args = (ca.MX.sym("xhat", NX), ca.MX.sym("P", NX, NX), ca.MX.sym("z", 6), ca.MX.sym("att", 7),
             ca.MX.sym("P_att", 3, 3), ca.MX.sym("Q", NX, NX), ca.MX.sym("R", 6, 6),
             ca.MX.sym("dt"), ca.MX.sym("p", _NP))
     xhat, P, z, att, P_att, Qn, R, dt, p = args
     u = ca.vertcat(att, ca.vec(0.5 * (P_att + P_att.T)))
+    names = list(INPUT_NAMES)
+    if rate_covariance:
+        P_rate = ca.MX.sym("P_rate", 3, 3)
+        args = (*args, P_rate)
+        names.append("P_rate")
+        Jw = _encoder_rate_jacobian(wheel_speeds)(att, dt, p)
+        R = R + ca.diagcat(ca.mtimes([Jw, 0.5 * (P_rate + P_rate.T), Jw.T]), ca.DM.zeros(3, 3))
     if kind == "ukf":
         out = ukf_step(model, xhat, P, z, u, Qn, R, dt, p, kappa=KAPPA)
     else:
         out = ekf_step(model, xhat, P, z, u, Qn, R, dt, p)
-    return ca.Function(name, list(args), [out[k] for k in OUTPUT_NAMES], list(INPUT_NAMES),
+    return ca.Function(name, list(args), [out[k] for k in OUTPUT_NAMES], names,
                        list(OUTPUT_NAMES))
 
 
-def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False) -> ca.Function:
+def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
+              rate_covariance: bool = False) -> ca.Function:
     """``ballbot_vukf``: one period of the velocity UKF (thesis 5.1-5.28).
 
     Parameters
@@ -163,6 +185,11 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False) -> ca.Function:
     midpoint
         Predict the encoder increments at the period's middle (see
         :func:`make_velocity_model`) instead of the thesis's end of period.
+    rate_covariance
+        Add a last input ``P_rate`` (3 x 3, the attitude filter's body-rate covariance):
+        the encoder prediction depends on the body rate through ``dq``, so
+        ``J_w P_rate J_w^T`` (``J_w = d enc / d omega``, AD) is added to the encoder block
+        of ``R``, as the attitude covariance is to the accelerometer's (5.27-5.28).
 
     Returns
     -------
@@ -173,7 +200,7 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False) -> ca.Function:
         non-finite component is not used); ``att = [q, omega]`` and ``P_att`` from the
         attitude filter; ``R`` without the attitude term (added inside).
     """
-    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint)
+    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, rate_covariance)
 
 
 def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False) -> ca.Function:

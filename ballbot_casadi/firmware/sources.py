@@ -31,14 +31,14 @@ from typing import Any, Mapping
 import casadi as ca
 import numpy as np
 
-from ballbot_casadi.control.velocity import VELOCITY_NZ
+
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.firmware.toolchain import PRECISIONS
 from ballbot_casadi.sim.embedded import (
     MEAS,
-    controller_layout,
     embedded_software,
     initial_controller_state,
+    software_layout,
 )
 from ballbot_casadi.sim.scenario import Scenario
 
@@ -135,8 +135,10 @@ def scenario_values(f: ca.Function, scenario: Scenario) -> FirmwareValues:
                              f"the scenario gives {v.size}")
         params[n] = v
     # the state at power-on: the Function the compiled mission and the controller FMU use
-    observer = f.size1_in(0) != controller_layout(scenario.estimator, VELOCITY_NZ).size
-    c0 = initial_controller_state(scenario.estimator, inp["x0"], inp["p_ctrl"], observer)
+    layout = software_layout(f, scenario.estimator)
+    observer = "obs" in layout.fields
+    n_bal = layout.size_of("bal") if "bal" in layout.fields else 0
+    c0 = initial_controller_state(scenario.estimator, inp["x0"], inp["p_ctrl"], observer, n_bal)
     if c0.size != f.size1_in(0):
         raise BuildError(f"{f.name()}: state of {f.size1_in(0)} entries, the scenario gives {c0.size}")
     return FirmwareValues(params, c0)

@@ -53,6 +53,10 @@ __all__ = [
     "make_encoder_model",
     "make_wheel_angle_ode",
     "encoder_count",
+    "make_heading_sensor",
+    "heading_schedule",
+    "yaw_of",
+    "wrap_angle",
 ]
 
 #: Output names of :func:`make_sensors` and the number of entries of each.
@@ -124,7 +128,7 @@ def make_sensors(ode: ca.Function, imu_position: Any = (0.0, 0.0, 0.0)) -> ca.Fu
 #: Suggested :class:`~ballbot_casadi.core.rng.NoiseStream` stream ids, one per noise
 #: source, so that adding a source never changes the numbers of another.
 NOISE_STREAMS: Mapping[str, int] = MappingProxyType(
-    {"acc": 0, "gyro": 1, "gyro_bias_rw": 2, "enc": 3}
+    {"acc": 0, "gyro": 1, "gyro_bias_rw": 2, "enc": 3, "heading": 4}
 )
 
 
@@ -341,3 +345,55 @@ def make_wheel_angle_ode(ode: ca.Function, wheel_speeds: ca.Function) -> ca.Func
     xwdot = ca.vertcat(ode(x, tau, p), wheel_speeds(x, p))
     return ca.Function("ballbot_ode_wheel_angles", [xw, tau, p], [xwdot],
                        ["xw", "tau", "p"], ["xwdot"])
+
+
+# --------------------------------------------------------------------------- heading sensor
+
+
+def yaw_of(q: Any) -> Any:
+    """ZYX yaw of the body in {K} (rad, in (-pi, pi]) of a unit quaternion (numpy or CasADi):
+    the angle a heading sensor reads."""
+    return Q.to_rpy(q)[2]
+
+
+def wrap_angle(a: Any) -> Any:
+    """An angle (or array of angles) wrapped to ``(-pi, pi]`` (numpy or CasADi)."""
+    if isinstance(a, (ca.SX, ca.MX)):
+        return ca.atan2(ca.sin(a), ca.cos(a))
+    return np.arctan2(np.sin(a), np.cos(a))
+
+
+def make_heading_sensor() -> ca.Function:
+    """Heading sensor ``ballbot_heading(q, s, n_heading) -> yaw`` (not in the thesis's robot).
+
+    An absolute reading of the body's ZYX yaw in {K} (:func:`yaw_of`), the quantity the
+    thesis's attitude filter cannot observe (§3.1, §4.2; ch. 11 "heading correction")::
+
+        yaw_meas = wrap(yaw(q) + s.heading_bias + sqrt(s.heading_noise_var) n_heading)
+
+    ``q`` (4, the plant attitude), ``s`` (NS sensor parameters), ``n_heading`` (standard
+    normal, stream ``NOISE_STREAMS["heading"]``); output in rad, wrapped to ``(-pi, pi]``.
+    The sensor samples at ``s.heading_rate`` (:func:`heading_schedule` gives the periods
+    with a reading; the others are missing, like a dropout).
+    """
+    q, s, n = ca.SX.sym("q", 4), ca.SX.sym("s", NS), ca.SX.sym("n_heading")
+    S = SensorView(s)
+    yaw = wrap_angle(yaw_of(q) + S.heading_bias + ca.sqrt(S.heading_noise_var) * n)
+    return ca.Function("ballbot_heading", [q, s, n], [yaw], ["q", "s", "n_heading"], ["yaw"])
+
+
+def heading_schedule(k0: int, k1: int, Ts: float, rate: float) -> np.ndarray:
+    """Availability (1/0) of the heading reading in control periods ``k0 .. k1-1``.
+
+    The sensor samples at ``rate`` Hz (0: never); period ``k`` (time ``k Ts``) has a
+    reading when a sample instant ``j / rate`` falls in ``[k Ts, (k+1) Ts)`` - at 10 Hz
+    and ``Ts = 5 ms`` every 20th period, the first at ``t = 0``.  A chunked run gets the
+    same readings (the schedule depends on the period index only).
+    """
+    k = np.arange(int(k0), int(k1))
+    if not (math.isfinite(rate) and rate >= 0 and math.isfinite(Ts) and Ts > 0):
+        raise ShapeError(f"heading schedule needs rate >= 0 and Ts > 0, got {rate!r}, {Ts!r}")
+    if rate == 0:
+        return np.zeros(k.size)
+    eps = 1e-9
+    return (np.floor((k + 1) * Ts * rate - eps) > np.floor(k * Ts * rate - eps)).astype(float)

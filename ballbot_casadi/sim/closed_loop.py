@@ -23,6 +23,7 @@ from typing import Any, Mapping
 import casadi as ca
 import numpy as np
 
+from ballbot_casadi.control import balance_state_size
 from ballbot_casadi.control.velocity import VELOCITY_NZ
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.toolchain import Library, build_library
@@ -277,9 +278,12 @@ class ClosedLoop:
             else:
                 parts["c.obs"] = com_observer_initial_state(x0, p_ctrl)
         n_obs = np.size(parts["c.obs"]) if with_obs else 0
+        n_bal = 0 if self._custom else balance_state_size(controller)
+        if n_bal:
+            parts["c.bal"] = np.zeros(n_bal)  # the balance controller's own state starts at rest
         if est:
-            X = mission_state(controller_layout(estimator, z0.size, n_obs), SENSOR_STATE,
-                              actuation_delay)
+            X = mission_state(controller_layout(estimator, z0.size, n_obs, n_bal=n_bal),
+                              SENSOR_STATE, actuation_delay)
             E = estimator_layout(estimator)
             e0 = np.asarray(extra["e0"], float).reshape(-1)
             if e0.size != E.size:
@@ -289,7 +293,8 @@ class ClosedLoop:
             if actuation_delay:
                 parts["u"] = np.zeros(X.size_of("u"))
         else:
-            X = mission_state(controller_state_of(z0.size, n_obs), None, actuation_delay)
+            X = mission_state(controller_state_of(z0.size, n_obs, n_bal=n_bal), None,
+                              actuation_delay)
         variant = self._variant(int(n_sub), estimator, actuation_delay)
         ports_state_size = step.size1_in(0)
         if xz0 is None:

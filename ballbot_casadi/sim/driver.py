@@ -49,14 +49,15 @@ def glue_source(header: str, steps: dict[str, ca.Function], chunk: int, seq_inpu
     for name, f in steps.items():
         if f.name() != f"ballbot_cl_step_{name}":
             raise BuildError(f"step Function {f.name()!r} is not named ballbot_cl_step_{name}")
-        if (f.n_in(), f.n_out(), f.size1_in(0)) != (step.n_in(), step.n_out(), step.size1_in(0)):
-            raise BuildError("all step Functions must have the same inputs, outputs and state size")
+        if (f.name_in(), f.name_out()) != (step.name_in(), step.name_out()):
+            raise BuildError("all step Functions must have the same inputs and outputs (the "
+                             "state size may differ: a balance controller with a state)")
     template = resources.files("ballbot_casadi.sim").joinpath(_TEMPLATE_FILE).read_text()
     return template.format(
         header=header,
         n_in=step.n_in(),
         n_out=step.n_out(),
-        nxz=step.size1_in(0),
+        nxz=max(f.size1_in(0) for f in steps.values()),
         chunk=chunk,
         seq_in=", ".join("1" if i in seq_inputs else "0" for i in range(step.n_in())),
         entries="".join(

@@ -173,20 +173,24 @@ def estimator_layout(estimator: str) -> Layout:
                                       ("pos", 2)])
 
 
-def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0) -> Layout:
+def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0,
+                      n_bal: int = 0) -> Layout:
     """Layout of the embedded software's state ``c``: velocity controller ``z``, then the
     filters, then (``n_obs > 0``) the COM observer's state ``obs``, then (``n_guide > 0``)
-    the guidance block's state ``guide``."""
+    the guidance block's state ``guide``, then (``n_bal > 0``) the balance controller's
+    own state ``bal``."""
     e = estimator_layout(estimator)
     z = VELOCITY_CONTROLLER_STATE if nz == VELOCITY_CONTROLLER_STATE.size else nz
     return Layout("controller state c", [
         ("z", z), *((f, e.part(f) if f in ("xa", "xv") else e.size_of(f)) for f in e.fields),
-        *((("obs", n_obs),) if n_obs else ()), *((("guide", n_guide),) if n_guide else ())])
+        *((("obs", n_obs),) if n_obs else ()), *((("guide", n_guide),) if n_guide else ()),
+        *((("bal", n_bal),) if n_bal else ())])
 
 
 def software_layout(embedded: ca.Function, estimator: str) -> Layout:
     """The controller-state layout of an embedded-software Function (with the COM
-    observer's state ``obs`` last when the Function has the observer's inputs).
+    observer's state ``obs`` when the Function has the observer's inputs, and the balance
+    controller's own state ``bal`` last: the rest of the state).
 
     Raises
     ------
@@ -195,11 +199,12 @@ def software_layout(embedded: ca.Function, estimator: str) -> Layout:
     """
     has_obs = OBSERVER_CONSTANTS[0] in embedded.name_in()
     base = controller_layout(estimator, VELOCITY_NZ)
-    n_obs = embedded.size1_in(0) - base.size
-    if n_obs < 0 or (n_obs > 0) != has_obs:
+    n_obs = COM_OBSERVER_STATE.size if has_obs else 0
+    n_bal = embedded.size1_in(0) - base.size - n_obs
+    if n_bal < 0:
         raise BuildError(f"{embedded.name()}: state of {embedded.size1_in(0)} entries does not "
                          f"match the layout {base}")
-    return controller_layout(estimator, VELOCITY_NZ, n_obs)
+    return controller_layout(estimator, VELOCITY_NZ, n_obs, n_bal=n_bal)
 
 
 def _drop(y: Any, ok: Any) -> Any:
@@ -251,7 +256,8 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     blocks = PeriodBlocks(balance, velocity, observer)
     NP = len(PARAM_NAMES)
     Z = controller_state(blocks, NP)
-    C = controller_layout(est.name, Z.size_of("z"), Z.size_of("obs") if Z.has("obs") else 0)
+    C = controller_layout(est.name, Z.size_of("z"), *(Z.size_of(f) if Z.has(f) else 0
+                                                      for f in ("obs", "guide", "bal")))
     na = int(round(np.sqrt(C.size_of("Pa"))))
     nv = int(round(np.sqrt(C.size_of("Pv"))))
     ports = embedded_ports(blocks, NP, C, MEAS.size, {"Qa": 36, "Ra": 36, "Qv": nv * nv, "Rv": 36})
@@ -266,9 +272,12 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                        Q=ca.reshape(sym["Qa"], 6, 6), R=ca.reshape(sym["Ra"], 6, 6), dt=Ts, p=p_est,
                        a=ca.vertcat(xv_prev[XV["a"]], 0))
     xa = att["xhat_next"]
+    # a velocity filter with the body-rate covariance input gets the attitude filter's
+    # (the rate is the last 3 x 3 block of its covariance)
+    rate = {"P_rate": att["P_next"][-3:, -3:]} if "P_rate" in est.velocity.name_in() else {}
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
                        att=xa, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
-                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est)
+                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate)
     xv = vel["xhat_next"]
     # the velocity filter's horizontal accelerometer bias is the attitude filter's slow
     # tilt error (velocity-aided tilt, estimation.tilt_aiding): the controllers read q_c
@@ -345,7 +354,8 @@ def embedded_software(controller: str = "flc", estimator: str = "ukf",
     return make_embedded_step(blocks.balance, blocks.velocity, est, blocks.observer)
 
 
-def make_initial_controller_state(estimator: str, observer: bool = True) -> ca.Function:
+def make_initial_controller_state(estimator: str, observer: bool = True,
+                                  n_bal: int = 0) -> ca.Function:
     """``ballbot_initial_controller_state_<estimator>[_obs]``: the embedded software's state
     ``c`` at power-on (:func:`controller_layout`) from the robot's state ``x0`` and the
     controllers' model ``p_ctrl``; the compiled mission starts from it and the controller
@@ -404,25 +414,30 @@ def make_initial_controller_state(estimator: str, observer: bool = True) -> ca.F
         o = {"com_bal": com, "com": com, "s_f": ca.solve(Rh, rhs), "v_f": x0[STATE_DXY],
              "w_f": 2 * Q.vee(Q.mul(dq, Q.conj(q)))[0:2]}
         parts["obs"] = ca.vertcat(*(o[f] for f in COM_OBSERVER_STATE.fields))
-    L = controller_layout(estimator, VELOCITY_NZ, COM_OBSERVER_STATE.size if observer else 0)
+    if n_bal:  # the balance controller's own state starts at rest
+        parts["bal"] = ca.SX.zeros(n_bal)
+    L = controller_layout(estimator, VELOCITY_NZ, COM_OBSERVER_STATE.size if observer else 0,
+                          n_bal=n_bal)
     for f in L.fields:
         if parts[f].numel() != L.size_of(f):
             raise BuildError(f"initial controller state: field {f} has {parts[f].numel()} "
                              f"entries, the layout {L.size_of(f)}")
-    name = f"ballbot_initial_controller_state_{estimator}{'_obs' if observer else ''}"
+    name = (f"ballbot_initial_controller_state_{estimator}{'_obs' if observer else ''}"
+            f"{f'_bal{n_bal}' if n_bal else ''}")
     return ca.Function(name, [x0, p], [ca.vertcat(*(parts[f] for f in L.fields))],
                        ["x0", "p_ctrl"], ["c0"])
 
 
 @lru_cache(maxsize=None)
-def initial_controller_state_function(estimator: str, observer: bool = True) -> ca.Function:
+def initial_controller_state_function(estimator: str, observer: bool = True,
+                                      n_bal: int = 0) -> ca.Function:
     """:func:`make_initial_controller_state`, built once per process (the mission, the
     controller FMU and the firmware use this one Function)."""
-    return make_initial_controller_state(estimator, observer)
+    return make_initial_controller_state(estimator, observer, n_bal)
 
 
 def initial_controller_state(estimator: str, x0: Any, p_ctrl: Any,
-                             observer: bool = True) -> np.ndarray:
+                             observer: bool = True, n_bal: int = 0) -> np.ndarray:
     """The embedded software's state at power-on, evaluated by
     :func:`initial_controller_state_function` (a float vector in :func:`controller_layout`).
 
@@ -437,7 +452,7 @@ def initial_controller_state(estimator: str, x0: Any, p_ctrl: Any,
         raise ShapeError(f"x0 must be a finite 12-state, got shape {x.shape}")
     if p.shape != (len(PARAM_NAMES),):
         raise ShapeError(f"p_ctrl must have {len(PARAM_NAMES)} entries, got {p.size}")
-    f = initial_controller_state_function(estimator, observer)
+    f = initial_controller_state_function(estimator, observer, n_bal)
     return np.asarray(f(x, p), float).reshape(-1)
 
 

@@ -132,7 +132,7 @@ def controller_part(
     ``x_seen`` is what the controllers read (the true state or an estimate); ``z`` the
     controllers' state, laid out by :func:`~ballbot_casadi.sim.ports.controller_state`
     (velocity controller ``z``, then the observer's ``obs``, then the guidance block's
-    ``guide``).  Returns ``z_next``, ``tau_cmd`` (balance controller output), ``tau_lim``
+    ``guide``, then the balance controller's own state ``bal``, advanced every period).  Returns ``z_next``, ``tau_cmd`` (balance controller output), ``tau_lim``
     (after the limit at the controller's ``tau_max``), the references used and ``diag``.
 
     With ``blocks.observer`` (``ballbot_com_observer``,
@@ -170,12 +170,17 @@ def controller_part(
     ddqr = _select(on, ddqv, seq["ddq_ref"])
     ddqr = ddqr * (const["feedforward"] if _symbolic(const["feedforward"]) else float(const["feedforward"]))
     z_next = _select(on, zv, z_vel)
+    bal_args = (x_seen, qr, dqr, ddqr, p_ctrl, const["k_bal"])
+    if blocks.balance_state:
+        tau_cmd, diag, b_next = (_value(v) for v in blocks.balance(*bal_args, z[Z["bal"]]))
+    else:
+        tau_cmd, diag = (_value(v) for v in blocks.balance(*bal_args))
     parts = [z_next, *([o_next] if observer is not None else []),
-             *([g_next] if guidance is not None else [])]
+             *([g_next] if guidance is not None else []),
+             *([b_next] if blocks.balance_state else [])]
     if len(parts) > 1:
         z_next = (ca.vertcat(*parts) if _symbolic(*parts)
                   else np.concatenate([np.ravel(p) for p in parts]))
-    tau_cmd, diag = (_value(v) for v in blocks.balance(x_seen, qr, dqr, ddqr, p_ctrl, const["k_bal"]))
     tau_lim = saturate_torques(tau_cmd, const["p_ctrl"][_TAU_MAX])
     return {"z_next": z_next, "tau_cmd": tau_cmd, "tau_lim": tau_lim, "q_ref_used": qr,
             "dq_ref_used": dqr, "ddq_ref_used": ddqr, "diag": diag, **extra}

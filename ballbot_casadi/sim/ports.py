@@ -32,6 +32,13 @@ observer**; the **balance** controller.  Adding a block above the velocity contr
 3. :func:`~ballbot_casadi.sim.period.controller_part` calls it; every step builder,
    the packing of :meth:`ClosedLoop.simulate <ballbot_casadi.sim.closed_loop.ClosedLoop.simulate>`
    and the log follow from the ports.
+
+A balance controller may carry a state of its own (the super-twisting controller's
+integral term ``zb``, :mod:`ballbot_casadi.control.super_twisting`): it is then a
+7-in / 3-out Function ``(x, q_ref, dq_ref, ddq_ref, p, k, zb) -> (tau, diag, zb_next)``
+and its state is the last field ``bal`` of the controller-state layout, started at
+zero and advanced every period (in balance-only mode too: it belongs to the balance
+controller, not to the velocity loop).
 """
 
 from __future__ import annotations
@@ -147,7 +154,8 @@ class PeriodBlocks:
     Attributes
     ----------
     balance
-        ``(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)``.
+        ``(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)``, or with a state of its own
+        ``(x, q_ref, dq_ref, ddq_ref, p, k, zb) -> (tau, diag, zb_next)``.
     velocity
         ``(x, v_ref, z, p, k, Ts) -> (q_ref, dq_ref, ddq_ref, z_next)``.
     observer
@@ -168,15 +176,26 @@ class PeriodBlocks:
         """The balance controller's name without the ``ballbot_`` prefix (``flc``, ``smc``)."""
         return self.balance.name().removeprefix("ballbot_")
 
+    @property
+    def balance_state(self) -> int:
+        """Size of the balance controller's own state ``zb`` (0: stateless)."""
+        b = self.balance
+        return b.numel_in(6) if isinstance(b, ca.Function) and b.n_in() == 7 else 0
+
 
 def check_blocks(blocks: PeriodBlocks, n_p: int) -> dict[str, int]:
     """Check the blocks' signatures and return the sizes ``nk, nd, nz, nkv`` (and
-    ``n_obs, nko`` with an observer, ``ng, nkg`` with guidance)."""
+    ``n_obs, nko`` with an observer, ``ng, nkg`` with guidance, ``nb`` with a balance
+    controller that has a state of its own)."""
     balance, velocity = blocks.balance, blocks.velocity
-    if not isinstance(balance, ca.Function) or balance.n_in() != 6 or balance.n_out() != 2:
+    stateless = isinstance(balance, ca.Function) and (balance.n_in(), balance.n_out()) == (6, 2)
+    stateful = isinstance(balance, ca.Function) and (balance.n_in(), balance.n_out()) == (7, 3) \
+        and balance.numel_in(6) == balance.numel_out(2) > 0
+    if not (stateless or stateful):
         raise ScenarioError(
             "balance controller must be a CasADi Function "
-            "(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag)"
+            "(x, q_ref, dq_ref, ddq_ref, p, k) -> (tau, diag), or with a state "
+            "(x, q_ref, dq_ref, ddq_ref, p, k, zb) -> (tau, diag, zb_next) of equal sizes"
         )
     if not isinstance(velocity, ca.Function) or velocity.n_in() != 6 or velocity.n_out() != 4:
         raise ScenarioError(
@@ -194,6 +213,8 @@ def check_blocks(blocks: PeriodBlocks, n_p: int) -> dict[str, int]:
         raise ScenarioError(f"velocity controller sizes {got_v} do not match {want_v}")
     sizes = {"nk": balance.numel_in(5), "nd": balance.numel_out(1), "nz": nz,
              "nkv": velocity.numel_in(4)}
+    if stateful:
+        sizes["nb"] = balance.numel_in(6)
     if blocks.observer is not None:
         sizes.update(n_obs=blocks.observer.numel_in(2), nko=blocks.observer.numel_in(4))
     g = blocks.guidance
@@ -211,15 +232,17 @@ def controller_state(blocks: PeriodBlocks, n_p: int) -> Layout:
     """Layout of the controllers' state of a period without estimators (the blocks' sizes,
     :func:`controller_state_of`)."""
     s = check_blocks(blocks, n_p)
-    return controller_state_of(s["nz"], s.get("n_obs", 0), s.get("ng", 0))
+    return controller_state_of(s["nz"], s.get("n_obs", 0), s.get("ng", 0), s.get("nb", 0))
 
 
-def controller_state_of(nz: int, n_obs: int = 0, n_guide: int = 0) -> Layout:
+def controller_state_of(nz: int, n_obs: int = 0, n_guide: int = 0, n_bal: int = 0) -> Layout:
     """Layout of the controllers' state of a period without estimators: the velocity
-    controller's ``z``, then the COM observer's ``obs``, then the guidance block's ``guide``."""
+    controller's ``z``, then the COM observer's ``obs``, then the guidance block's
+    ``guide``, then the balance controller's ``bal``."""
     z = VELOCITY_CONTROLLER_STATE if nz == VELOCITY_CONTROLLER_STATE.size else nz
     return Layout("controller state", [("z", z), *((("obs", n_obs),) if n_obs else ()),
-                                       *((("guide", n_guide),) if n_guide else ())])
+                                       *((("guide", n_guide),) if n_guide else ()),
+                                       *((("bal", n_bal),) if n_bal else ())])
 
 
 def mission_state(c: Layout, sensor_state: Layout | None = None,

@@ -35,7 +35,7 @@ def lqr(model_functions):
 
 
 def test_interface(lqr, design):
-    assert lqr.name() == "ballbot_balance_lqr"
+    assert lqr.name() == "ballbot_lqr"
     assert lqr.name_in() == ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"]
     assert lqr.name_out() == ["tau", "diag"]
     assert lqr.numel_in(5) == len(LQR_GAIN_NAMES) == 18

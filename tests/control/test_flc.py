@@ -25,6 +25,7 @@ from ballbot_casadi.control.quaternion_error import (
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.errors import ArgumentError, BallbotTypeError
 from ballbot_casadi.model.integrators import make_rk4_n
+from ballbot_casadi.model.linearization import linearize
 from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.sim.references import rpy_reference, sine
 
@@ -61,7 +62,7 @@ def test_interface(flc):
     assert flc.name_in() == ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"]
     assert flc.name_out() == ["tau", "diag"]
     assert flc.size1_out(1) == len(BALANCE_DIAG_NAMES) and BALANCE_DIAG_NAMES[0] == "singular"
-    assert set(BALANCE_CONTROLLERS) == {"flc", "smc"}
+    assert set(BALANCE_CONTROLLERS) == {"flc", "smc", "sta", "lqr"}
 
 
 def test_output_dynamics_are_exactly_the_designed_linear_ones(flc, model_functions, default_params, rng):
@@ -216,10 +217,10 @@ def test_robust_to_mass_and_inertia_error(flc, model_functions, default_params):
 
 
 def test_bad_inputs_raise_clear_errors(model_functions):
-    with pytest.raises(ArgumentError, match="allowed: flc, smc"):
+    with pytest.raises(ArgumentError, match="allowed: flc, lqr, smc, sta"):
         default_balance_gains("pid")
     with pytest.raises(ArgumentError, match="allowed"):
-        make_balance_controller("lqr", model_functions["affine"])
+        make_balance_controller("pid", model_functions["affine"])
     with pytest.raises(ArgumentError, match="finite"):
         check_gains("flc", [1.0, np.nan, 1, 1, 1, 1])
     with pytest.raises(ArgumentError, match="6 entries"):
@@ -234,16 +235,19 @@ def test_controllers_generate_strict_c(model_functions, default_params, tmp_path
     from ballbot_casadi.core.toolchain import build_library, load_library
 
     funcs = controller_functions_list(model_functions["affine"])
-    assert [f.name() for f in funcs] == ["ballbot_flc", "ballbot_smc", "ballbot_velocity"]
+    names = ("flc", "smc", "sta", "lqr")
+    assert [f.name() for f in funcs] == [*(f"ballbot_{n}" for n in names), "ballbot_velocity"]
     lib = build_library("ballbot_control_test", funcs, root=tmp_path)
-    ext = load_library(lib, ["ballbot_flc", "ballbot_smc"])
+    ext = load_library(lib, [f"ballbot_{n}" for n in names])
     p = default_params.to_vector()
     x, q_ref, dq_ref, ddq_ref = _random_case(rng)
-    for name, f in zip(("flc", "smc"), funcs[:2]):
-        k = default_balance_gains(name)
-        a = np.asarray(f(x, q_ref, dq_ref, ddq_ref, p, k)[0])
-        b = np.asarray(ext[f.name()](x, q_ref, dq_ref, ddq_ref, p, k)[0])
-        np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12)
+    linear = linearize(default_params, functions=model_functions)
+    for name, f in zip(names, funcs):
+        k = default_balance_gains(name, linear)
+        zb = [0.01, -0.02, 0.03]  # the super-twisting state
+        args = (x, q_ref, dq_ref, ddq_ref, p, k, *([zb] if f.n_in() == 7 else []))
+        for a, b in zip(f(*args), ext[f.name()](*args)):
+            np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=1e-12, atol=1e-12)
     assert isinstance(ext["ballbot_flc"], ca.Function)
     # the model stays a called Function (one copy of the dynamics in the C code)
     assert "ballbot_affine" in lib.source.read_text()

@@ -30,7 +30,7 @@ STEP = make_sta_step(1)
 
 def test_interface_and_gain_rule(model_functions):
     st = make_super_twisting(model_functions["affine"])
-    assert st.name() == "ballbot_super_twisting"
+    assert st.name() == "ballbot_sta"
     assert st.name_in() == ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k", "zb"]
     assert st.name_out() == ["tau", "diag", "zb_next"]
     assert st.numel_in(5) == len(STA_GAIN_NAMES) and st.numel_in(6) == st.numel_out(2) == 3

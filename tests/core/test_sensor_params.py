@@ -35,12 +35,14 @@ def test_defaults_are_thesis_values():
 def test_vector_layout_and_round_trip():
     s = load_sensor_params(acc_bias=[0.1, -0.2, 0.3], enc_noise_var=[1.0, 2.0, 3.0])
     v = s.to_vector()
-    assert NS == 30 and v.shape == (NS,) and s.names == SENSOR_VECTOR_NAMES
+    assert NS == 33 and v.shape == (NS,) and s.names == SENSOR_VECTOR_NAMES
     assert SENSOR_VECTOR_NAMES[3:6] == ("acc_bias_x", "acc_bias_y", "acc_bias_z")
-    assert SENSOR_VECTOR_NAMES[-3:] == ("enc_noise_var_0", "enc_noise_var_1", "enc_noise_var_2")
+    assert SENSOR_VECTOR_NAMES[-6:-3] == ("enc_noise_var_0", "enc_noise_var_1", "enc_noise_var_2")
+    assert SENSOR_VECTOR_NAMES[-3:] == ("heading_noise_var_yaw", "heading_bias_yaw",
+                                        "heading_rate_yaw")
     for i, name in enumerate(SENSOR_VECTOR_NAMES):
         field, comp = name.rsplit("_", 1)
-        idx = "xyz".index(comp) if comp in "xyz" else int(comp)
+        idx = "xyz".index(comp) if comp in "xyz" else 0 if comp == "yaw" else int(comp)
         assert v[i] == getattr(s, field)[idx]
     assert SensorParams.from_vector(v) == s
     view = SensorView(v)
@@ -50,9 +52,9 @@ def test_vector_layout_and_round_trip():
     np.testing.assert_array_equal(s.gyro_bias_cov, np.diag(np.square(s.gyro_bias_rw)))
     with pytest.raises(AttributeError, match="unknown sensor parameter 'n_ticks'"):
         _ = view.n_ticks
-    with pytest.raises(ParameterError, match="expected 30"):
+    with pytest.raises(ParameterError, match="expected 33"):
         SensorView(np.ones(29))
-    with pytest.raises(ParameterError, match="expected 30"):
+    with pytest.raises(ParameterError, match="expected 33"):
         SensorParams.from_vector(np.ones(3))
 
 

@@ -11,7 +11,7 @@ from scipy.integrate import trapezoid
 from ballbot_casadi import load_params
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.rng import NoiseStream
-from ballbot_casadi.core.sensor_params import load_sensor_params
+from ballbot_casadi.core.sensor_params import NS, load_sensor_params
 from ballbot_casadi.core.toolchain import build_library, load_library
 from ballbot_casadi.errors import BallbotTypeError
 from ballbot_casadi.model.integrators import make_rk4
@@ -243,7 +243,7 @@ def test_function_names_and_io(fns, model_functions):
     imu = fns["imu"]
     assert imu.name() == "ballbot_imu"
     assert imu.name_in() == ["x", "tau", "p", "s", "bias_gyro", "n_acc", "n_gyro"]
-    assert [imu.size1_in(i) for i in range(7)] == [12, 3, len(PV), 30, 3, 3, 3]
+    assert [imu.size1_in(i) for i in range(7)] == [12, 3, len(PV), NS, 3, 3, 3]
     assert imu.name_out() == ["acc", "gyro"]
     assert fns["enc"].name_in() == ["phi", "phi_prev", "p", "Ts"]
     assert fns["enc"].name_out() == ["enc", "dticks"]

@@ -84,7 +84,7 @@ def test_study_scenarios_definitions():
     with pytest.raises(ScenarioError, match="allowed: zero"):
         study_scenarios("nosuchstudy")
     with pytest.raises(ScenarioError, match="allowed"):
-        study_scenarios("zero", "lqr")
+        study_scenarios("zero", "pid")
     nominal = load_params()
     (zero,) = study_scenarios("zero")
     np.testing.assert_allclose(Q.to_rpy(np.array(zero.x0[2:6])), np.radians([5, 5, 0]), atol=1e-15)

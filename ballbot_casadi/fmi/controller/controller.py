@@ -262,7 +262,9 @@ def initial_state_function(embedded: ca.Function, estimator: str) -> ca.Function
     BuildError
         The Function's output is not the embedded software's state.
     """
-    f = initial_controller_state_function(estimator, _has_observer(embedded))
+    layout = software_layout(embedded, estimator)
+    n_bal = layout.size_of("bal") if "bal" in layout.fields else 0
+    f = initial_controller_state_function(estimator, _has_observer(embedded), n_bal)
     if f.size1_out(0) != embedded.size1_in(0):
         raise BuildError(f"{f.name()} gives {f.size1_out(0)} entries, {embedded.name()}'s state "
                          f"has {embedded.size1_in(0)}")

@@ -17,7 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
-from ballbot_casadi.core.sensor_params import SENSOR_PARAM_NAMES, load_sensor_params
+from ballbot_casadi.core.sensor_params import SENSOR_PARAM_INFO, SENSOR_PARAM_NAMES, load_sensor_params
 from ballbot_casadi.errors import BallbotError, ScenarioError
 
 __all__ = ["CHANGE_OPS", "ParamChanges", "apply_changes"]
@@ -125,7 +125,8 @@ class ParamChanges:
                 forms = "a list, a number" if self.sensors else "a number"
                 raise ScenarioError(f"expected {forms} or one of {{ set = v }}, {{ scale = f }}, "
                                     f"{{ add = d }}, got {v!r}", key=f"{self.section}.{name}")
-            out[name] = [op, _file_number(val, f"{self.section}.{name}.{op}", 3 if self.sensors else None)]
+            n = len(SENSOR_PARAM_INFO[name][3]) if self.sensors else None
+            out[name] = [op, _file_number(val, f"{self.section}.{name}.{op}", n)]
         self.check(out)
         return out
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from ballbot_casadi.control import (
     BALANCE_DIAG_NAMES,
+    LINEAR_DESIGNED,
     VELOCITY_NKV,
     default_balance_gains,
     default_velocity_gains,
@@ -38,7 +39,8 @@ from ballbot_casadi.core.sensor_params import SensorParams, load_sensor_params
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS
-from ballbot_casadi.model.dynamics import make_jacobians
+from ballbot_casadi.model.dynamics import make_jacobians, make_model_functions
+from ballbot_casadi.model.linearization import linearize
 from ballbot_casadi.model.sensors import NOISE_STREAMS
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES, controller_torque_limit
@@ -310,6 +312,14 @@ class Scenario:
             w[(t >= t0 - 1e-12) & (t < t1 - 1e-12), DISTURBANCE["tau_dist"]] += tau
         return w
 
+    def default_k_bal(self, p_ctrl: np.ndarray) -> np.ndarray:
+        """The balance controller's default gains for this scenario's period (the balance
+        LQR designed on the controller model ``p_ctrl`` linearised at the balance point)."""
+        linear = None
+        if self.controller in LINEAR_DESIGNED:
+            linear = linearize(Params.from_vector(p_ctrl), functions=make_model_functions())
+        return default_balance_gains(self.controller, linear, self.Ts)
+
     def diag_names(self) -> tuple[str, ...]:
         """Names of the balance controller's diagnostic outputs."""
         return tuple(BALANCE_DIAG_NAMES)
@@ -323,7 +333,7 @@ class Scenario:
 
         p_plant = self.plant_params(base).to_vector()
         p_ctrl = self.controller_params(base).to_vector()
-        k_bal = np.asarray(self.k_bal, float) if self.k_bal else default_balance_gains(self.controller)
+        k_bal = np.asarray(self.k_bal, float) if self.k_bal else self.default_k_bal(p_ctrl)
         if self.k_vel:
             k_vel = np.asarray(self.k_vel, float)
         elif self.cascade:

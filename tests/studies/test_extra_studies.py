@@ -1,0 +1,65 @@
+"""The issue-22 studies (envelope, consistency, heading) on shortened settings, and their CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.analysis.consistency import chi2_band
+from ballbot_casadi.cli import main
+from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.studies.consistency import NIS_DIM, run_consistency_study
+from ballbot_casadi.studies.envelope import _scenario, recovered, run_envelope_study
+from ballbot_casadi.studies.heading import run_heading_study
+
+
+@pytest.fixture(scope="module")
+def sim() -> ClosedLoop:
+    return ClosedLoop()
+
+
+def test_recovery_predicate_on_a_small_and_a_large_push(sim):
+    from ballbot_casadi.sim.scenario import Scenario
+
+    k = Scenario(name="k", controller="flc", duration=0.01).inputs()["k_bal"]
+    assert recovered(run_scenario(_scenario("flc", "true", k, (2.0, 0.0)), sim))
+    assert not recovered(run_scenario(_scenario("flc", "true", k, (40.0, 0.0)), sim))
+
+
+def test_envelope_study_writes_table_and_polar_plot(sim, tmp_path):
+    m = run_envelope_study(tmp_path, controllers=("flc", "sta"), estimators=("true",),
+                           push_tol=2.0, torque_tol=0.5, sim=sim)
+    rows = m["table"]["true"]
+    for c in ("flc", "sta"):
+        # the thesis's 4 deg roll jump (§8.4.3) is inside every envelope
+        assert rows[c]["push_roll_deg"] >= 4.0 and rows[c]["push_roll_bracketed"]
+        assert 0.0 < rows[c]["torque_step_nm"]
+    assert (tmp_path / "envelope.png").stat().st_size > 0
+    text = (tmp_path / "report.md").read_text()
+    assert "| sta |" in text and "Fig. 8.14" in text and "Not built" in text
+    assert json.loads((tmp_path / "metrics.json").read_text())["table"]["true"]["flc"] == rows["flc"]
+
+
+def test_consistency_study_reports_the_band_and_the_overconfident_velocity_filter(sim, tmp_path):
+    m = run_consistency_study(tmp_path, names=["full_sine"], duration=3.0, sim=sim)
+    r = m["scenarios"]["full_sine"]
+    for f in ("attitude", "velocity"):
+        np.testing.assert_allclose(r[f]["band"], chi2_band(NIS_DIM, r[f]["n"]), rtol=1e-12)
+    assert r["velocity"]["verdict"] == "overconfident" and r["velocity"]["mean_nis"] > 50
+    assert not m["passed"]
+    assert (tmp_path / "nis.png").is_file() and "| full_sine | velocity |" in \
+        (tmp_path / "report.md").read_text()
+
+
+def test_heading_study_short(tmp_path):
+    m = run_heading_study(tmp_path, plot=False, duration=240.0, seeds=(0, 1))
+    assert m["passed"] and m["aided_error_max_deg"] <= 0.5
+    assert len(m["unaided_drift_per_hour_deg"]) == 2
+    assert "thesis" in (tmp_path / "report.md").read_text()
+
+
+def test_cli_extra_study_rejects_scenario_options(capsys):
+    assert main(["study", "heading", "--seed", "3"]) == 2
+    assert "do not apply" in capsys.readouterr().err
