@@ -31,7 +31,6 @@ from typing import Any, Mapping
 import casadi as ca
 import numpy as np
 
-
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.firmware.toolchain import PRECISIONS
 from ballbot_casadi.sim.embedded import (
