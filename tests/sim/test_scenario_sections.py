@@ -95,7 +95,7 @@ def test_a_section_error_carries_its_file_key(fields, key):
 
 
 def test_a_scenario_built_in_code_writes_a_file_that_reads_back_equal():
-    sc = Scenario("coded", controller="smc", duration=3.0, x0=initial_state(2.0, -1.5, 30.0), cascade=True,
+    sc = Scenario("coded", controller="smc", duration=3.0, x0=initial_state(2.0, -1.5, 30.0), cascade=False,
                   attitude={"roll": {"type": "step", "amplitude_deg": 2.0, "t_step": 0.5}},
                   velocity_keyframes=((0.5, 0.2, 0.0, 0.0, 0.5),), pushes=((1.0, 0.0, 3.0, 0.0),),
                   torque_disturbances=((1.0, 1.5, 0.1, 0.0, -0.1),), plant_changes={"Mb": ["scale", 1.1]},
