@@ -37,6 +37,7 @@ from ballbot_casadi.analysis.montecarlo import (
 )
 from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.files import staged_dir
+from ballbot_casadi.core.safe_paths import check_file_name
 from ballbot_casadi.core.specs import spec_ok, spec_usage
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.scenario import (
@@ -182,6 +183,7 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
         (tmp / "worst").mkdir()
         for rank, i in enumerate(worst, 1):
             r = runs[i]
+            check_file_name(r["table"]["name"], "Monte Carlo run name")  # stays inside worst/
             (tmp / "worst" / f"{r['table']['name']}.toml").write_text(dump_toml(
                 r["table"], f"Monte Carlo run {i} of {path} (worst #{rank}); rerun alone with\n"
                             f"ballbot simulate {r['table']['name']}.toml"))

@@ -116,6 +116,7 @@ import numpy as np
 
 from ballbot_casadi.control import BALANCE_CONTROLLERS
 from ballbot_casadi.core.params import PARAM_NAMES
+from ballbot_casadi.core.safe_paths import name_problem
 from ballbot_casadi.core.specs import SPEC_OPS
 from ballbot_casadi.errors import ScenarioError, ScenarioFileError
 from ballbot_casadi.sim import references as R
@@ -356,6 +357,8 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
     c = _Checker(where)
     table = c.keys(table, "", _TOP, ("duration_s",))
     name = c.text(table, "name", "name", default_name) or default_name
+    if (problem := name_problem(name)) is not None:  # the name becomes file names (montecarlo worst/)
+        raise c.fail("name", problem)
     Ts = c.num(table, "control_period_s", "control_period_s", 0.005, lo=0.0, lo_open=True, hi=0.1)
     duration = c.num(table, "duration_s", "duration_s", lo=0.0, lo_open=True, hi=3600.0)
     if round(duration / Ts) < 1:
