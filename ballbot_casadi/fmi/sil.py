@@ -57,7 +57,7 @@ from ballbot_casadi.control import BALANCE_DIAG_NAMES
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.core.sensor_params import SENSOR_VECTOR_NAMES
-from ballbot_casadi.errors import BuildError, CosimError, ScenarioError
+from ballbot_casadi.errors import BallbotError, BuildError, CosimError, FileFormatError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.controller import (
     READING_NAMES,
@@ -71,7 +71,8 @@ from ballbot_casadi.fmi.package import build_fmu_from_spec
 from ballbot_casadi.fmi.plant import WHEEL_ANGLE_NAMES
 from ballbot_casadi.fmi.reference import DISTURBANCE_NAMES, reference_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
-from ballbot_casadi.fmi.ssp import SspComponent, SspConnection, read_ssp, write_ssp
+from ballbot_casadi.fmi.ssp import SspComponent, SspConnection, write_ssp
+from ballbot_casadi.fmi.ssp_check import MAX_STEPS, open_ssp
 from ballbot_casadi.sim.embedded import MEAS
 from ballbot_casadi.sim.log import SimulationLog
 from ballbot_casadi.sim.scenario import Scenario
@@ -200,13 +201,18 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     Raises
     ------
     ScenarioError
-        A scenario without an estimator, with pushes, or a seed beyond 32 bits.
+        A scenario without an estimator, with pushes or sensor dropouts, or a seed beyond
+        32 bits.
     BuildError
         The plant FMU lacks a variable the system connects.
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the SIL runs the embedded software, "
                             "which reads sensors; set estimator = 'ukf' or 'ekf'")
+    if scenario.sensor_dropouts:  # refused, never silently dropped
+        raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_dropout]] rows, which the "
+                            "SSP cannot express (the FMUs have no dropout input); remove them "
+                            "to write the SIL system")
     out = Path(out) if out is not None else None
     plant = Path(build_fmu(out).fmu if plant_fmu is None else plant_fmu)
     causality = {v.name: v.causality for v in read_model_description(str(plant)).modelVariables}
@@ -250,7 +256,15 @@ def read_scenario(ssp: str | Path) -> tuple[Scenario | None, tuple[Mapping[str, 
             meta = json.loads(zf.read(f"resources/{SCENARIO_RESOURCE}"))
         except KeyError:
             return None, ()
-    return Scenario.from_dict(meta["scenario"]), tuple(meta.get("specs", ()))
+        except ValueError as exc:
+            raise FileFormatError(f"{ssp}: resources/{SCENARIO_RESOURCE} is not valid JSON ({exc})") from None
+    try:
+        return Scenario.from_dict(meta["scenario"]), tuple(dict(s) for s in meta.get("specs", ()))
+    except BallbotError as exc:
+        raise FileFormatError(f"{ssp}: resources/{SCENARIO_RESOURCE}: {exc}") from None
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise FileFormatError(f"{ssp}: resources/{SCENARIO_RESOURCE} is malformed "
+                              f"({type(exc).__name__}: {exc})") from None
 
 
 # ------------------------------------------------------------------ running
@@ -269,11 +283,6 @@ def _recorded(system: Any, variables: Mapping[str, Mapping[str, Any]]) -> list[t
         rec += [(comp, n) for n in names if comp in variables and n in variables[comp]
                 and (comp, n) not in rec]
     return rec
-
-
-def _model_variables(unzipped: Mapping[str, Path]) -> dict[str, dict[str, Any]]:
-    return {c: {v.name: v for v in read_model_description(str(d)).modelVariables}
-            for c, d in unzipped.items()}
 
 
 def _run_libcosim(ssp: Path, system: Any, n: int, step: float, variables: Mapping[str, Any],
@@ -409,7 +418,27 @@ def _run_gauss_seidel(system: Any, unzipped: Mapping[str, Path], n: int, step: f
     return out
 
 
-def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libcosim") -> SilRun:
+def _steps(ssp: Path, system: Any, duration: float | None, allow_long: bool) -> int:
+    """Number of fixed steps of the run: ``duration`` or the SSP's stop time, a whole
+    number of steps, at most :data:`~ballbot_casadi.fmi.ssp_check.MAX_STEPS` unless
+    ``duration`` is given or ``allow_long``."""
+    if system.step is None:
+        raise FileFormatError(f"{ssp}: the default experiment has no fixed step "
+                              "(osp:FixedStepAlgorithm baseStepSize)")
+    stop = duration if duration is not None else (system.stop_time or 0.0) - system.start_time
+    n = int(round(stop / system.step)) if math.isfinite(stop) and stop < 1e15 * system.step else 0
+    if n < 1 or abs(n * system.step - stop) > 1e-9 * max(1.0, stop):
+        raise ScenarioError(f"duration {stop!r} s must be a positive multiple of the step "
+                            f"{system.step!r} s")
+    if n > MAX_STEPS and duration is None and not allow_long:
+        raise ScenarioError(f"{ssp}: its stop time asks for {n} steps of {system.step:g} s "
+                            f"({stop:g} s), more than {MAX_STEPS}; give --duration, or "
+                            "--allow-long to run it all")
+    return n
+
+
+def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libcosim",
+            allow_long: bool = False) -> SilRun:
     """Co-simulate an SSP archive for ``duration`` s (default: its stop time).
 
     Parameters
@@ -421,34 +450,31 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
     master
         ``"libcosim"`` (``CosimExecution.from_ssp_file``, fixed-step Jacobi) or
         ``"gauss-seidel"`` (fmpy, controller before plant; see the module docstring).
+    allow_long
+        Run a stop time beyond :data:`~ballbot_casadi.fmi.ssp_check.MAX_STEPS` steps
+        when ``duration`` is not given (refused otherwise).
 
     Raises
     ------
     ScenarioError
-        Unknown master, a bad duration.
+        Unknown master, a bad duration, a stop time beyond the cap.
+    FileFormatError, StateError
+        The SSP or an FMU in it is malformed, unsafe or truncated, or its start state is
+        off the unit quaternion (:func:`~ballbot_casadi.fmi.ssp_check.open_ssp`).
     BuildError
-        The SSP cannot be loaded or a step fails.
+        A step fails.
     """
     if master not in MASTERS:
         raise ScenarioError(f"unknown master {master!r}; allowed: {', '.join(MASTERS)}")
     ssp = Path(ssp)
-    system = read_ssp(ssp)
-    if system.step is None:
-        raise BuildError(f"{ssp}: the default experiment has no fixed step "
-                         "(osp:FixedStepAlgorithm baseStepSize)")
-    stop = duration if duration is not None else (system.stop_time or 0.0) - system.start_time
-    n = int(round(stop / system.step)) if math.isfinite(stop) else 0
-    if n < 1 or abs(n * system.step - stop) > 1e-9 * max(1.0, stop):
-        raise ScenarioError(f"duration {stop!r} s must be a positive multiple of the step "
-                            f"{system.step!r} s")
-    scenario, specs = read_scenario(ssp)
     tmp = Path(tempfile.mkdtemp(prefix="ballbot-ssp-"))
     try:
-        with zipfile.ZipFile(ssp) as zf:
-            zf.extractall(tmp)
-        unzipped = {c: Path(extract(str(tmp / src), unzipdir=str(tmp / "unzipped" / c)))
-                    for c, src in system.components.items()}
-        variables = _model_variables(unzipped)
+        # members, FMUs (complete binaries), connections and start values checked here
+        system, fmus, variables = open_ssp(ssp, tmp / "ssp")
+        n = _steps(ssp, system, duration, allow_long)
+        scenario, specs = read_scenario(ssp)
+        unzipped = {c: Path(extract(str(f), unzipdir=str(tmp / "unzipped" / c)))
+                    for c, f in fmus.items()}
         rec = _recorded(system, variables)
         t_wall = time.perf_counter()
         if master == "libcosim":

@@ -379,7 +379,10 @@ def _time(text: str | None, what: str, positive: bool = False) -> float | None:
     """A finite time attribute (``None`` if absent)."""
     if text is None or text == "":
         return None
-    x = float(text)
+    try:
+        x = float(text)
+    except ValueError:
+        raise FileFormatError(f"{what} must be a number of seconds, got {text!r}") from None
     if not math.isfinite(x) or (positive and x <= 0):
         raise FileFormatError(f"{what} must be a finite{' positive' if positive else ''} "
                               f"number of seconds, got {text!r}")
