@@ -29,6 +29,7 @@ import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless bac
 import numpy as np
 from tqdm import tqdm
 
+from ballbot_casadi.analysis.cluster import check_scheduler_address, connect
 from ballbot_casadi.analysis.montecarlo import (
     draw_runs,
     run_dask,
@@ -74,7 +75,7 @@ def execute(source: ScenarioFile, runs: Sequence[dict[str, Any]], scheduler: str
         from distributed import Client, LocalCluster
 
         if scheduler is not None:
-            with Client(scheduler, timeout="20s") as client:
+            with connect(scheduler) as client:  # a clear error, never a hang, if nothing answers
                 return run_dask(source, runs, client, bar.update)
         with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                           dashboard_address=None) as cluster, Client(cluster) as client:
@@ -99,7 +100,7 @@ def _rank(results: Sequence[dict[str, Any]], specs: Sequence[Mapping[str, Any]])
     def key(i: int) -> tuple:
         r = results[i]
         v = r["metrics"].get(_RANK_METRIC, math.inf)
-        return (sum(not ok for ok in r["spec_ok"]) + (1 if r["error"] else 0),
+        return (sum(not ok for ok in r["spec_ok"]) + (1 if r["error"] or r.get("failure") else 0),
                 _worst_usage(specs, r["metrics"])[0],
                 v if isinstance(v, float) and math.isfinite(v) else math.inf)
     return sorted(range(len(results)), key=key, reverse=True)
@@ -161,6 +162,8 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
     shorter ``duration_s``).  Returns the content of ``montecarlo.json``.
     """
     path = resolve_scenario(scenario)
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
     source = load_scenario_file(path)
     if overrides:
         table = dict(source.table)
@@ -175,7 +178,7 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
            "worst": [{"index": i, "seed": runs[i]["seed"], "file": f"worst/{runs[i]['table']['name']}.toml"}
                      for i in worst],
            "runs": [{"index": r["index"], "seed": r["seed"], "values": r["values"], "ok": res["ok"],
-                     "error": res["error"], "metrics": res["metrics"]} for r, res in zip(runs, results)]}
+                     "error": res["error"], "failure": res.get("failure"), "metrics": res["metrics"]} for r, res in zip(runs, results)]}
     doc = jsonable(doc)
     out = Path(out)
     with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:

@@ -42,6 +42,7 @@ from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
+from ballbot_casadi.core.specs import run_failure
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
@@ -151,7 +152,8 @@ def _report(out: Path, title: str, result: dict[str, Any], plots: Sequence[str],
     lines = [f"# {title}", "", *intro, "",
              f"**Verdict: {'PASS' if result['passed'] else 'FAIL'}** "
              f"({sum(r['ok'] for r in result['spec'])}/{len(result['spec'])} specs met; "
-             f"controller `{result['controller']}`).", "",
+             f"controller `{result['controller']}`)."
+             + (f" **{result['failure']}**" if result.get("failure") else ""), "",
              "## Specs", "", "| | metric | ours | spec | thesis | why |", "| --- | --- | --- | --- | --- | --- |"]
     for r in result["spec"]:
         lines.append(f"| {'✅ pass' if r['ok'] else '❌ FAIL'} | `{r['metric']}` | {fmt(r['value'])} | "
@@ -252,6 +254,9 @@ def run_file(
     spec = evaluate_specs([Spec.from_row(r) for r in source.specs], metrics)
     result = _result("scenario", sc.name, sc.controller, metrics, spec, [log], [sc.description])
     result["file"] = source.path
+    # a NaN run or a fall fails whatever the specs say (with or without [[spec]] rows)
+    result["failure"] = run_failure(metrics)
+    result["passed"] = result["passed"] and result["failure"] is None
     with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
         save_log(log, tmp / "run.npz")
         (tmp / "scenario.toml").write_text(dump_toml(source.table, f"as run from {source.path}"))
@@ -272,6 +277,8 @@ def format_summary(result: dict[str, Any]) -> str:
         th = f"; thesis {r['thesis']}" if r.get("thesis") else ""
         lines.append(f"  [{'ok' if r['ok'] else 'FAIL'}] {r['metric']} = {fmt(r['value'])} "
                      f"(spec {r['op']} {r['threshold']}; {r['source']}{th})")
+    if result.get("failure"):
+        lines.append(f"  [FAIL] {result['failure']}")
     for r in result.get("limits", []):
         state = "EXCEEDED" if r["exceeded"] else "within"
         by = " (the scenario itself is beyond it)" if r["exceeded"] and r["by_scenario"] else ""

@@ -12,7 +12,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
-__all__ = ["SPEC_OPS", "Spec", "spec_ok", "spec_usage", "evaluate_specs"]
+__all__ = ["SPEC_OPS", "Spec", "spec_ok", "spec_usage", "evaluate_specs", "FALL_TILT_DEG",
+           "run_failure"]
 
 _SPEC_FUNCS: Mapping[str, Callable[[Any, Any], Any]] = {
     "<": lambda a, b: a < b,
@@ -83,3 +84,23 @@ class Spec:
 def evaluate_specs(specs: Sequence[Spec], metrics: Mapping[str, Any]) -> list[dict[str, Any]]:
     """Evaluate ``specs`` on ``metrics``: one row per criterion (see :meth:`Spec.evaluate`)."""
     return [s.evaluate(metrics) for s in specs]
+
+
+#: Peak tilt (deg) at which a run counts as a fall whatever its specs say: the body is
+#: horizontal, lying on the floor.
+FALL_TILT_DEG = 90.0
+
+
+def run_failure(metrics: Mapping[str, Any]) -> str | None:
+    """Why a run failed whatever its specs say, or ``None``: its state or torques became
+    NaN or Inf (metric ``finite``), or the robot fell (``peak_tilt_deg`` at or beyond
+    :data:`FALL_TILT_DEG`, or not a finite number)."""
+    if metrics.get("finite") is False:
+        return "the state or the torques became NaN or Inf"
+    tilt = metrics.get("peak_tilt_deg")
+    if isinstance(tilt, (int, float)) and not isinstance(tilt, bool):
+        if not math.isfinite(tilt):
+            return f"peak tilt is {tilt!r}"
+        if tilt >= FALL_TILT_DEG:
+            return f"the robot fell: peak tilt {tilt:.4g} deg >= {FALL_TILT_DEG:g} deg"
+    return None

@@ -142,6 +142,13 @@ __all__ = [
     "parse_scenario",
 ]
 
+#: Most control periods one run may have (``duration_s / control_period_s``): one hour at
+#: the thesis's 5 ms period, whose log is held in memory.
+MAX_PERIODS = 720_000
+#: Largest wheel torque disturbance (N m) a scenario may add: ten times the motors'
+#: maximum torque (``tau_max`` = 1.98 N m, default_params.toml).
+TORQUE_DISTURBANCE_MAX_NM = 20.0
+
 #: Initial-state quantities a Monte Carlo dispersion may target (besides ``plant.<name>``).
 DISPERSION_TARGETS = ("initial.roll_deg", "initial.pitch_deg", "initial.yaw_deg")
 _DISTS = ("normal", "uniform")
@@ -363,6 +370,10 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
     duration = c.num(table, "duration_s", "duration_s", lo=0.0, lo_open=True, hi=3600.0)
     if round(duration / Ts) < 1:
         raise c.fail("duration_s", f"shorter than one control period ({Ts:g} s)")
+    if round(duration / Ts) > MAX_PERIODS:  # the log of every period is held in memory
+        raise c.fail("duration_s", f"{duration:g} s at control_period_s = {Ts:g} s is "
+                     f"{round(duration / Ts)} periods, more than {MAX_PERIODS}; shorten the run "
+                     "or lengthen the period")
     att_table = c.keys(table.get("attitude", {}), "attitude", ("roll", "pitch", "yaw"))
     attitude = {ax: _section(c, signal_from_file, ax, spec, Ts) for ax, spec in att_table.items()}
     x0 = _initial(c, table.get("initial", {}), attitude, Ts)
@@ -393,7 +404,11 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
     for i, row in enumerate(c.rows(table, "torque_disturbance")):
         key = f"torque_disturbance[{i}]"
         t0, t1 = _interval(c, row, key, "tau_nm")
-        dists.append((t0, t1, *c.vector(row, "tau_nm", f"{key}.tau_nm", 3)))
+        tau = c.vector(row, "tau_nm", f"{key}.tau_nm", 3)
+        if max(map(abs, tau)) > TORQUE_DISTURBANCE_MAX_NM:
+            raise c.fail(f"{key}.tau_nm", f"each torque must be within +-{TORQUE_DISTURBANCE_MAX_NM:g} "
+                         f"N m (10x the motors' maximum), got {list(tau)}")
+        dists.append((t0, t1, *tau))
     gains = c.keys(table.get("gains", {}), "gains", GAIN_CONSTANTS)
     fields = dict(
         name=name,
@@ -457,4 +472,7 @@ def load_scenario_file(path: str | Path) -> ScenarioFile:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioFileError(f"{path}: not valid TOML ({exc})") from None
+    except RecursionError:
+        raise ScenarioFileError(f"{path}: not a scenario file (arrays or tables nested too "
+                                "deeply to read)") from None
     return parse_scenario(table, str(path), path.stem)
