@@ -36,8 +36,9 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             print(f"  worst: run {w['index']} (noise seed {w['seed']}): ballbot simulate {out / w['file']}")
         print(f"written to {out} (montecarlo.json, histograms.png, scatter.png, worst/, report.md)")
     if doc["success_rate"] < args.min_success:  # specs missed (a NaN run or a fall counts)
-        print(f"montecarlo {doc['name']}: FAIL: success rate {100 * doc['success_rate']:.1f} % "
-              f"below --min-success {100 * args.min_success:g} %")
+        if not args.quiet:
+            print(f"montecarlo {doc['name']}: FAIL: success rate {100 * doc['success_rate']:.1f} % "
+                  f"below --min-success {100 * args.min_success:g} %")
         return 1
     return 0
 
