@@ -30,6 +30,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ballbot_casadi.analysis.cluster import check_scheduler_address, connect
+from ballbot_casadi.analysis.metric_names import check_spec_metrics
 from ballbot_casadi.analysis.montecarlo import (
     draw_runs,
     run_dask,
@@ -170,6 +171,7 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
         for k, v in overrides:
             table = set_value(table, k, v)
         source = parse_scenario(table, f"{path} (with --set)", path.stem)
+    check_spec_metrics(source.specs, str(path))  # a misspelled metric before any run
     runs = draw_runs(source, n, seed)
     results = execute(source, runs, scheduler, workers, quiet, sim)
     summary = summarize(source, runs, results)

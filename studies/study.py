@@ -31,6 +31,7 @@ import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless bac
 import numpy as np
 
 from ballbot_casadi.analysis.bandwidth import chirp_metrics
+from ballbot_casadi.analysis.metric_names import check_spec_metrics
 from ballbot_casadi.analysis.metrics import (
     attitude_error_deg,
     limit_rows,
@@ -241,6 +242,7 @@ def run_file(
     """Run one scenario file (``ballbot simulate``); outputs as :func:`run_study`, plus
     ``scenario.toml`` (the validated file as run).  ``log_every > 1`` runs the mission in
     segments and keeps every ``log_every``-th period (long runs in little memory)."""
+    check_spec_metrics(source.specs, source.path)  # a misspelled metric before simulating
     sc = source.scenario
     if params is not None:
         sc = rebase_on_params(sc, params)
