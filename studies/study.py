@@ -19,6 +19,7 @@ study for both balance controllers (``summary.json``, ``summary.md``).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -44,9 +45,11 @@ from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
 from ballbot_casadi.core.specs import run_failure
+from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
+from ballbot_casadi.sim.scenario.file import MAX_PERIODS
 from ballbot_casadi.studies.formatting import fmt
 from ballbot_casadi.studies.registry import (
     STUDY_NAMES,
@@ -56,7 +59,7 @@ from ballbot_casadi.studies.registry import (
     rebase_on_params,
 )
 
-__all__ = ["run_study", "run_file", "run_all", "demo_sine", "demo_com", "demo_chirp", "demo_full", "CONTROLLERS",
+__all__ = ["run_study", "run_file", "with_duration", "MAX_LONG_RUN_S", "run_all", "demo_sine", "demo_com", "demo_chirp", "demo_full", "CONTROLLERS",
            "OWNED_OUTPUTS", "format_summary", "plot_run", "jsonable"]
 
 CONTROLLERS = ("flc", "smc")
@@ -229,6 +232,31 @@ def run_study(
                    "(`ballbot study --list`; copy one and run it with `ballbot simulate`)"], extra)
         (tmp / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
     return result
+
+
+#: Longest run ``ballbot simulate --duration`` accepts (s): 100 simulated hours.
+MAX_LONG_RUN_S = 360_000.0
+
+
+def with_duration(source: ScenarioFile, duration: float, log_every: int = 1) -> ScenarioFile:
+    """``source`` run for ``duration`` s instead (``ballbot simulate --duration``): beyond
+    the file format's one hour, up to :data:`MAX_LONG_RUN_S`, when ``log_every`` keeps at
+    most :data:`~ballbot_casadi.sim.scenario.file.MAX_PERIODS` periods in the log.
+
+    Raises
+    ------
+    ScenarioError
+        A duration outside (0, MAX_LONG_RUN_S], or too many logged periods (with the
+        ``--log-every`` that would fit).
+    """
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and 0 < duration <= MAX_LONG_RUN_S):
+        raise ScenarioError(f"--duration must be within (0, {MAX_LONG_RUN_S:g}] s, got {duration!r}")
+    sc = source.scenario.replace(duration=float(duration))
+    if sc.n_periods > MAX_PERIODS * log_every:
+        need = math.ceil(sc.n_periods / MAX_PERIODS)
+        raise ScenarioError(f"--duration {duration:g} s is {sc.n_periods} control periods; the log keeps "
+                            f"at most {MAX_PERIODS}: add --log-every {need} (or more)")
+    return dataclasses.replace(source, scenario=sc, table={**source.table, "duration_s": float(duration)})
 
 
 def run_file(

@@ -218,3 +218,38 @@ def test_a_cluster_without_workers_fails_the_run_instead_of_waiting():
         with pytest.raises(ClusterError, match=r"no worker for 2 s: 0 of \d+ tasks"):
             run_dask(source, runs, client, lost_timeout_s=2.0)
         assert time.perf_counter() - t0 < 20.0
+
+
+# ------------------------------------------------------------------ long runs on the command line
+
+
+def test_simulate_duration_beyond_an_hour_needs_decimated_logging(tmp_path, capsys, monkeypatch):
+    scen = tmp_path / "s.toml"
+    scen.write_text("duration_s = 1\n")
+    assert cli.main(["simulate", str(scen), "--duration", "36000", "--out", str(tmp_path / "o")]) == 2
+    assert "add --log-every 10" in _err_line(capsys, "simulate")
+    for bad in ("0", "-5", "nan", "1e9"):
+        assert cli.main(["simulate", str(scen), "--duration", bad, "--out", str(tmp_path / "o")]) == 2
+        assert "--duration" in _err_line(capsys, "simulate")
+    seen = {}
+
+    def fake_run(sc, sim, log_every=1):
+        seen.update(duration=sc.duration, n=sc.n_periods, log_every=log_every)
+        raise KeyboardInterrupt  # stop before simulating ten hours
+
+    monkeypatch.setattr(study_mod, "run_scenario", fake_run)
+    assert cli.main(["simulate", str(scen), "--duration", "36000", "--log-every", "10",
+                     "--out", str(tmp_path / "o")]) == 130
+    assert seen == {"duration": 36000.0, "n": 7_200_000, "log_every": 10}
+
+
+def test_simulate_duration_overrides_the_file(tmp_path):
+    scen = tmp_path / "s.toml"
+    scen.write_text("duration_s = 1\n")
+    assert cli.main(["simulate", str(scen), "--duration", "0.25", "--log-every", "5", "--no-plot",
+                     "--quiet", "--out", str(tmp_path / "o")]) == 0
+    from ballbot_casadi.sim.log import load_log
+
+    log = load_log(tmp_path / "o" / "run.npz")
+    assert log["time"][-1] == pytest.approx(0.25, abs=1e-12) and log["time"].size == 50 // 5 + 1
+    assert "duration_s = 0.25" in (tmp_path / "o" / "scenario.toml").read_text()
