@@ -10,8 +10,9 @@ Each class carries the exit code of the ``ballbot`` command line (``exit_code``)
   (:class:`ArgumentError` and its subclasses, :class:`ParameterError`,
   :class:`StateError`, :class:`ShapeError`, :class:`BallbotTypeError`,
   :class:`PathError`, :class:`FileFormatError`);
-* **3, the machinery failed** -- the C toolchain (:class:`BuildError`) or a
-  co-simulation engine (:class:`CosimError`), not something the user wrote.
+* **3, the machinery failed** -- the C toolchain (:class:`BuildError`), a
+  co-simulation engine (:class:`CosimError`) or a Dask cluster (:class:`ClusterError`),
+  not something the user wrote.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ __all__ = [
     "BallbotTypeError",
     "BuildError",
     "CosimError",
+    "ClusterError",
     "PathError",
     "FileFormatError",
 ]
@@ -97,6 +99,12 @@ class BuildError(BallbotError, RuntimeError):
 
 class CosimError(BallbotError, RuntimeError):
     """A co-simulation engine (libcosim, fmpy) refused a value or stopped during a run."""
+
+    exit_code = EXIT_INTERNAL_ERROR
+
+
+class ClusterError(BallbotError, RuntimeError):
+    """A Dask cluster lost its workers or its tasks during a run (the machinery, exit 3)."""
 
     exit_code = EXIT_INTERNAL_ERROR
 

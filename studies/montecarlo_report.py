@@ -31,8 +31,11 @@ import numpy as np
 from tqdm import tqdm
 
 from ballbot_casadi.analysis.dispersion_stats import summarize
+from ballbot_casadi.studies.dask_cluster import check_scheduler_address, connect
+from ballbot_casadi.analysis.metric_names import check_spec_metrics
 from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.files import staged_dir
+from ballbot_casadi.core.safe_paths import check_file_name
 from ballbot_casadi.core.specs import spec_ok, spec_usage
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.scenario import (
@@ -71,7 +74,7 @@ def execute(source: ScenarioFile, runs: Sequence[dict[str, Any]], scheduler: str
         from distributed import Client, LocalCluster
 
         if scheduler is not None:
-            with Client(scheduler, timeout="20s") as client:
+            with connect(scheduler) as client:  # a clear error, never a hang, if nothing answers
                 return run_dask(source, runs, client, bar.update)
         with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                           dashboard_address=None) as cluster, Client(cluster) as client:
@@ -96,7 +99,7 @@ def _rank(results: Sequence[dict[str, Any]], specs: Sequence[Mapping[str, Any]])
     def key(i: int) -> tuple:
         r = results[i]
         v = r["metrics"].get(_RANK_METRIC, math.inf)
-        return (sum(not ok for ok in r["spec_ok"]) + (1 if r["error"] else 0),
+        return (sum(not ok for ok in r["spec_ok"]) + (1 if r["error"] or r.get("failure") else 0),
                 _worst_usage(specs, r["metrics"])[0],
                 v if isinstance(v, float) and math.isfinite(v) else math.inf)
     return sorted(range(len(results)), key=key, reverse=True)
@@ -158,12 +161,15 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
     shorter ``duration_s``).  Returns the content of ``montecarlo.json``.
     """
     path = resolve_scenario(scenario)
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
     source = load_scenario_file(path)
     if overrides:
         table = dict(source.table)
         for k, v in overrides:
             table = set_value(table, k, v)
         source = parse_scenario(table, f"{path} (with --set)", path.stem)
+    check_spec_metrics(source.specs, str(path))  # a misspelled metric before any run
     runs = draw_runs(source, n, seed)
     results = execute(source, runs, scheduler, workers, quiet, sim)
     summary = summarize(source, runs, results)
@@ -172,7 +178,7 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
            "worst": [{"index": i, "seed": runs[i]["seed"], "file": f"worst/{runs[i]['table']['name']}.toml"}
                      for i in worst],
            "runs": [{"index": r["index"], "seed": r["seed"], "values": r["values"], "ok": res["ok"],
-                     "error": res["error"], "metrics": res["metrics"]} for r, res in zip(runs, results)]}
+                     "error": res["error"], "failure": res.get("failure"), "metrics": res["metrics"]} for r, res in zip(runs, results)]}
     doc = jsonable(doc)
     out = Path(out)
     with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
@@ -180,6 +186,7 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
         (tmp / "worst").mkdir()
         for rank, i in enumerate(worst, 1):
             r = runs[i]
+            check_file_name(r["table"]["name"], "Monte Carlo run name")  # stays inside worst/
             (tmp / "worst" / f"{r['table']['name']}.toml").write_text(dump_toml(
                 r["table"], f"Monte Carlo run {i} of {path} (worst #{rank}); rerun alone with\n"
                             f"ballbot simulate {r['table']['name']}.toml"))

@@ -19,10 +19,11 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ballbot_casadi.analysis.metrics import run_metrics
-from ballbot_casadi.core.specs import spec_ok, specs_or_default
+from ballbot_casadi.core.specs import run_failure, spec_ok, specs_or_default
 from ballbot_casadi.errors import BallbotError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import ScenarioFile, parse_scenario
+from ballbot_casadi.studies.dask_cluster import wait_all
 
 __all__ = ["evaluate_run", "evaluate_batch", "run_serial", "run_dask"]
 
@@ -46,11 +47,14 @@ def evaluate_run(table: Mapping[str, Any], specs: Sequence[Mapping[str, Any]],
         sc = parse_scenario(table, f"run {table.get('name')}").scenario
         log = run_scenario(sc, sim)
     except BallbotError as exc:
-        return {"ok": False, "spec_ok": [False] * len(specs), "metrics": {}, "error": str(exc)}
+        return {"ok": False, "spec_ok": [False] * len(specs), "metrics": {}, "error": str(exc),
+                "failure": None}
     with np.errstate(all="ignore"):
         m = _scalars(run_metrics(log))
     oks = [spec_ok(m.get(s["metric"]), s["op"], s["threshold"]) for s in specs]
-    return {"ok": all(oks), "spec_ok": oks, "metrics": m, "error": None}
+    failure = run_failure(m)  # a NaN run or a fall fails whatever the specs say
+    return {"ok": all(oks) and failure is None, "spec_ok": oks, "metrics": m, "error": None,
+            "failure": failure}
 
 
 def _worker_sim() -> ClosedLoop:
@@ -88,21 +92,23 @@ def evaluate_batch(tables: Sequence[Mapping[str, Any]], specs: Sequence[Mapping[
 
 
 def run_dask(source: ScenarioFile, runs: Sequence[Mapping[str, Any]], client: Any,
-             progress: Callable[[int], None] | None = None, batch: int | None = None) -> list[dict[str, Any]]:
+             progress: Callable[[int], None] | None = None, batch: int | None = None,
+             lost_timeout_s: float | None = None) -> list[dict[str, Any]]:
     """Evaluate the runs on a ``distributed.Client`` (results in run order).
+
+    Fails with :class:`~ballbot_casadi.errors.ClusterError` when the cluster has had no
+    worker for ``lost_timeout_s`` (:func:`~ballbot_casadi.studies.dask_cluster.wait_all`).
 
     Runs go to the workers in batches of ``batch`` (default: about four batches per
     worker, so that scheduling costs little and the load still balances).
     """
-    from distributed import as_completed
-
     specs = specs_or_default(source.specs)
     if batch is None:
         n_workers = max(1, len(client.scheduler_info().get("workers", {})))
         batch = max(1, len(runs) // (4 * n_workers))
     chunks = [[r["table"] for r in runs[i:i + batch]] for i in range(0, len(runs), batch)]
     futures = client.map(evaluate_batch, chunks, specs=specs, pure=False)
-    for fut in as_completed(futures):
-        if progress:
-            progress(len(chunks[futures.index(fut)]))
+    # never waits for ever: lost workers (none left) or killed tasks fail with ClusterError
+    wait_all(futures, client, (lambda i: progress(len(chunks[i]))) if progress else None,
+             lost_timeout_s)
     return [res for part in client.gather(futures) for res in part]

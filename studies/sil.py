@@ -93,14 +93,16 @@ def plot_compare(time: np.ndarray, diff: dict[str, Any], path: Path) -> Path:
 
 
 def run_sil(ssp: str | Path, out: str | Path, duration: float | None = None,
-            master: str = "libcosim", plot: bool = True, compare: bool = True) -> dict[str, Any]:
+            master: str = "libcosim", plot: bool = True, compare: bool = True,
+            allow_long: bool = False) -> dict[str, Any]:
     """Co-simulate ``ssp`` and write the outputs of the module docstring to ``out``.
 
     Returns the content of ``metrics.json``.  ``compare`` (needs the scenario in the SSP)
-    adds the difference from the compiled mission.
+    adds the difference from the compiled mission.  ``allow_long``: see
+    :func:`~ballbot_casadi.fmi.masters.ssp_run.run_ssp`.
     """
     ssp, out = Path(ssp), Path(out)
-    run = run_ssp(ssp, duration, master)
+    run = run_ssp(ssp, duration, master, allow_long)
     if run.scenario is None:
         raise ScenarioError(f"{ssp} carries no scenario (resources/scenario.json); write it with "
                             "'ballbot fmu ssp'")

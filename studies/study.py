@@ -19,6 +19,7 @@ study for both balance controllers (``summary.json``, ``summary.md``).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -31,6 +32,7 @@ import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless bac
 import numpy as np
 
 from ballbot_casadi.analysis.bandwidth import chirp_metrics
+from ballbot_casadi.analysis.metric_names import check_spec_metrics
 from ballbot_casadi.analysis.metrics import (
     attitude_error_deg,
     limit_rows,
@@ -42,12 +44,14 @@ from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
+from ballbot_casadi.core.specs import run_failure
+from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
+from ballbot_casadi.sim.scenario.file import MAX_PERIODS
 from ballbot_casadi.studies import thesis as TH
 from ballbot_casadi.studies.formatting import fmt
-from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.studies.registry import (
     STUDY_NAMES,
     Spec,
@@ -56,7 +60,7 @@ from ballbot_casadi.studies.registry import (
     rebase_on_params,
 )
 
-__all__ = ["run_study", "run_file", "run_all", "run_thesis", "demo_sine", "demo_com", "demo_chirp", "demo_full", "CONTROLLERS",
+__all__ = ["run_study", "run_file", "with_duration", "MAX_LONG_RUN_S", "run_all", "run_thesis", "demo_sine", "demo_com", "demo_chirp", "demo_full", "CONTROLLERS",
            "OWNED_OUTPUTS", "format_summary", "plot_run", "jsonable"]
 
 CONTROLLERS = ("flc", "smc")
@@ -153,7 +157,8 @@ def _report(out: Path, title: str, result: dict[str, Any], plots: Sequence[str],
     lines = [f"# {title}", "", *intro, "",
              f"**Verdict: {'PASS' if result['passed'] else 'FAIL'}** "
              f"({sum(r['ok'] for r in result['spec'])}/{len(result['spec'])} specs met; "
-             f"controller `{result['controller']}`).", "",
+             f"controller `{result['controller']}`)."
+             + (f" **{result['failure']}**" if result.get("failure") else ""), "",
              "## Specs", "", "| | metric | ours | spec | thesis | why |", "| --- | --- | --- | --- | --- | --- |"]
     for r in result["spec"]:
         lines.append(f"| {'✅ pass' if r['ok'] else '❌ FAIL'} | `{r['metric']}` | {fmt(r['value'])} | "
@@ -237,6 +242,31 @@ def run_study(
     return result
 
 
+#: Longest run ``ballbot simulate --duration`` accepts (s): 100 simulated hours.
+MAX_LONG_RUN_S = 360_000.0
+
+
+def with_duration(source: ScenarioFile, duration: float, log_every: int = 1) -> ScenarioFile:
+    """``source`` run for ``duration`` s instead (``ballbot simulate --duration``): beyond
+    the file format's one hour, up to :data:`MAX_LONG_RUN_S`, when ``log_every`` keeps at
+    most :data:`~ballbot_casadi.sim.scenario.file.MAX_PERIODS` periods in the log.
+
+    Raises
+    ------
+    ScenarioError
+        A duration outside (0, MAX_LONG_RUN_S], or too many logged periods (with the
+        ``--log-every`` that would fit).
+    """
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and 0 < duration <= MAX_LONG_RUN_S):
+        raise ScenarioError(f"--duration must be within (0, {MAX_LONG_RUN_S:g}] s, got {duration!r}")
+    sc = source.scenario.replace(duration=float(duration))
+    if sc.n_periods > MAX_PERIODS * log_every:
+        need = math.ceil(sc.n_periods / MAX_PERIODS)
+        raise ScenarioError(f"--duration {duration:g} s is {sc.n_periods} control periods; the log keeps "
+                            f"at most {MAX_PERIODS}: add --log-every {need} (or more)")
+    return dataclasses.replace(source, scenario=sc, table={**source.table, "duration_s": float(duration)})
+
+
 def run_file(
     source: ScenarioFile,
     out: Path,
@@ -248,6 +278,7 @@ def run_file(
     """Run one scenario file (``ballbot simulate``); outputs as :func:`run_study`, plus
     ``scenario.toml`` (the validated file as run).  ``log_every > 1`` runs the mission in
     segments and keeps every ``log_every``-th period (long runs in little memory)."""
+    check_spec_metrics(source.specs, source.path)  # a misspelled metric before simulating
     sc = source.scenario
     if params is not None:
         sc = rebase_on_params(sc, params)
@@ -261,6 +292,9 @@ def run_file(
     spec = evaluate_specs([Spec.from_row(r) for r in source.specs], metrics)
     result = _result("scenario", sc.name, sc.controller, metrics, spec, [log], [sc.description])
     result["file"] = source.path
+    # a NaN run or a fall fails whatever the specs say (with or without [[spec]] rows)
+    result["failure"] = run_failure(metrics)
+    result["passed"] = result["passed"] and result["failure"] is None
     with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
         save_log(log, tmp / "run.npz")
         (tmp / "scenario.toml").write_text(dump_toml(source.table, f"as run from {source.path}"))
@@ -281,6 +315,8 @@ def format_summary(result: dict[str, Any]) -> str:
         th = f"; thesis {r['thesis']}" if r.get("thesis") else ""
         lines.append(f"  [{'ok' if r['ok'] else 'FAIL'}] {r['metric']} = {fmt(r['value'])} "
                      f"(spec {r['op']} {r['threshold']}; {r['source']}{th})")
+    if result.get("failure"):
+        lines.append(f"  [FAIL] {result['failure']}")
     for r in result.get("limits", []):
         state = "EXCEEDED" if r["exceeded"] else "within"
         by = " (the scenario itself is beyond it)" if r["exceeded"] and r["by_scenario"] else ""

@@ -41,4 +41,5 @@ def summarize(source: ScenarioFile, runs: Sequence[Mapping[str, Any]],
     return {"n": n, "success_rate": float(np.mean(ok)) if n else math.nan, "n_failed": int(n - sum(ok)),
             "specs": per_spec, "metric_stats": stats, "dispersions": [dict(d) for d in dispersions],
             "seed": seed, "errors": [r["error"] for r in results if r["error"]],
+            "failures": [r["failure"] for r in results if r.get("failure")],
             "generated": time.strftime("%Y-%m-%d %H:%M:%S")}

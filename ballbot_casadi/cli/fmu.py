@@ -19,6 +19,7 @@ from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.fmi.package import FMI_VERSIONS, build_fmu_from_spec
 from ballbot_casadi.fmi.masters.ssp_run import MASTERS
 from ballbot_casadi.fmi.system.sil import write_sil_ssp
+from ballbot_casadi.fmi.system.ssp_check import MAX_STEPS
 from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.sil import SIL_OUTPUTS, run_sil
@@ -96,7 +97,7 @@ def _cmd_cosim(args: argparse.Namespace) -> int:
     ssp = check_input_file(args.ssp, "SSP")
     check_output_dir(args.out, "--out", owned=SIL_OUTPUTS)
     result = run_sil(ssp, args.out, args.duration, args.master, plot=not args.no_plot,
-                     compare=not args.no_compare)
+                     compare=not args.no_compare, allow_long=args.allow_long)
     sil = result["sil"]
     line = (f"{args.out}: {sil['steps']} steps ({sil['master']}) in {sil['wall_s']:.3g} s; "
             f"specs {'passed' if result['passed'] else 'MISSED'}")
@@ -168,6 +169,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     k.add_argument("--master", choices=MASTERS, default="libcosim", help="libcosim (default; "
                    "Jacobi: one period of actuation delay) or gauss-seidel (controller before "
                    "plant: the compiled mission exactly)")
+    k.add_argument("--allow-long", action="store_true", help="run an SSP stop time beyond "
+                   f"{MAX_STEPS} steps when --duration is not given (refused otherwise)")
     k.add_argument("--no-plot", action="store_true", help="skip the plots")
     k.add_argument("--no-compare", action="store_true", help="skip the comparison with the "
                    "compiled mission")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ballbot_casadi.studies.dask_cluster import check_scheduler_address
 from ballbot_casadi.core.files import check_output_dir
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.studies.montecarlo_report import OWNED_OUTPUTS, run_montecarlo
@@ -15,8 +16,12 @@ __all__ = ["add_parser"]
 
 def _cmd_montecarlo(args: argparse.Namespace) -> int:
     path = resolve_scenario(args.scenario)
+    if args.scheduler is not None:
+        check_scheduler_address(args.scheduler)
     if args.n < 1:
         raise ScenarioError(f"--n must be >= 1, got {args.n}")
+    if not 0.0 <= args.min_success <= 1.0:
+        raise ScenarioError(f"--min-success must be within [0, 1], got {args.min_success}")
     if args.workers < 0:
         raise ScenarioError(f"--workers must be >= 0 (0 = serial in this process), got {args.workers}")
     out = Path(args.out) if args.out else Path("build") / "montecarlo" / path.stem
@@ -30,6 +35,11 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         for w in doc["worst"][:3]:
             print(f"  worst: run {w['index']} (noise seed {w['seed']}): ballbot simulate {out / w['file']}")
         print(f"written to {out} (montecarlo.json, histograms.png, scatter.png, worst/, report.md)")
+    if doc["success_rate"] < args.min_success:  # specs missed (a NaN run or a fall counts)
+        if not args.quiet:
+            print(f"montecarlo {doc['name']}: FAIL: success rate {100 * doc['success_rate']:.1f} % "
+                  f"below --min-success {100 * args.min_success:g} %")
+        return 1
     return 0
 
 
@@ -54,5 +64,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change a key of the scenario before dispersing, e.g. duration_s=5")
     p.add_argument("--out", help="output directory (default build/montecarlo/<file name>)")
+    p.add_argument("--min-success", type=float, default=1.0, metavar="RATE",
+                   help="exit 1 when the fraction of runs meeting every spec is below RATE "
+                        "(default 1: every run; a NaN run or a fall never meets them)")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=_cmd_montecarlo)

@@ -10,7 +10,7 @@ from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
-from ballbot_casadi.studies.study import OWNED_OUTPUTS, format_summary, run_file
+from ballbot_casadi.studies.study import MAX_LONG_RUN_S, OWNED_OUTPUTS, format_summary, run_file, with_duration
 
 __all__ = ["add_parser"]
 
@@ -24,6 +24,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     source = load_scenario_file(path)
     if args.log_every < 1:
         raise ScenarioError(f"--log-every must be >= 1, got {args.log_every}")
+    if args.duration is not None:  # long runs beyond the file format's hour, decimated
+        source = with_duration(source, args.duration, args.log_every)
     result = run_file(source, out, plot=not args.no_plot,
                       params=load_params(args.params) if args.params else None,
                       log_every=args.log_every)
@@ -50,5 +52,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="keep every M-th control period in the log and run the mission in 60 s "
                         "segments: the log's memory per simulated second is divided by M (default 1; "
                         "measured sizes in the README)")
+    p.add_argument("--duration", type=float, default=None, metavar="S",
+                   help=f"run S seconds instead of the file's duration_s, up to {MAX_LONG_RUN_S:g} s "
+                        "(beyond one hour at 5 ms with --log-every M keeping at most 720000 periods)")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=_cmd_simulate)

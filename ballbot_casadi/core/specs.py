@@ -15,7 +15,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
-__all__ = ["SPEC_OPS", "DEFAULT_SPECS", "Spec", "spec_ok", "spec_usage", "evaluate_specs", "specs_or_default"]
+__all__ = ["SPEC_OPS", "DEFAULT_SPECS", "Spec", "spec_ok", "spec_usage", "evaluate_specs",
+           "specs_or_default", "FALL_TILT_DEG", "run_failure"]
 
 _SPEC_FUNCS: Mapping[str, Callable[[Any, Any], Any]] = {
     "<": lambda a, b: a < b,
@@ -94,3 +95,23 @@ def evaluate_specs(specs: Sequence[Spec], metrics: Mapping[str, Any]) -> list[di
 def specs_or_default(specs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """``specs`` as dicts, or :data:`DEFAULT_SPECS` when there are none."""
     return [dict(s) for s in (specs or DEFAULT_SPECS)]
+
+
+#: Peak tilt (deg) at which a run counts as a fall whatever its specs say: the body is
+#: horizontal, lying on the floor.
+FALL_TILT_DEG = 90.0
+
+
+def run_failure(metrics: Mapping[str, Any]) -> str | None:
+    """Why a run failed whatever its specs say, or ``None``: its state or torques became
+    NaN or Inf (metric ``finite``), or the robot fell (``peak_tilt_deg`` at or beyond
+    :data:`FALL_TILT_DEG`, or not a finite number)."""
+    if metrics.get("finite") is False:
+        return "the state or the torques became NaN or Inf"
+    tilt = metrics.get("peak_tilt_deg")
+    if isinstance(tilt, (int, float)) and not isinstance(tilt, bool):
+        if not math.isfinite(tilt):
+            return f"peak tilt is {tilt!r}"
+        if tilt >= FALL_TILT_DEG:
+            return f"the robot fell: peak tilt {tilt:.4g} deg >= {FALL_TILT_DEG:g} deg"
+    return None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -11,7 +12,7 @@ import numpy as np
 
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import BallbotError, FileFormatError
 
 __all__ = ["SimulationLog", "save_log", "load_log"]
 
@@ -72,17 +73,45 @@ def save_log(log: SimulationLog, path: str | Path) -> Path:
 
 
 def load_log(path: str | Path) -> SimulationLog:
-    """Load a log written by :func:`save_log`."""
-    with np.load(Path(path), allow_pickle=False) as data:
-        arrays = {k: np.array(data[k]) for k in data.files if k != "meta_json"}
-        if "meta_json" not in data.files:
-            raise ScenarioError(f"{path}: not a ballbot simulation log (no meta_json entry)")
-        meta = json.loads(str(data["meta_json"]))
-    return SimulationLog(
-        arrays=arrays,
-        scenario=meta["scenario"],
-        params=Params(**meta["params"]),
-        ctrl_params=Params(**meta["ctrl_params"]),
-        diag_names=tuple(meta.get("diag_names", ())),
-        extra=meta.get("extra", {}),
-    )
+    """Load a log written by :func:`save_log`.
+
+    Raises
+    ------
+    FileFormatError
+        The file is not a readable ballbot log: not an npz, damaged, missing entries,
+        pickled objects, bad metadata or arrays of the wrong shape (one line, exit 2).
+    """
+    try:
+        with np.load(Path(path), allow_pickle=False) as data:
+            if "meta_json" not in data.files:
+                raise FileFormatError(f"{path}: not a ballbot simulation log (no meta_json entry)")
+            arrays = {k: np.array(data[k]) for k in data.files if k != "meta_json"}
+            meta = json.loads(str(data["meta_json"]))
+        log = SimulationLog(
+            arrays=arrays,
+            scenario=meta["scenario"],
+            params=Params(**meta["params"]),
+            ctrl_params=Params(**meta["ctrl_params"]),
+            diag_names=tuple(meta.get("diag_names", ())),
+            extra=meta.get("extra", {}),
+        )
+    except FileFormatError:
+        raise
+    except (BallbotError, OSError, EOFError, ValueError, KeyError, TypeError, AttributeError,
+            zipfile.BadZipFile) as exc:
+        if isinstance(exc, FileNotFoundError):
+            raise
+        raise FileFormatError(f"{path}: not a readable ballbot simulation log "
+                              f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})") from None
+    _check_shapes(log, path)
+    return log
+
+
+def _check_shapes(log: SimulationLog, path: str | Path) -> None:
+    """``time`` (N,) and ``state`` (N, 12) with N >= 1, as every log has them."""
+    t, x = log.arrays.get("time"), log.arrays.get("state")
+    if t is None or x is None:
+        raise FileFormatError(f"{path}: not a ballbot simulation log (no time or state array)")
+    if t.ndim != 1 or x.ndim != 2 or x.shape != (t.shape[0], STATE.size) or t.shape[0] < 1:
+        raise FileFormatError(f"{path}: damaged log: time {t.shape} and state {x.shape}, expected "
+                              f"(N,) and (N, {STATE.size}) with N >= 1")

@@ -10,7 +10,7 @@ import pytest
 from ballbot_casadi.studies.registry import study_scenarios
 
 from ballbot_casadi.core.params import load_params
-from ballbot_casadi.errors import ScenarioError, ShapeError
+from ballbot_casadi.errors import FileFormatError, ScenarioError, ShapeError
 from ballbot_casadi.model.dynamics import NP, make_ode
 from ballbot_casadi.model.integrators import make_rk4_n
 from ballbot_casadi.model.numeric import make_state
@@ -214,7 +214,7 @@ def test_run_scenario_log_and_npz_round_trip(compiled, tmp_path):
 def test_load_log_rejects_foreign_npz(tmp_path):
     path = tmp_path / "x.npz"
     np.savez(path, a=np.zeros(3))
-    with pytest.raises(ScenarioError, match="not a ballbot simulation log"):
+    with pytest.raises(FileFormatError, match="not a ballbot simulation log"):
         load_log(path)
 
 

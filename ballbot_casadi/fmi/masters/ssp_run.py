@@ -24,14 +24,13 @@ import math
 import shutil
 import tempfile
 import time
-import zipfile
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import extract
 
-from ballbot_casadi.errors import BuildError, ScenarioError
+from ballbot_casadi.errors import FileFormatError, ScenarioError
 from ballbot_casadi.fmi.masters.gauss_seidel import run_gauss_seidel
 from ballbot_casadi.fmi.masters.libcosim import run_libcosim
 from ballbot_casadi.fmi.system.sil import (
@@ -42,7 +41,7 @@ from ballbot_casadi.fmi.system.sil import (
     read_scenario,
     recorded_signals,
 )
-from ballbot_casadi.fmi.system.ssp import read_ssp
+from ballbot_casadi.fmi.system.ssp_check import MAX_STEPS, open_ssp
 
 __all__ = ["MASTERS", "GAUSS_SEIDEL_ORDER", "run_ssp"]
 
@@ -53,13 +52,27 @@ MASTERS = ("libcosim", "gauss-seidel")
 GAUSS_SEIDEL_ORDER = (CONTROLLER, PLANT, REFERENCE)
 
 
-def _model_variables(unzipped: Mapping[str, Path]) -> dict[str, dict[str, Any]]:
-    return {c: {v.name: v for v in read_model_description(str(d)).modelVariables}
-            for c, d in unzipped.items()}
+def _steps(ssp: Path, system: Any, duration: float | None, allow_long: bool) -> int:
+    """Number of fixed steps of the run: ``duration`` or the SSP's stop time, a whole
+    number of steps, at most :data:`~ballbot_casadi.fmi.system.ssp_check.MAX_STEPS` unless
+    ``duration`` is given or ``allow_long``."""
+    if system.step is None:
+        raise FileFormatError(f"{ssp}: the default experiment has no fixed step "
+                              "(osp:FixedStepAlgorithm baseStepSize)")
+    stop = duration if duration is not None else (system.stop_time or 0.0) - system.start_time
+    n = int(round(stop / system.step)) if math.isfinite(stop) and stop < 1e15 * system.step else 0
+    if n < 1 or abs(n * system.step - stop) > 1e-9 * max(1.0, stop):
+        raise ScenarioError(f"duration {stop!r} s must be a positive multiple of the step "
+                            f"{system.step!r} s")
+    if n > MAX_STEPS and duration is None and not allow_long:
+        raise ScenarioError(f"{ssp}: its stop time asks for {n} steps of {system.step:g} s "
+                            f"({stop:g} s), more than {MAX_STEPS}; give --duration, or "
+                            "--allow-long to run it all")
+    return n
 
 
 def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libcosim",
-            order: Sequence[str] | None = None) -> SilRun:
+            order: Sequence[str] | None = None, allow_long: bool = False) -> SilRun:
     """Co-simulate an SSP archive for ``duration`` s (default: its stop time).
 
     Parameters
@@ -74,6 +87,9 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
     order
         Gauss-Seidel only: the components in the order they step at every ``t_k``
         (default :data:`GAUSS_SEIDEL_ORDER`).
+    allow_long
+        Run a stop time beyond :data:`~ballbot_casadi.fmi.system.ssp_check.MAX_STEPS` steps
+        when ``duration`` is not given (refused otherwise).
 
     Raises
     ------
@@ -85,27 +101,18 @@ def run_ssp(ssp: str | Path, duration: float | None = None, master: str = "libco
     if master not in MASTERS:
         raise ScenarioError(f"unknown master {master!r}; allowed: {', '.join(MASTERS)}")
     ssp = Path(ssp)
-    system = read_ssp(ssp)
-    if order is not None and (master != "gauss-seidel" or sorted(order) != sorted(
-            system.components)):
-        raise ScenarioError(f"order {tuple(order)!r}: only for master 'gauss-seidel', a "
-                            f"permutation of {', '.join(system.components)}")
-    if system.step is None:
-        raise BuildError(f"{ssp}: the default experiment has no fixed step "
-                         "(osp:FixedStepAlgorithm baseStepSize)")
-    stop = duration if duration is not None else (system.stop_time or 0.0) - system.start_time
-    n = int(round(stop / system.step)) if math.isfinite(stop) else 0
-    if n < 1 or abs(n * system.step - stop) > 1e-9 * max(1.0, stop):
-        raise ScenarioError(f"duration {stop!r} s must be a positive multiple of the step "
-                            f"{system.step!r} s")
-    scenario, specs = read_scenario(ssp)
     tmp = Path(tempfile.mkdtemp(prefix="ballbot-ssp-"))
     try:
-        with zipfile.ZipFile(ssp) as zf:
-            zf.extractall(tmp)
-        unzipped = {c: Path(extract(str(tmp / src), unzipdir=str(tmp / "unzipped" / c)))
-                    for c, src in system.components.items()}
-        variables = _model_variables(unzipped)
+        # members, FMUs (complete binaries), connections and start values checked here
+        system, fmus, variables = open_ssp(ssp, tmp / "ssp")
+        if order is not None and (master != "gauss-seidel" or sorted(order) != sorted(
+                system.components)):
+            raise ScenarioError(f"order {tuple(order)!r}: only for master 'gauss-seidel', a "
+                                f"permutation of {', '.join(system.components)}")
+        n = _steps(ssp, system, duration, allow_long)
+        scenario, specs = read_scenario(ssp)
+        unzipped = {c: Path(extract(str(f), unzipdir=str(tmp / "unzipped" / c)))
+                    for c, f in fmus.items()}
         rec = recorded_signals(system, variables)
         t_wall = time.perf_counter()
         if master == "libcosim":

@@ -26,7 +26,6 @@ import hashlib
 import shutil
 import tempfile
 import uuid
-import zipfile
 from pathlib import Path
 
 from fmpy import read_model_description
@@ -41,10 +40,10 @@ from fmpy.model_description import (
 )
 
 from ballbot_casadi.core.layout import STATE
-from ballbot_casadi.errors import BuildError
+from ballbot_casadi.errors import BuildError, FileFormatError
 from ballbot_casadi.fmi.controller.controller import READING_NAMES, XHAT_NAMES
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
-from ballbot_casadi.fmi.system.ssp import read_ssp
+from ballbot_casadi.fmi.system.ssp_check import open_ssp
 
 __all__ = ["CONTAINER_NAME", "OUTPUTS", "build_container"]
 
@@ -71,24 +70,23 @@ def build_container(ssp: str | Path, fmu: str | Path) -> Path:
 
     Raises
     ------
+    FileFormatError, StateError
+        The SSP or an FMU in it is malformed, unsafe or truncated, has two connections
+        into one input or no fixed step (:func:`~ballbot_casadi.fmi.system.ssp_check.open_ssp`).
     BuildError
-        The SSP has no fixed step, or names a variable its FMUs lack.
+        A variable the container exports is missing.
     """
     ssp, fmu = Path(ssp), Path(fmu)
-    system = read_ssp(ssp)
-    if system.step is None:
-        raise BuildError(f"{ssp}: the default experiment has no fixed step")
     tmp = Path(tempfile.mkdtemp(prefix="ballbot-container-"))
     try:
-        with zipfile.ZipFile(ssp) as zf:
-            zf.extractall(tmp / "ssp")
+        # members, FMUs (complete binaries), one connection per input, start values
+        system, fmus, variables = open_ssp(ssp, tmp / "ssp")
+        if system.step is None:
+            raise FileFormatError(f"{ssp}: the default experiment has no fixed step")
         components: dict[str, Component] = {}
-        variables: dict[str, dict[str, ModelVariable]] = {}
-        for name, src in system.components.items():
-            path = tmp / "ssp" / src
+        for name, path in fmus.items():
             md = read_model_description(str(path))
             components[name] = Component(name=name, filename=path, modelDescription=md)
-            variables[name] = {v.name: v for v in md.modelVariables}
 
         def var(comp: str, name: str) -> ModelVariable:
             try:

@@ -40,7 +40,7 @@ from ballbot_casadi.control import BALANCE_DIAG_NAMES
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.core.sensor_params import SENSOR_VECTOR_NAMES
-from ballbot_casadi.errors import BuildError, ScenarioError
+from ballbot_casadi.errors import BallbotError, BuildError, FileFormatError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.controller.controller import (
     READING_NAMES,
@@ -181,13 +181,18 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     Raises
     ------
     ScenarioError
-        A scenario without an estimator, with pushes, or a seed beyond 32 bits.
+        A scenario without an estimator, with pushes or sensor dropouts, or a seed beyond
+        32 bits.
     BuildError
         The plant FMU lacks a variable the system connects.
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the SIL runs the embedded software, "
                             "which reads sensors; set estimator = 'ukf' or 'ekf'")
+    if scenario.sensor_dropouts:  # refused, never silently dropped
+        raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_dropout]] rows, which the "
+                            "SSP cannot express (the FMUs have no dropout input); remove them "
+                            "to write the SIL system")
     out = Path(out) if out is not None else None
     plant = Path(build_fmu(out).fmu if plant_fmu is None else plant_fmu)
     causality = {v.name: v.causality for v in read_model_description(str(plant)).modelVariables}
@@ -231,7 +236,15 @@ def read_scenario(ssp: str | Path) -> tuple[Scenario | None, tuple[Mapping[str, 
             meta = json.loads(zf.read(f"resources/{SCENARIO_RESOURCE}"))
         except KeyError:
             return None, ()
-    return Scenario.from_dict(meta["scenario"]), tuple(meta.get("specs", ()))
+        except ValueError as exc:
+            raise FileFormatError(f"{ssp}: resources/{SCENARIO_RESOURCE} is not valid JSON ({exc})") from None
+    try:
+        return Scenario.from_dict(meta["scenario"]), tuple(dict(s) for s in meta.get("specs", ()))
+    except BallbotError as exc:
+        raise FileFormatError(f"{ssp}: resources/{SCENARIO_RESOURCE}: {exc}") from None
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise FileFormatError(f"{ssp}: resources/{SCENARIO_RESOURCE} is malformed "
+                              f"({type(exc).__name__}: {exc})") from None
 
 
 def recorded_signals(system: SspSystem, variables: Mapping[str, Mapping[str, Any]]) -> list[tuple[str, str]]:

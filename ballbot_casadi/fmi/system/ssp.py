@@ -41,6 +41,7 @@ from xml.sax.saxutils import quoteattr
 from fmpy import read_model_description
 
 from ballbot_casadi.errors import BuildError, FileFormatError, PathError
+from ballbot_casadi.fmi.archive import check_members
 
 __all__ = [
     "SSD_NAME",
@@ -50,6 +51,8 @@ __all__ = [
     "SspSystem",
     "write_ssp",
     "read_ssp",
+    "check_connections",
+    "check_parameters",
     "ssd_xml",
     "ssv_xml",
 ]
@@ -139,7 +142,7 @@ def _fmt(v: Value) -> tuple[str, str]:
         return "Integer", str(v)
     x = float(v)
     if not math.isfinite(x):
-        raise BuildError(f"parameter value {v!r} is not finite; SSP values must be finite")
+        raise FileFormatError(f"parameter value {v!r} is not finite; SSP values must be finite")
     return "Real", repr(x)
 
 
@@ -168,6 +171,59 @@ def _variables(fmu: Path) -> dict[str, tuple[str, str]]:
     return {v.name: (v.type, v.causality) for v in md.modelVariables}
 
 
+def check_connections(connections: Sequence[SspConnection],
+                      variables: Mapping[str, Mapping[str, tuple[str, str]]]) -> None:
+    """Every connection joins an existing output to an existing input of the same type,
+    and no input has two connections (the writer's and the readers' one rule).
+
+    Raises
+    ------
+    FileFormatError
+        The first connection that breaks a rule, and why.
+    """
+    ends: set[tuple[str, str]] = set()
+    for con in connections:
+        for elem, conn, want in ((con.start_element, con.start_connector, "output"),
+                                 (con.end_element, con.end_connector, "input")):
+            if elem not in variables:
+                raise FileFormatError(f"connection {con}: no component {elem!r} (components: "
+                                      f"{', '.join(variables)})")
+            if conn not in variables[elem]:
+                raise FileFormatError(f"connection {con}: {elem} has no variable {conn!r}")
+            if variables[elem][conn][1] != want:
+                raise FileFormatError(f"connection {con}: {elem}.{conn} is a "
+                                      f"{variables[elem][conn][1]}, the connection needs an {want}")
+        if variables[con.start_element][con.start_connector][0] != \
+                variables[con.end_element][con.end_connector][0]:
+            raise FileFormatError(f"connection {con}: the types differ")
+        end = (con.end_element, con.end_connector)
+        if end in ends:
+            raise FileFormatError(f"input {end[0]}.{end[1]} has more than one connection")
+        ends.add(end)
+
+
+def check_parameters(parameters: Mapping[str, Mapping[str, Value]],
+                     variables: Mapping[str, Mapping[str, tuple[str, str]]]) -> None:
+    """Every parameter-set value names a variable of its component, has its type and is
+    finite.
+
+    Raises
+    ------
+    FileFormatError
+        The first offending value, and why.
+    """
+    for comp, values in parameters.items():
+        if comp not in variables:
+            raise FileFormatError(f"parameter set of {comp}: no such component")
+        for n, v in values.items():
+            if n not in variables[comp]:
+                raise FileFormatError(f"parameter set of {comp}: the FMU has no variable {n!r}")
+            typ = variables[comp][n][0]
+            got = _fmt(v)[0]  # refuses NaN and Inf
+            if typ != got and not (typ == "Real" and got == "Integer"):
+                raise FileFormatError(f"parameter set of {comp}: {n} is a {typ}, got {v!r}")
+
+
 def _check(components: Sequence[SspComponent], connections: Sequence[SspConnection]
            ) -> dict[str, dict[str, tuple[str, str]]]:
     names = [c.name for c in components]
@@ -177,33 +233,8 @@ def _check(components: Sequence[SspComponent], connections: Sequence[SspConnecti
     if len(set(files)) != len(files):
         raise BuildError(f"the components' FMU files must have distinct names, got {files}")
     variables = {c.name: _variables(Path(c.fmu)) for c in components}
-    ends: set[tuple[str, str]] = set()
-    for con in connections:
-        for elem, conn, want in ((con.start_element, con.start_connector, "output"),
-                                 (con.end_element, con.end_connector, "input")):
-            if elem not in variables:
-                raise BuildError(f"connection {con}: no component {elem!r} (components: "
-                                 f"{', '.join(names)})")
-            if conn not in variables[elem]:
-                raise BuildError(f"connection {con}: {elem} has no variable {conn!r}")
-            if variables[elem][conn][1] != want:
-                raise BuildError(f"connection {con}: {elem}.{conn} is a "
-                                 f"{variables[elem][conn][1]}, the connection needs an {want}")
-        if variables[con.start_element][con.start_connector][0] != \
-                variables[con.end_element][con.end_connector][0]:
-            raise BuildError(f"connection {con}: the types differ")
-        end = (con.end_element, con.end_connector)
-        if end in ends:
-            raise BuildError(f"input {end[0]}.{end[1]} has more than one connection")
-        ends.add(end)
-    for c in components:
-        for n, v in c.parameters.items():
-            if n not in variables[c.name]:
-                raise BuildError(f"parameter set of {c.name}: {Path(c.fmu).name} has no variable "
-                                 f"{n!r}")
-            typ = variables[c.name][n][0]
-            if typ != _fmt(v)[0] and not (typ == "Real" and _fmt(v)[0] == "Integer"):
-                raise BuildError(f"parameter set of {c.name}: {n} is a {typ}, got {v!r}")
+    check_connections(connections, variables)
+    check_parameters({c.name: c.parameters for c in components}, variables)
     return variables
 
 
@@ -344,18 +375,42 @@ def read_ssp(path: str | Path) -> SspSystem:
         raise PathError(f"SSP file {path} does not exist")
     try:
         with zipfile.ZipFile(path) as zf:
-            names = zf.namelist()
+            names = check_members(zf, path)  # zip slip: refused before anything is extracted
             if SSD_NAME not in names:
                 raise FileFormatError(f"{path} has no {SSD_NAME}")
             root = ElementTree.fromstring(zf.read(SSD_NAME))
             ssv = {n: zf.read(n) for n in names if n.endswith(".ssv")}
-    except (zipfile.BadZipFile, OSError) as exc:
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, OSError) as exc:
         raise FileFormatError(f"{path} is not a readable SSP archive ({exc})") from None
     except ElementTree.ParseError as exc:
         raise FileFormatError(f"{path}: {SSD_NAME} is not valid XML ({exc})") from None
+    try:
+        system = _parse_system(root, ssv, names)
+    except (ValueError, IndexError, KeyError, TypeError, ElementTree.ParseError) as exc:
+        raise FileFormatError(f"{path}: malformed {SSD_NAME} ({type(exc).__name__}: {exc})") from None
+    except FileFormatError as exc:
+        raise FileFormatError(f"{path}: {exc}") from None
+    return system
+
+
+def _time(text: str | None, what: str, positive: bool = False) -> float | None:
+    """A finite time attribute (``None`` if absent)."""
+    if text is None or text == "":
+        return None
+    try:
+        x = float(text)
+    except ValueError:
+        raise FileFormatError(f"{what} must be a number of seconds, got {text!r}") from None
+    if not math.isfinite(x) or (positive and x <= 0):
+        raise FileFormatError(f"{what} must be a finite{' positive' if positive else ''} "
+                              f"number of seconds, got {text!r}")
+    return x
+
+
+def _parse_system(root: ElementTree.Element, ssv: Mapping[str, bytes], names: Sequence[str]) -> SspSystem:
     system = root.find("ssd:System", NS)
     if system is None:
-        raise FileFormatError(f"{path}: {SSD_NAME} has no ssd:System")
+        raise FileFormatError(f"{SSD_NAME} has no ssd:System")
     components: dict[str, str] = {}
     parameters: dict[str, dict[str, Value]] = {}
     for comp in system.iterfind("ssd:Elements/ssd:Component", NS):
@@ -369,9 +424,12 @@ def read_ssp(path: str | Path) -> SspSystem:
                 pset = (ElementTree.fromstring(ssv[src]) if src is not None
                         else binding.find("ssd:ParameterValues/ssv:ParameterSet", NS))
             except KeyError:
-                raise FileFormatError(f"{path}: parameter set {src} of {cname} is missing") from None
+                raise FileFormatError(f"parameter set {src} of {cname} is missing") from None
             for p in pset.iterfind("ssv:Parameters/ssv:Parameter", NS) if pset is not None else ():
-                values[p.get("name", "")] = _value(list(p)[0])
+                if len(p) != 1:
+                    raise FileFormatError(f"parameter {p.get('name', '')!r} of {cname} has "
+                                          f"{len(p)} values, expected one")
+                values[p.get("name", "")] = _value(p[0])
         parameters[cname] = values
     connections = tuple(
         SspConnection(c.get("startElement", ""), c.get("startConnector", ""),
@@ -380,10 +438,10 @@ def read_ssp(path: str | Path) -> SspSystem:
     exp = root.find("ssd:DefaultExperiment", NS)
     start, stop, step = 0.0, None, None
     if exp is not None:
-        start = float(exp.get("startTime", "0"))
-        stop = float(exp.get("stopTime")) if exp.get("stopTime") else None
+        start = _time(exp.get("startTime", "0"), "startTime") or 0.0
+        stop = _time(exp.get("stopTime"), "stopTime")
         algo = exp.find(".//osp:FixedStepAlgorithm", NS)
-        step = float(algo.get("baseStepSize")) if algo is not None else None
+        step = _time(algo.get("baseStepSize"), "baseStepSize", positive=True) if algo is not None else None
     return SspSystem(root.get("name", ""), components, parameters, connections, start, stop,
                      step, tuple(n.removeprefix("resources/") for n in names
                                  if n.startswith("resources/")))

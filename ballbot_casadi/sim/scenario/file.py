@@ -120,7 +120,9 @@ from ballbot_casadi.sim.scenario.checker import FileChecker
 from ballbot_casadi.sim.scenario.scenario import Scenario
 from ballbot_casadi.sim.scenario.sections import (
     DISPERSION_TARGETS,
+    MAX_PERIODS,
     SCENARIO_SECTIONS,
+    TORQUE_DISTURBANCE_MAX_NM,
     DispersionsSection,
     DisturbancesSection,
     EstimationSection,
@@ -138,6 +140,8 @@ __all__ = [
     "ScenarioFileError",
     "ScenarioFile",
     "DISPERSION_TARGETS",
+    "MAX_PERIODS",
+    "TORQUE_DISTURBANCE_MAX_NM",
     "load_scenario_file",
     "parse_scenario",
 ]
@@ -225,6 +229,9 @@ def load_scenario_file(path: str | Path) -> ScenarioFile:
         raise ScenarioFileError(f"{path}: cannot read the scenario file ({exc})") from None
     try:
         table = tomllib.loads(text)
+        return parse_scenario(table, str(path), path.stem)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioFileError(f"{path}: not valid TOML ({exc})") from None
-    return parse_scenario(table, str(path), path.stem)
+    except RecursionError:
+        raise ScenarioFileError(f"{path}: not a scenario file (arrays or tables nested too "
+                                "deeply to read)") from None

@@ -35,6 +35,7 @@ from ballbot_casadi.control import BALANCE_CONTROLLERS, VELOCITY_NKV, check_gain
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.params import PARAM_NAMES
+from ballbot_casadi.core.safe_paths import name_problem
 from ballbot_casadi.core.specs import SPEC_OPS
 from ballbot_casadi.core.validation import check_state
 from ballbot_casadi.errors import ArgumentError, ScenarioError
@@ -53,7 +54,7 @@ from ballbot_casadi.sim.scenario.signals import (
 )
 
 __all__ = [
-    "FEEDFORWARD_MODES", "ESTIMATOR_CHOICES", "ESTIMATOR_TUNING_TARGETS", "ESTIMATOR_TUNING_KEYS",
+    "MAX_PERIODS", "TORQUE_DISTURBANCE_MAX_NM", "FEEDFORWARD_MODES", "ESTIMATOR_CHOICES", "ESTIMATOR_TUNING_TARGETS", "ESTIMATOR_TUNING_KEYS",
     "PLANT_CHANGES", "CONTROLLER_CHANGES", "ESTIMATOR_CHANGES", "SENSOR_CHANGES",
     "initial_state", "RunSection", "InitialSection", "ReferencesSection", "DisturbancesSection",
     "ModelSection", "SensorsSection", "EstimationSection", "ObserverSection", "GainsSection",
@@ -126,6 +127,14 @@ def _set(section: Any, name: str, value: Any) -> None:
     object.__setattr__(section, name, value)
 
 
+#: Most control periods one run may have (``duration_s / control_period_s``): one hour at
+#: the thesis's 5 ms period, whose log is held in memory.
+MAX_PERIODS = 720_000
+#: Largest wheel torque disturbance (N m) a scenario may add: ten times the motors'
+#: maximum torque (``tau_max`` = 1.98 N m, default_params.toml).
+TORQUE_DISTURBANCE_MAX_NM = 20.0
+
+
 # --------------------------------------------------------------------------- the run
 
 
@@ -192,10 +201,16 @@ class RunSection:
     @classmethod
     def from_file(cls, c: FileChecker, table: Mapping[str, Any], default_name: str) -> "RunSection":
         name = c.text(table, "name", "name", default_name) or default_name
+        if (problem := name_problem(name)) is not None:  # the name becomes file names (montecarlo worst/)
+            raise c.fail("name", problem)
         Ts = c.num(table, "control_period_s", "control_period_s", 0.005, lo=0.0, lo_open=True, hi=0.1)
         duration = c.num(table, "duration_s", "duration_s", lo=0.0, lo_open=True, hi=3600.0)
         if round(duration / Ts) < 1:
             raise c.fail("duration_s", f"shorter than one control period ({Ts:g} s)")
+        if round(duration / Ts) > MAX_PERIODS:  # the log of every period is held in memory
+            raise c.fail("duration_s", f"{duration:g} s at control_period_s = {Ts:g} s is "
+                         f"{round(duration / Ts)} periods, more than {MAX_PERIODS}; shorten the run "
+                         "or lengthen the period")
         n_sub = c.integer(table, "rk4_substeps", "rk4_substeps", 5, 1)
         if n_sub > 100:
             raise c.fail("rk4_substeps", f"at most 100, got {n_sub}")
@@ -372,7 +387,12 @@ class DisturbancesSection:
         for i, row in enumerate(c.rows(table, "torque_disturbance")):
             key = f"torque_disturbance[{i}]"
             t0, t1 = c.interval(row, key, "tau_nm")
-            dists.append((t0, t1, *c.vector(row, "tau_nm", f"{key}.tau_nm", 3)))
+            tau = c.vector(row, "tau_nm", f"{key}.tau_nm", 3)
+            if max(map(abs, tau)) > TORQUE_DISTURBANCE_MAX_NM:
+                raise c.fail(f"{key}.tau_nm", f"each torque must be within "
+                             f"+-{TORQUE_DISTURBANCE_MAX_NM:g} N m (10x the motors' maximum), "
+                             f"got {list(tau)}")
+            dists.append((t0, t1, *tau))
         return cls(tuple(pushes), tuple(dists))
 
     def to_file(self) -> dict[str, Any]:
