@@ -102,7 +102,7 @@ def run_sil(ssp: str | Path, out: str | Path, duration: float | None = None,
     :func:`~ballbot_casadi.fmi.masters.ssp_run.run_ssp`.
     """
     ssp, out = Path(ssp), Path(out)
-    run = run_ssp(ssp, duration, master, allow_long)
+    run = run_ssp(ssp, duration, master, allow_long=allow_long)
     if run.scenario is None:
         raise ScenarioError(f"{ssp} carries no scenario (resources/scenario.json); write it with "
                             "'ballbot fmu ssp'")
