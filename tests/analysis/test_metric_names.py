@@ -13,7 +13,7 @@ from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.errors import ScenarioFileError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import load_scenario_file
-from ballbot_casadi.studies import montecarlo as study_mc
+from ballbot_casadi.studies import montecarlo_report as study_mc
 from ballbot_casadi.studies import study as study_mod
 from ballbot_casadi.studies.registry import shipped_scenarios
 

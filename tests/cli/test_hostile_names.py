@@ -72,7 +72,7 @@ def test_montecarlo_refuses_path_names_before_running(tmp_path, capsys, monkeypa
 
 
 def _wrap_no_execute(monkeypatch):
-    from ballbot_casadi.studies import montecarlo as study_mc
+    from ballbot_casadi.studies import montecarlo_report as study_mc
 
     monkeypatch.setattr(study_mc, "execute", _never)
     return study_mc.run_montecarlo
