@@ -115,7 +115,7 @@ def verify_fmu(path: str | Path, what: str | None = None) -> None:
         raise FileFormatError(f"{what}: {str(exc).removeprefix(str(path)).lstrip(': ')}") from None
     with zipfile.ZipFile(path) as zf:
         check_members(zf, what)
-        member = binary_member(_model_identifier(zf.read("modelDescription.xml"), path))
+        member = binary_member(*_model_identifier(zf.read("modelDescription.xml"), path))
         problem = shared_object_problem(zf.read(member))
     if problem is not None:
         raise FileFormatError(f"{what}: {member} is {problem}")

@@ -160,8 +160,8 @@ def _param_edit(name: str, value: str) -> Callable[[str, bytes], bytes]:
 
 
 def test_non_unit_start_quaternion_is_refused_before_the_engine(good_ssp, tmp_path):
-    bad = _rewrite(good_ssp, tmp_path / "q.ssp", _param_edit("q0", "3.0"))
-    assert read_ssp(bad).parameters["plant"]["q0"] == 3.0
+    bad = _rewrite(good_ssp, tmp_path / "q.ssp", _param_edit("x0_q0", "3.0"))
+    assert read_ssp(bad).parameters["plant"]["x0_q0"] == 3.0
     for master in MASTERS:
         with pytest.raises(StateError, match="quaternion"):
             run_ssp(bad, master=master)
@@ -217,7 +217,7 @@ def test_two_connections_into_one_input_are_refused_everywhere(good_ssp, tmp_pat
     (_ssd(lambda x: x.replace('source="resources/BallbotPlant.fmu"', 'source="resources/Nope.fmu"')),
      "not in the archive"),
     (_ssd(lambda x: x[: len(x) // 2]), "not valid XML"),
-    (_param_edit("q1", "zero"), "malformed"),
+    (_param_edit("x0_q1", "zero"), "malformed"),
     (_param_edit("seed", "1.5"), "malformed"),
     (lambda n, b: None if n == "resources/BallbotReference.fmu" else b, "not in the archive"),
     (lambda n, b: b"{not json" if n.endswith("scenario.json") else b, "not valid JSON"),

@@ -34,5 +34,10 @@ def test_glue_lists_every_controller_with_its_row_counts():
 def test_misnamed_or_mismatched_steps_are_refused():
     with pytest.raises(BuildError, match="not named ballbot_cl_step_flc"):
         glue_source("lib.h", {"flc": _step("smc")}, 64, (1,))
-    with pytest.raises(BuildError, match="same inputs, outputs and state size"):
-        glue_source("lib.h", {"flc": _step("flc"), "smc": _step("smc", nx=4)}, 64, (1,))
+    renamed = ca.Function("ballbot_cl_step_smc", [ca.MX.sym("xz", 3), ca.MX.sym("seq", 2), ca.MX.sym("k")],
+                          [ca.MX.sym("xz", 3) * 0, ca.MX(0)], ["xz", "seq", "k"], ["xz_next", "y"])
+    with pytest.raises(BuildError, match="same inputs and outputs"):
+        glue_source("lib.h", {"flc": _step("flc"), "smc": renamed}, 64, (1,))
+    # a controller with its own state (super-twisting) may have a larger xz: its own row counts
+    src = glue_source("lib.h", {"flc": _step("flc"), "sta": _step("sta", nx=4)}, 64, (1,))
+    assert re.search(r"ROWS_IN_sta\[3\] = \{4, 2, 1\};", src)

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 from ballbot_casadi.core.params import load_params
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import FileFormatError
 from ballbot_casadi.sim.log import SimulationLog, load_log, save_log
 
 
 def _log() -> SimulationLog:
     rng = np.random.default_rng(17)
     p = load_params()
-    arrays = {"time": np.arange(5) * 0.005, "state": rng.normal(size=(6, 12)),
+    arrays = {"time": np.arange(6) * 0.005, "state": rng.normal(size=(6, 12)),
               "diag": rng.normal(size=(5, 2)), "valid": np.ones((5, 3))}
     return SimulationLog(arrays=arrays, scenario={"name": "t", "x0": [0.0] * 12}, params=p,
                          ctrl_params=p.replace(Mb=p.Mb * 1.1), diag_names=("a", "b"),
@@ -39,5 +39,5 @@ def test_save_and_load_round_trip_bit_for_bit(tmp_path):
 def test_a_foreign_npz_is_not_a_log(tmp_path):
     path = tmp_path / "other.npz"
     np.savez(path, x=np.zeros(3))
-    with pytest.raises(ScenarioError, match="not a ballbot simulation log"):
+    with pytest.raises(FileFormatError, match="not a ballbot simulation log"):
         load_log(path)

@@ -34,6 +34,7 @@ from ballbot_casadi.core.safe_paths import member_problem
 from ballbot_casadi.core.validation import check_state
 from ballbot_casadi.errors import FileFormatError
 from ballbot_casadi.fmi.archive import safe_extract, verify_fmu
+from ballbot_casadi.fmi.plant.plant import X0_PREFIX
 from ballbot_casadi.fmi.system.ssp import SspSystem, check_connections, check_parameters, read_ssp
 
 __all__ = ["open_ssp", "MAX_STEPS"]
@@ -78,6 +79,7 @@ def open_ssp(ssp: str | Path, dest: str | Path) -> tuple[SspSystem, dict[str, Pa
     except FileFormatError as exc:
         raise FileFormatError(f"{ssp}: {exc}") from None
     for comp, values in system.parameters.items():
-        if all(n in values for n in STATE.names):
-            check_state([float(values[n]) for n in STATE.names], f"{ssp}: start state of {comp}")
+        for names in ([X0_PREFIX + n for n in STATE.names], list(STATE.names)):  # parameters, or start values
+            if all(n in values for n in names):
+                check_state([float(values[n]) for n in names], f"{ssp}: start state of {comp}")
     return system, fmus, variables
