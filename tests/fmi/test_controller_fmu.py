@@ -29,7 +29,7 @@ from ballbot_casadi.fmi.package import build_tool, fmu_source_dir
 from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import value_range
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.embedded import initial_controller_state
+from ballbot_casadi.sim.embedded import initial_controller_state, software_layout
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.scenario.scenario import initial_state
 
@@ -64,8 +64,10 @@ class _Reference:
         self.f = compiled_embedded(controller, estimator)
         self.values = default_values(controller, estimator)
         x0 = np.array([self.values[n] for n in X0_NAMES])
+        layout = software_layout(self.f, estimator)  # the balance controller's own state too
         self.c = initial_controller_state(estimator, x0, _function_args(self.values)["p_ctrl"],
-                                          observer="com_observer" in self.values)
+                                          observer="com_observer" in self.values,
+                                          n_bal=layout.size_of("bal") if "bal" in layout.fields else 0)
         self.args = _function_args(self.values)
         self.k = 0
 
