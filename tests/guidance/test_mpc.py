@@ -64,8 +64,6 @@ def _parameters(model, path, cfg):
     return mpc, guess[mpc.layout.x(0)], mpc.parameters(guess), guess
 
 
-@pytest.mark.xfail(strict=True, reason="known issue: qrqp stops ~4e-3 m/s (v_ref) short of "
-                   "OSQP's 1e-10 optimum on this QP; see the report")
 def test_qp_matches_an_independent_solver(model):
     """qrqp (the generated solver) against OSQP at tight tolerances on the same QP."""
     path = line_path((0.0, 0.0), (3.0, 0.0), obstacles=[(1.0, 0.2, 0.2)])
