@@ -1,5 +1,5 @@
 """Path-following MPC: prediction model, QP against another solver, limits, progress,
-corners, generated C (obstacle avoidance: not yet, see the MPC module)."""
+corners, generated C (obstacle avoidance: not yet)."""
 
 from __future__ import annotations
 
