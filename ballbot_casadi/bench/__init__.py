@@ -21,6 +21,7 @@ from ballbot_casadi.bench.control import bench_control
 from ballbot_casadi.bench.estimation import bench_estimation
 from ballbot_casadi.bench.firmware import bench_firmware
 from ballbot_casadi.bench.fmu import bench_fmu
+from ballbot_casadi.bench.guidance import bench_mpc
 from ballbot_casadi.bench.montecarlo import bench_montecarlo
 from ballbot_casadi.codegen.libraries import model_library
 from ballbot_casadi.core.files import atomic_write_text
@@ -85,6 +86,7 @@ BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
     "estimation": bench_estimation,
     "montecarlo": bench_montecarlo,
     "firmware": bench_firmware,
+    "mpc": bench_mpc,
 })
 
 

@@ -32,6 +32,7 @@ from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import LoopModel, closed_velocity_loop
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.ports import PERIOD_SEQUENCES
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["Guidance", "velocity_loop_model", "make_loop_state", "run_path", "PathRun",
@@ -121,8 +122,9 @@ def run_path(path: Path, guidance: Guidance, duration: float, guidance_period: f
             preds.append(guidance.prediction())
         seq = dict(inp)
         seq["v_ref"] = np.tile([v[0], v[1], 0.0], (m, 1))
-        for key in ("q_ref", "dq_ref", "ddq_ref", "w"):
-            seq[key] = inp[key][:m]
+        for key in PERIOD_SEQUENCES:
+            if key != "v_ref":
+                seq[key] = inp[key][:m]
         out = sim.simulate(controller, **seq, xz0=xz)
         xz = out.pop("xz_final")
         x, z = out["state"][-1], out["z"][-1]

@@ -1,5 +1,5 @@
 """Path-following MPC: prediction model, QP against another solver, limits, progress,
-corners, generated C (obstacle avoidance: not yet, see the MPC module)."""
+corners, generated C (obstacle avoidance: not yet)."""
 
 from __future__ import annotations
 
@@ -64,8 +64,6 @@ def _parameters(model, path, cfg):
     return mpc, guess[mpc.layout.x(0)], mpc.parameters(guess), guess
 
 
-@pytest.mark.xfail(strict=True, reason="known issue: qrqp stops ~4e-3 m/s (v_ref) short of "
-                   "OSQP's 1e-10 optimum on this QP; see the report")
 def test_qp_matches_an_independent_solver(model):
     """qrqp (the generated solver) against OSQP at tight tolerances on the same QP."""
     path = line_path((0.0, 0.0), (3.0, 0.0), obstacles=[(1.0, 0.2, 0.2)])
@@ -103,13 +101,19 @@ def _check_limits(run, tau_max):
 
 @pytest.mark.slow
 def test_figure_eight_true_state(model, inputs, sim):
-    """Acceptance: lateral error RMS <= 2 cm at 0.5 m/s, limits on every sample, progress monotone."""
+    """Acceptance: lateral error RMS <= 2 cm at 0.5 m/s, limits on every sample, progress monotone.
+
+    Not checked: the acceleration a_max (not an MPC row; exceeded at the start, see the report).
+    """
     path = figure_eight(4.0, 2.0, speed=0.5)
-    run = run_path(path, PathMPC(model, path), 30.0, sim=sim)
+    mpc = PathMPC(model, path)
+    _, mpc.function = mpc_library(mpc.function)  # the generated C, cached by hash under build/
+    run = run_path(path, mpc, 30.0, sim=sim)
     lat = _lateral(path, run.log["state"][::20, 0:2])
     assert np.sqrt(np.mean(lat[50:] ** 2)) <= 0.02
     _check_limits(run, 1.98)
     assert run.progress[-1] >= path.length  # one full lap
+    assert mpc.failures <= 0.2 * len(run.t_guidance)  # measured: see the report
 
 
 @pytest.mark.xfail(strict=True, reason="known issue: at this corner the robot peaks at "
@@ -138,3 +142,22 @@ def test_generated_c_equals_the_casadi_function(model, tmp_path):
         np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=0, atol=1e-12)
     assert workspace_bytes(mpc.function) > 0
     assert math.isfinite(float(compiled(x0, p, guess, z_w, z_a)[4]))
+
+
+def test_failed_qp_keeps_the_shifted_plan(model):
+    """A solver error (the generated qrqp at max_iter) -> the previous plan's next input, counted."""
+    path = line_path((0.0, 0.0), (3.0, 0.0))
+    mpc = PathMPC(model, path, MpcConfig(N=6))
+    x = np.zeros(14)
+    mpc.step(x)
+    planned = mpc.w[mpc.layout.u(1)][:2].copy()
+    assert np.linalg.norm(planned) > 0.01  # a plan that moves
+
+    def failing(*args):
+        raise RuntimeError("Evaluation failed")
+
+    mpc.function = failing
+    v = mpc.step(x)
+    np.testing.assert_allclose(v, planned, rtol=0, atol=1e-15)
+    assert mpc.failures == 1 and len(mpc.solve_s) == 2
+    assert not mpc.lam_a.any() and not mpc.lam_x.any()
