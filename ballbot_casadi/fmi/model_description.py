@@ -16,7 +16,7 @@ from xml.sax.saxutils import quoteattr
 
 from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies, value_range
 
-__all__ = ["model_description_xml", "LOG_CATEGORIES"]
+__all__ = ["model_description_xml", "LOG_CATEGORIES", "xml_number", "xml_start"]
 
 #: The log categories of the shared layer (``fmu/layer/fmi2_common.c``).
 LOG_CATEGORIES = (
@@ -26,16 +26,18 @@ LOG_CATEGORIES = (
 )
 
 
-def _fmt(v: float) -> str:
+def xml_number(v: float) -> str:
+    """A Real in a model description (shortest round-trip repr), FMI 2.0 and 3.0."""
     return repr(float(v))
 
 
-def _start(v: FmuVar) -> str:
+def xml_start(v: FmuVar) -> str:
+    """A variable's start attribute value (Boolean, Integer or Real), FMI 2.0 and 3.0."""
     if v.type == "Boolean":
         return "true" if v.start else "false"
     if v.type == "Integer":
         return str(int(v.start))
-    return _fmt(v.start)
+    return xml_number(v.start)
 
 
 def _type_element(v: FmuVar) -> str:
@@ -49,10 +51,10 @@ def _type_element(v: FmuVar) -> str:
         if v.type == "Integer":
             attrs += f' min="{int(lo)}" max="{int(hi)}"'
         else:
-            attrs += (f' min="{_fmt(lo)}"' if math.isfinite(lo) else "") + (
-                f' max="{_fmt(hi)}"' if math.isfinite(hi) else "")
+            attrs += (f' min="{xml_number(lo)}"' if math.isfinite(lo) else "") + (
+                f' max="{xml_number(hi)}"' if math.isfinite(hi) else "")
     if v.start is not None:
-        attrs += f' start="{_start(v)}"'
+        attrs += f' start="{xml_start(v)}"'
     return f"<{v.type}{attrs}/>"
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from xml.sax.saxutils import quoteattr
 
-from ballbot_casadi.fmi.model_description import LOG_CATEGORIES
+from ballbot_casadi.fmi.model_description import LOG_CATEGORIES, xml_number, xml_start
 from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies, value_range
 
 __all__ = ["model_description3_xml", "FMI3_TYPES", "time_value_reference"]
@@ -33,18 +33,6 @@ FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
 def time_value_reference(spec: FmuSpec) -> int:
     """Value reference of the independent variable ``time`` (one past the table)."""
     return len(spec.variables)
-
-
-def _fmt(v: float) -> str:
-    return repr(float(v))
-
-
-def _start(v: FmuVar) -> str:
-    if v.type == "Boolean":
-        return "true" if v.start else "false"
-    if v.type == "Integer":
-        return str(int(v.start))
-    return _fmt(v.start)
 
 
 def _variable(v: FmuVar) -> list[str]:
@@ -62,10 +50,10 @@ def _variable(v: FmuVar) -> list[str]:
         if v.type == "Integer":
             attrs += f' min="{int(lo)}" max="{int(hi)}"'
         else:
-            attrs += (f' min="{_fmt(lo)}"' if math.isfinite(lo) else "") + (
-                f' max="{_fmt(hi)}"' if math.isfinite(hi) else "")
+            attrs += (f' min="{xml_number(lo)}"' if math.isfinite(lo) else "") + (
+                f' max="{xml_number(hi)}"' if math.isfinite(hi) else "")
     if v.start is not None:
-        attrs += f' start="{_start(v)}"'
+        attrs += f' start="{xml_start(v)}"'
     return [f"    <{FMI3_TYPES[v.type]} {attrs}/>"]
 
 
