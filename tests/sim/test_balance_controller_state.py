@@ -173,3 +173,22 @@ def test_sta_with_the_ukfs_balances_and_differs_from_a_reset_state(sim):
     t = log["time"]
     assert np.abs(rpy[t >= 2.0, :2]).max() < 1.0
     assert np.abs(log["c_final"][-STA_NZ:]).max() > 0.0
+
+
+def test_power_on_state_of_a_stateful_controller_starts_its_own_state_at_rest():
+    """The generated power-on Function (mission, controller FMU, firmware) gives the
+    super-twisting controller's own state ``bal`` zero, as the mission starts it, and the
+    rest of ``c`` as for a stateless controller."""
+    from ballbot_casadi.core.params import load_params
+    from ballbot_casadi.fmi.controller.controller import initial_state_function
+    from ballbot_casadi.sim.embedded import embedded_software, software_layout
+
+    sta, flc = embedded_software("sta", "ukf"), embedded_software("flc", "ukf")
+    L = software_layout(sta, "ukf")
+    x0 = np.array(initial_state(3.0, -2.0, 10.0))
+    p = load_params().to_vector()
+    c_sta = np.asarray(initial_state_function(sta, "ukf")(x0, p), float).ravel()
+    c_flc = np.asarray(initial_state_function(flc, "ukf")(x0, p), float).ravel()
+    assert L.size_of("bal") == 3 and c_sta.size == L.size
+    np.testing.assert_array_equal(c_sta[L["bal"]], 0.0)
+    np.testing.assert_array_equal(np.delete(c_sta, np.arange(L.size)[L["bal"]]), c_flc)
