@@ -38,7 +38,6 @@ import numpy as np
 
 __all__ = [
     "Layout",
-    "c_layout_defines",
     "STATE",
     "REDUCED_STATE",
     "DISTURBANCE",
@@ -178,20 +177,6 @@ class Layout:
 
     def __repr__(self) -> str:
         return f"Layout({self.name!r}, {[(f, s.stop - s.start) for f, s in self._slices.items()]})"
-
-
-def c_layout_defines(prefix: str, layouts: Mapping[str, Layout]) -> str:
-    """C ``#define`` lines naming every field of ``layouts`` (block name -> layout):
-    ``<PREFIX>_<BLOCK>_<FIELD>`` (offset) and ``<PREFIX>_<BLOCK>_<FIELD>_N`` (size),
-    nested fields joined by ``_``, plus ``<PREFIX>_<BLOCK>_SIZE``; upper case."""
-    lines = []
-    for block, layout in layouts.items():
-        base = f"{prefix}_{block}".upper()
-        lines.append(f"#define {base}_SIZE {layout.size}")
-        for field, off, n in layout.flat():
-            name = f"{base}_{field.replace('.', '_')}".upper()
-            lines += [f"#define {name} {off}", f"#define {name}_N {n}"]
-    return "\n".join(lines) + "\n"
 
 
 STATE = Layout(

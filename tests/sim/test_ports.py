@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ballbot_casadi.control import make_balance_controller, make_velocity_controller
-from ballbot_casadi.core.layout import STATE, Layout, c_layout_defines
+from ballbot_casadi.core.layout import STATE, Layout
 from ballbot_casadi.model.dynamics import NP, make_affine, make_ode
 from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.sim import library as sim_library
@@ -31,8 +31,6 @@ def test_nested_layout_slices_offsets_and_packing_by_name():
     np.testing.assert_array_equal(v, np.arange(1, 9))
     with pytest.raises(ValueError, match="c.b"):
         L.pack({"x": [1, 2, 3], "c.a": [4, 5], "u": [7, 8]})
-    text = c_layout_defines("ctrl", {"c": inner})
-    assert "#define CTRL_C_B 2\n" in text and "#define CTRL_C_SIZE 3\n" in text
 
 
 def test_the_library_steps_have_the_ports_inputs_and_outputs():
