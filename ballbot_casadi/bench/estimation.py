@@ -112,8 +112,9 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
     data["com_observer_step_us"] = c_function_us(lib, observer, o_in, n_calls)
     data["estimator_step_us"] = sum(data[f"{k}_step_us"] for k in ("qukf", "vukf", "tilt_correction",
                                                                    "com_observer"))
-    values = {"c": c, "meas": meas, **{r: inputs[r][k] for r in REFERENCE_SEQUENCES},
-              **inputs, **est, "cascade": 1.0 if inputs["cascade"] else 0.0,
+    # the reference rows of period k after the whole-run inputs (which hold the sequences)
+    values = {**inputs, **est, "c": c, "meas": meas, **{r: inputs[r][k] for r in REFERENCE_SEQUENCES},
+              "cascade": 1.0 if inputs["cascade"] else 0.0,
               "feedforward": 1.0 if inputs["feedforward"] else 0.0,
               "com_observer": 1.0 if inputs.get("com_observer") else 0.0}
     e_in = [values[n] for n in embedded.name_in()]
