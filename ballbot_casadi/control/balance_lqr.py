@@ -39,13 +39,14 @@ import math
 from typing import Any
 
 import casadi as ca
-import control
 import numpy as np
 import scipy.linalg
 
 from ballbot_casadi.control.decoupling import check_affine, error_output_dynamics
+from ballbot_casadi.control.dlqr import stabilising_dlqr
 from ballbot_casadi.core.constants import THESIS_LIMITS, TS_CONTROL
-from ballbot_casadi.errors import ParameterError, ScenarioError
+from ballbot_casadi.core.layout import REDUCED_STATE
+from ballbot_casadi.errors import ScenarioError
 
 __all__ = [
     "LQR_GAIN_NAMES",
@@ -58,7 +59,8 @@ __all__ = [
 #: Gain vector layout: ``K`` (3 x 6) row-major, rows torques, columns ``[y1..3, dy1..3]``.
 LQR_GAIN_NAMES = tuple(f"K{i}{j}" for i in range(3) for j in range(6))
 #: Indices of the attitude block ``[v1, v2, v3, dv1, dv2, dv3]`` in the reduced linear state.
-ATTITUDE_STATES = (2, 3, 4, 7, 8, 9)
+ATTITUDE_STATES = (*range(REDUCED_STATE["v"].start, REDUCED_STATE["v"].stop),
+                   *range(REDUCED_STATE["dv"].start, REDUCED_STATE["dv"].stop))
 _TILT = math.sin(THESIS_LIMITS["tilt_max"] / 2)
 _TILT_RATE = THESIS_LIMITS["tilt_rate_max"] / 2
 _YAW, _YAW_RATE = math.sin(math.radians(10.0) / 2), math.radians(60.0) / 2
@@ -112,16 +114,8 @@ def design_balance_lqr(linear: Any, Ts: float = TS_CONTROL, Qw: Any = None,
     if Qw.shape != (6,) or Rw.shape != (3,):
         raise ScenarioError(f"Qw needs 6 and Rw 3 diagonal entries, got {Qw.size} and {Rw.size}")
     _, _, Ad, Bd = balance_design_model(linear, Ts)
-    none = "no stabilising balance LQR gain exists for these parameters"
-    try:
-        K, _, _ = control.dlqr(Ad, Bd, np.diag(Qw), np.diag(Rw), method="scipy")
-    except (np.linalg.LinAlgError, ValueError, ArithmeticError) as exc:
-        raise ParameterError(f"{none} ({exc})") from None
-    K = np.asarray(K, dtype=float)
-    rho = np.max(np.abs(np.linalg.eigvals(Ad - Bd @ K))) if np.all(np.isfinite(K)) else np.inf
-    if not rho < 1.0:
-        raise ParameterError(f"{none}: the closed loop has spectral radius {rho:.9g} >= 1")
-    return K
+    return stabilising_dlqr(Ad, Bd, Qw, Rw,
+                            "no stabilising balance LQR gain exists for these parameters")
 
 
 def make_balance_lqr(affine: ca.Function) -> ca.Function:

@@ -63,12 +63,12 @@ import math
 from typing import Any
 
 import casadi as ca
-import control
 import numpy as np
 import scipy.linalg
 
 from ballbot_casadi.core.layout import STATE, STATE_DXY
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
+from ballbot_casadi.control.dlqr import stabilising_dlqr
 from ballbot_casadi.control.flc import FLC_DEFAULT_GAINS
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import THESIS_LIMITS, TS_CONTROL
@@ -242,15 +242,7 @@ def design_velocity_lqr(
                              "linearised (the wheel torques do not reach the tilt axes)") from None
     if not (np.all(np.isfinite(Ad)) and np.all(np.isfinite(Bd))):
         raise ParameterError(f"{none}: the discretised design model is not finite")
-    try:
-        K, _, _ = control.dlqr(Ad, Bd, np.diag(Qw), np.diag(Rw), method="scipy")
-    except (np.linalg.LinAlgError, ValueError, ArithmeticError) as exc:
-        raise ParameterError(f"{none} (velocity LQR: {exc})") from None
-    K = np.asarray(K, dtype=float)
-    rho = np.max(np.abs(np.linalg.eigvals(Ad - Bd @ K))) if np.all(np.isfinite(K)) else np.inf
-    if not rho < 1.0:
-        raise ParameterError(f"{none}: the LQR closed loop has spectral radius {rho:.9g} >= 1")
-    return K
+    return stabilising_dlqr(Ad, Bd, Qw, Rw, f"{none} (velocity LQR)")
 
 
 def default_velocity_gains(jac: ca.Function, p: Any, Ts: float = TS_CONTROL) -> np.ndarray:
