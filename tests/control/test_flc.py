@@ -217,7 +217,7 @@ def test_robust_to_mass_and_inertia_error(flc, model_functions, default_params):
 
 
 def test_bad_inputs_raise_clear_errors(model_functions):
-    with pytest.raises(ArgumentError, match="allowed: flc, lqr, smc, sta"):
+    with pytest.raises(ArgumentError, match="allowed: flc, flc_dob, lqr, smc, sta"):
         default_balance_gains("pid")
     with pytest.raises(ArgumentError, match="allowed"):
         make_balance_controller("pid", model_functions["affine"])
