@@ -13,10 +13,9 @@ from ballbot_casadi.control import (
     make_balance_controller,
     saturate_torques,
 )
-from ballbot_casadi.control.decoupling import error_output_dynamics
 from ballbot_casadi.control.disturbance_observer import DOB_GAIN_NAMES, DOB_NZ, DOB_STATE
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.core.layout import STATE
+from ballbot_casadi.core.layout import GENERALISED, STATE
 from ballbot_casadi.core.params import Params, load_params
 from ballbot_casadi.model.dynamics import make_affine, make_ode
 from ballbot_casadi.model.integrators import make_rk4_n
@@ -56,14 +55,14 @@ def loops() -> dict[str, dict[str, np.ndarray]]:
     return out
 
 
-def _decoupling_matrix() -> ca.Function:
-    """``E(x)`` of the error output at the upright reference (thesis 8.25)."""
-    affine = make_affine()
+def _body_acceleration_map() -> ca.Function:
+    """``G(x)``: torque -> body angular acceleration, ``2 vec(q* o g_q)``, from the model's
+    affine form directly (body rate omega = 2 vec(q* o dq))."""
     x = ca.MX.sym("x", STATE.size)
-    f, g = affine(x, load_params().to_vector())
-    z = ca.DM.zeros(4)
-    o = error_output_dynamics(x, ca.DM([1, 0, 0, 0]), z, z, f, g)
-    return ca.Function("E", [x], [o["E"]])
+    _, g = make_affine()(x, load_params().to_vector())
+    q = x[STATE["q"]]
+    cols = [2 * Q.vee(Q.mul(Q.conj(q), g[GENERALISED["q"], j])) for j in range(3)]
+    return ca.Function("G", [x], [ca.horzcat(*cols)])
 
 
 def _tilt_deg(x: np.ndarray) -> np.ndarray:
@@ -72,23 +71,27 @@ def _tilt_deg(x: np.ndarray) -> np.ndarray:
 
 def test_estimate_converges_to_the_constant_torque_disturbance(loops):
     r = loops["flc_dob"]
+    G = _body_acceleration_map()
     # at rest and upright the only torque balancing the disturbance is -tau_d itself
     np.testing.assert_allclose(r["tau"][-1], -TAU_D, rtol=0, atol=1e-5)  # measured ~1e-6
     assert np.abs(_tilt_deg(r["x"][-1:])).max() < 1e-3  # measured 1.5e-4 deg (yaw)
-    # the estimate is E tau_d: it is what the FLC alone would have to add, nonzero
+    # the estimate is G tau_d, the body acceleration the disturbance causes
+    x_last = r["x"][-2]
     d_hat = r["zb"][-1][DOB_STATE["d_hat"]]
+    np.testing.assert_allclose(d_hat, np.asarray(G(x_last)).reshape(3, 3) @ TAU_D, rtol=1e-4)
     assert np.abs(d_hat).min() > 1e-2
     # first-order convergence at the observer bandwidth: the error of the estimate
-    # against the true lumped disturbance E(x) tau_d decays as (1 - L h)^k
-    E = _decoupling_matrix()
+    # against the true lumped disturbance G(x) tau_d decays as (1 - L h)^k
     k = default_balance_gains("flc_dob", Ts=TS)
     L = k[[DOB_GAIN_NAMES.index(f"L{i}") for i in (1, 2, 3)]]
-    err = np.array([zb[DOB_STATE["d_hat"]] - np.asarray(E(x)).reshape(3, 3) @ TAU_D
+    err = np.array([zb[DOB_STATE["d_hat"]] - np.asarray(G(x)).reshape(3, 3) @ TAU_D
                     for zb, x in zip(r["zb"], np.vstack([initial_state(2.0, -1.0), r["x"][:-1]]))])
-    np.testing.assert_allclose(err[0], -np.asarray(E(initial_state(2.0, -1.0))).reshape(3, 3) @ TAU_D,
+    np.testing.assert_allclose(err[0], -np.asarray(G(initial_state(2.0, -1.0))).reshape(3, 3) @ TAU_D,
                                rtol=1e-12)  # the arming period estimates nothing
-    for n in (1, 2, 5):  # periods after the first estimate (later the state's motion adds)
+    for n in (1, 2):  # periods after the first estimate (later the state's motion adds)
         np.testing.assert_allclose(err[1 + n], (1 - L * TS) ** n * err[1], rtol=0.05)
+    # after 0.1 s only the Euler prediction error of the moving state is left (measured 0.4 %)
+    assert np.all(np.abs(err[20]) < 1e-2 * np.abs(err[1]).max())
     assert r["zb"][-1][DOB_STATE["armed"]] == 1.0
 
 

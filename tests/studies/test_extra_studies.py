@@ -69,3 +69,15 @@ def test_heading_study_short(tmp_path):
 def test_cli_extra_study_rejects_scenario_options(capsys):
     assert main(["study", "heading", "--seed", "3"]) == 2
     assert "do not apply" in capsys.readouterr().err
+
+
+def test_dob_gain_sweep_trades_standing_motion_for_torque_activity(sim):
+    """With the UKFs in the cascade a slow observer (3x the FLC pole) makes the standing
+    robot wander more than a fast one (20x), which moves the torque more."""
+    from ballbot_casadi.studies.envelope import dob_gain_sweep
+
+    rows = dob_gain_sweep(sim, "ukf", separations=(3.0, 20.0))
+    assert [r["controller"] for r in rows] == ["flc", "flc_dob", "flc_dob"]
+    flc, slow, fast = rows
+    assert slow["tilt_deg"] > 1.5 * fast["tilt_deg"]  # measured 0.54 vs 0.19 deg
+    assert fast["torque_tv_nm_per_s"] > 2 * flc["torque_tv_nm_per_s"] > 0  # measured 226 vs 48
