@@ -163,16 +163,17 @@ def test_mission_equals_the_python_loop(sim, controller):
         assert np.abs(zb).max() > 1e-4  # the integral term / the disturbance estimate is in use
 
 
-def test_sta_with_the_ukfs_balances_and_differs_from_a_reset_state(sim):
+@pytest.mark.parametrize("controller", ["sta", "flc_dob"])
+def test_stateful_controller_with_the_ukfs_balances_and_differs_from_a_reset_state(sim, controller):
     """With sensors and the embedded software: the state slot lives in the embedded
     software's state c (last field); the robot balances from 5/5 deg."""
-    sc = Scenario(name="t", controller="sta", duration=3.0, x0=initial_state(5, 5),
+    sc = Scenario(name="t", controller=controller, duration=3.0, x0=initial_state(5, 5),
                   estimator="ukf", cascade=True, seed=3)
     log = run_scenario(sc, sim)
     rpy = np.degrees([Q.to_rpy(q) for q in log["state"][:, STATE["q"]]])
     t = log["time"]
     assert np.abs(rpy[t >= 2.0, :2]).max() < 1.0
-    assert np.abs(log["c_final"][-STA_NZ:]).max() > 0.0
+    assert np.abs(log["c_final"][-balance_state_size(controller):]).max() > 0.0
 
 
 def test_power_on_state_of_a_stateful_controller_starts_its_own_state_at_rest():
