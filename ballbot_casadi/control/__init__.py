@@ -7,9 +7,12 @@ Balance controllers (inner loop), built from the model's control-affine Function
 * ``"flc"`` - feedback linearisation (thesis ch. 8), :mod:`.flc`;
 * ``"smc"`` - sliding mode, the predecessor's baseline (thesis §8.3), :mod:`.smc`;
 * ``"sta"`` - super-twisting sliding mode (thesis ch. 11 future work), :mod:`.super_twisting`;
-* ``"lqr"`` - the predecessor's balance LQR (thesis §1.2), :mod:`.balance_lqr`.
+* ``"lqr"`` - the predecessor's balance LQR (thesis §1.2), :mod:`.balance_lqr`;
+* ``"flc_dob"`` - the FLC with a disturbance observer (thesis ch. 11 future work),
+  :mod:`.disturbance_observer`.
 
-A controller with a *balance-controller state* ``zb`` (``"sta"``: the integral term)
+A controller with a *balance-controller state* ``zb`` (``"sta"``: the integral term;
+``"flc_dob"``: the disturbance estimate and its predictor)
 takes it as a 7th input and returns its next value as a 3rd output
 (:data:`BALANCE_STATE_SIZES`; the period carries it, :mod:`ballbot_casadi.sim.ports`).
 A controller whose default gain is designed on the linearised model (``"lqr"``) needs
@@ -35,6 +38,12 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
+from ballbot_casadi.control.disturbance_observer import (
+    DOB_DEFAULT_GAINS,
+    DOB_GAIN_NAMES,
+    DOB_NZ,
+    make_flc_dob,
+)
 from ballbot_casadi.control.flc import (
     DIAG_NAMES,
     FLC_DEFAULT_GAINS,
@@ -49,6 +58,7 @@ from ballbot_casadi.control.quaternion_error import (
     shortest_path_sign,
 )
 from ballbot_casadi.control.balance_lqr import LQR_GAIN_NAMES, design_balance_lqr, make_balance_lqr
+from ballbot_casadi.control.torque_limit import saturate_torques
 from ballbot_casadi.control.smc import SMC_DEFAULT_GAINS, SMC_GAIN_NAMES, make_smc
 from ballbot_casadi.control.super_twisting import (
     STA_DEFAULT_GAINS,
@@ -82,6 +92,7 @@ __all__ = [
     "make_smc",
     "make_super_twisting",
     "make_balance_lqr",
+    "make_flc_dob",
     "make_velocity_controller",
     "design_velocity_lqr",
     "default_velocity_gains",
@@ -104,17 +115,22 @@ BALANCE_CONTROLLERS: dict[str, Callable[[ca.Function], ca.Function]] = {
     "smc": make_smc,
     "sta": make_super_twisting,
     "lqr": make_balance_lqr,
+    "flc_dob": make_flc_dob,
 }
 #: Names of the ``diag`` output entries (same for every balance controller).
 BALANCE_DIAG_NAMES: tuple[str, ...] = DIAG_NAMES
 #: Names of the gain-vector entries per balance controller.
 BALANCE_GAIN_NAMES: dict[str, tuple[str, ...]] = {
-    "flc": FLC_GAIN_NAMES, "smc": SMC_GAIN_NAMES, "sta": STA_GAIN_NAMES, "lqr": LQR_GAIN_NAMES}
+    "flc": FLC_GAIN_NAMES, "smc": SMC_GAIN_NAMES, "sta": STA_GAIN_NAMES, "lqr": LQR_GAIN_NAMES,
+    "flc_dob": DOB_GAIN_NAMES}
 #: Size of the balance-controller state ``zb`` per controller (absent: stateless).
-BALANCE_STATE_SIZES: dict[str, int] = {"sta": STA_NZ}
+BALANCE_STATE_SIZES: dict[str, int] = {"sta": STA_NZ, "flc_dob": DOB_NZ}
 #: Controllers whose default gain is designed on the linearised model (no positivity rule).
 LINEAR_DESIGNED: tuple[str, ...] = ("lqr",)
-_DEFAULT_GAINS = {"flc": FLC_DEFAULT_GAINS, "smc": SMC_DEFAULT_GAINS, "sta": STA_DEFAULT_GAINS}
+_DEFAULT_GAINS = {"flc": FLC_DEFAULT_GAINS, "smc": SMC_DEFAULT_GAINS, "sta": STA_DEFAULT_GAINS,
+                  "flc_dob": DOB_DEFAULT_GAINS}
+#: Controllers whose last gain is the discretisation step ``h`` (set to the period ``Ts``).
+_STEP_GAIN = {"sta": STA_GAIN_NAMES.index("h"), "flc_dob": DOB_GAIN_NAMES.index("h")}
 
 
 def _check_name(name: str) -> str:
@@ -131,7 +147,7 @@ def default_balance_gains(name: str, linear: object = None, Ts: float = TS_CONTR
     ``linear`` is the :class:`~ballbot_casadi.model.linearization.LinearModel` of the
     controller's model at the balance point; only the controllers of
     :data:`LINEAR_DESIGNED` (``"lqr"``: :func:`~.balance_lqr.design_balance_lqr` for the
-    period ``Ts``) need it.  The super-twisting step ``h`` is ``Ts``.
+    period ``Ts``) need it.  The super-twisting and disturbance-observer step ``h`` is ``Ts``.
 
     Raises
     ------
@@ -146,8 +162,8 @@ def default_balance_gains(name: str, linear: object = None, Ts: float = TS_CONTR
                                 "pass linear=linearize(params)")
         return design_balance_lqr(linear, Ts).reshape(-1)  # row-major, LQR_GAIN_NAMES
     k = _DEFAULT_GAINS[name].copy()
-    if name == "sta":
-        k[STA_GAIN_NAMES.index("h")] = Ts
+    if name in _STEP_GAIN:
+        k[_STEP_GAIN[name]] = Ts
     return k
 
 
@@ -189,21 +205,3 @@ def controller_functions_list(affine: ca.Function) -> list[ca.Function]:
     """Every balance controller of :data:`BALANCE_CONTROLLERS` and ``ballbot_velocity``
     for code generation."""
     return [*(b(affine) for b in BALANCE_CONTROLLERS.values()), make_velocity_controller()]
-
-
-def saturate_torques(tau: object, tau_max: object) -> object:
-    """Direction-preserving torque limit: scale ``tau`` so that ``max |tau_i| <= tau_max``.
-
-    Clipping each wheel separately changes the direction of the torque vector and so
-    leaks tilt demand into yaw (on the thesis §8.4.1 test the heading swings by ~20 deg
-    with clipping and ~0.1 deg with scaling); scaling keeps the decoupling.  Works on
-    numpy arrays and on CasADi SX/MX (then ``tau_max`` may be symbolic); the closed loop
-    applies it at the controller's internal ``tau_max`` before the plant's per-wheel
-    saturation.
-    """
-    if isinstance(tau, (ca.SX, ca.MX)) or isinstance(tau_max, (ca.SX, ca.MX)):
-        m = ca.mmax(ca.fabs(tau))
-        return tau * ca.fmin(1, tau_max / ca.fmax(m, 1e-300))
-    t = np.asarray(tau, dtype=float).reshape(-1)
-    m = float(np.max(np.abs(t))) if t.size else 0.0
-    return t * (float(tau_max) / m) if m > float(tau_max) else t.copy()

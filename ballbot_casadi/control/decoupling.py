@@ -45,6 +45,7 @@ __all__ = [
     "check_affine",
     "error_output_dynamics",
     "damped_solve",
+    "solve3",
     "QE0_MIN",
     "RCOND_MIN",
     "DAMPING_MU",
@@ -141,6 +142,13 @@ def _fro(M: ca.MX) -> ca.MX:
 def rcond_fro(M: ca.MX) -> ca.MX:
     """Reciprocal Frobenius condition number ``|det M| / (||M||_F ||adj M||_F)`` of a 3x3."""
     return ca.fabs(_det3(M)) / (_fro(M) * _fro(_adj3(M)) + 1e-300)
+
+
+def solve3(M: ca.MX, b: ca.MX) -> ca.MX:
+    """``M^-1 b`` of a 3x3 ``M`` by the adjugate (closed form: no linear-solver plugin in the
+    generated C); the caller ensures ``M`` is well conditioned (e.g. ``G``, see
+    :func:`rcond_fro`)."""
+    return ca.mtimes(_adj3(M), b) / _det3(M)
 
 
 def damped_solve(

@@ -62,7 +62,7 @@ def test_interface(flc):
     assert flc.name_in() == ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"]
     assert flc.name_out() == ["tau", "diag"]
     assert flc.size1_out(1) == len(BALANCE_DIAG_NAMES) and BALANCE_DIAG_NAMES[0] == "singular"
-    assert set(BALANCE_CONTROLLERS) == {"flc", "smc", "sta", "lqr"}
+    assert set(BALANCE_CONTROLLERS) == {"flc", "smc", "sta", "lqr", "flc_dob"}
 
 
 def test_output_dynamics_are_exactly_the_designed_linear_ones(flc, model_functions, default_params, rng):
@@ -217,7 +217,7 @@ def test_robust_to_mass_and_inertia_error(flc, model_functions, default_params):
 
 
 def test_bad_inputs_raise_clear_errors(model_functions):
-    with pytest.raises(ArgumentError, match="allowed: flc, lqr, smc, sta"):
+    with pytest.raises(ArgumentError, match="allowed: flc, flc_dob, lqr, smc, sta"):
         default_balance_gains("pid")
     with pytest.raises(ArgumentError, match="allowed"):
         make_balance_controller("pid", model_functions["affine"])
@@ -235,7 +235,7 @@ def test_controllers_generate_strict_c(model_functions, default_params, tmp_path
     from ballbot_casadi.core.toolchain import build_library, load_library
 
     funcs = controller_functions_list(model_functions["affine"])
-    names = ("flc", "smc", "sta", "lqr")
+    names = ("flc", "smc", "sta", "lqr", "flc_dob")
     assert [f.name() for f in funcs] == [*(f"ballbot_{n}" for n in names), "ballbot_velocity"]
     lib = build_library("ballbot_control_test", funcs, root=tmp_path)
     ext = load_library(lib, [f"ballbot_{n}" for n in names])
@@ -244,7 +244,7 @@ def test_controllers_generate_strict_c(model_functions, default_params, tmp_path
     linear = linearize(default_params, functions=model_functions)
     for name, f in zip(names, funcs):
         k = default_balance_gains(name, linear)
-        zb = [0.01, -0.02, 0.03]  # the super-twisting state
+        zb = 0.01 * np.arange(1, f.numel_in(6) + 1) if f.n_in() == 7 else None  # a state of its own
         args = (x, q_ref, dq_ref, ddq_ref, p, k, *([zb] if f.n_in() == 7 else []))
         for a, b in zip(f(*args), ext[f.name()](*args)):
             np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=1e-12, atol=1e-12)

@@ -115,7 +115,7 @@ def test_the_per_model_file_is_small():
     assert len(lines) < 220  # the second FMU costs a small per-model file, not a copy
 
 
-@pytest.mark.parametrize("ctrl,est", [("flc", "ukf"), ("smc", "ekf"), ("sta", "ukf")])
+@pytest.mark.parametrize("ctrl,est", [("flc", "ukf"), ("smc", "ekf"), ("sta", "ukf"), ("flc_dob", "ukf")])
 def test_fmu_equals_the_compiled_embedded_step(ctrl, est):
     rng = np.random.default_rng(11)
     fmu, ref = Controller(ctrl, est), _Reference(ctrl, est)

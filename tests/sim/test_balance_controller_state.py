@@ -80,7 +80,7 @@ def _sliding_variable(log, k_bal) -> np.ndarray:
 
 
 def test_every_controller_is_selectable_and_sta_carries_its_state():
-    assert set(BALANCE_CONTROLLERS) == {"flc", "smc", "sta", "lqr"}
+    assert set(BALANCE_CONTROLLERS) == {"flc", "smc", "sta", "lqr", "flc_dob"}
     assert balance_state_size("sta") == STA_NZ and balance_state_size("flc") == 0
     affine, vel = make_affine(), make_velocity_controller()
     blocks = PeriodBlocks(make_balance_controller("sta", affine), vel, make_com_observer())
@@ -143,7 +143,7 @@ def test_sta_from_five_five_degrees_converges_in_the_compiled_mission(sim):
     np.testing.assert_allclose(log["state"][-1], x, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("controller", ["sta", "lqr"])
+@pytest.mark.parametrize("controller", ["sta", "lqr", "flc_dob"])
 def test_mission_equals_the_python_loop(sim, controller):
     sc = Scenario(name="t", controller=controller, duration=0.8, x0=initial_state(3, -2, 10),
                   cascade=True, velocity_keyframes=((0.0, 0.2, -0.1, 0.3),),
@@ -157,22 +157,23 @@ def test_mission_equals_the_python_loop(sim, controller):
     np.testing.assert_allclose(log["state"], ref["state"], rtol=0, atol=1e-10)
     np.testing.assert_allclose(log["tau"], ref["tau"], rtol=0, atol=1e-9)
     assert np.max(np.abs(log["state"][-1] - log["state"][0])) > 1e-2  # something happened
-    if controller == "sta":
+    if controller in ("sta", "flc_dob"):
         Z = controller_state(blocks, affine.numel_in(1))
         zb = ref["c_final"][Z["bal"]]
-        assert np.abs(zb).max() > 1e-4  # the integral term is in use
+        assert np.abs(zb).max() > 1e-4  # the integral term / the disturbance estimate is in use
 
 
-def test_sta_with_the_ukfs_balances_and_differs_from_a_reset_state(sim):
+@pytest.mark.parametrize("controller", ["sta", "flc_dob"])
+def test_stateful_controller_with_the_ukfs_balances_and_differs_from_a_reset_state(sim, controller):
     """With sensors and the embedded software: the state slot lives in the embedded
     software's state c (last field); the robot balances from 5/5 deg."""
-    sc = Scenario(name="t", controller="sta", duration=3.0, x0=initial_state(5, 5),
+    sc = Scenario(name="t", controller=controller, duration=3.0, x0=initial_state(5, 5),
                   estimator="ukf", cascade=True, seed=3)
     log = run_scenario(sc, sim)
     rpy = np.degrees([Q.to_rpy(q) for q in log["state"][:, STATE["q"]]])
     t = log["time"]
     assert np.abs(rpy[t >= 2.0, :2]).max() < 1.0
-    assert np.abs(log["c_final"][-STA_NZ:]).max() > 0.0
+    assert np.abs(log["c_final"][-balance_state_size(controller):]).max() > 0.0
 
 
 def test_power_on_state_of_a_stateful_controller_starts_its_own_state_at_rest():

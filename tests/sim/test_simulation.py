@@ -184,7 +184,7 @@ def test_bad_inputs_rejected(compiled):
         compiled.simulate("flc", **{**inp, "v_ref": np.zeros((inp["v_ref"].shape[0], 2))})
     with pytest.raises(ShapeError, match="rows"):
         compiled.simulate("flc", **{**inp, "w": np.zeros((3, 6))})
-    with pytest.raises(ScenarioError, match="allowed: flc, smc, sta, lqr"):
+    with pytest.raises(ScenarioError, match="allowed: flc, smc, sta, lqr, flc_dob"):
         compiled.simulate("pid", **inp)
     with pytest.raises(ScenarioError, match="balance controller"):
         make_closed_loop_step(make_ode(), _const_velocity(), make_ode())
