@@ -97,6 +97,7 @@ __all__ = [
     "MEAS_HEADING",
     "SENSOR_STATE",
     "readings_layout",
+    "embedded_readings",
     "EstimatorBlocks",
     "estimator_blocks",
     "estimator_layout",
@@ -184,6 +185,23 @@ def readings_layout(estimator: str) -> Layout:
     if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
     return MEAS_HEADING if ESTIMATOR_FILTERS[estimator][0] in _HEADING_FILTERS else MEAS
+
+
+def embedded_readings(embedded: ca.Function) -> Layout:
+    """The readings layout of an embedded-software Function (by the size of its ``meas``
+    input: :data:`MEAS` or :data:`MEAS_HEADING`).
+
+    Raises
+    ------
+    BuildError
+        The Function's ``meas`` matches neither.
+    """
+    n = embedded.numel_in(embedded.index_in("meas"))
+    for layout in (MEAS, MEAS_HEADING):
+        if n == layout.size:
+            return layout
+    raise BuildError(f"{embedded.name()}: readings of {n} entries match neither {MEAS} nor "
+                     f"{MEAS_HEADING}")
 
 
 def _attitude_state(att: str) -> Layout:
