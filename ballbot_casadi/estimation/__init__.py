@@ -16,6 +16,8 @@ vukf    velocity UKF (thesis ch. 5)                            7 x 7      make_v
 vekf    predecessor's velocity EKF (baseline)                  7 x 7      make_vekf(ws)
 qukf_   heading-aided QUKF, z gyro bias a state (thesis 4.30)  7 x 7      make_qukf_
 heading                                                                   heading()
+qekf_   predecessor's QEKF: heading reading, 3 gyro biases     10 x 10    make_qekf_
+heading (thesis §6, V2019)                                                heading()
 ======  =====================================================  =========  ==========
 
 ``ws`` is the model's ``ballbot_wheel_speeds`` Function.  ``make_tilt_correction()``
@@ -57,6 +59,7 @@ from ballbot_casadi.estimation.attitude import (
     qekf_initial_covariance,
 )
 from ballbot_casadi.estimation.heading import heading_tuning, make_qukf_heading
+from ballbot_casadi.estimation.predecessor import make_qekf_heading, qekf_heading_tuning
 from ballbot_casadi.estimation.tuning import (
     QUKF_P0,
     QUKF_Q,
@@ -80,6 +83,7 @@ __all__ = [
     "make_qekf",
     "make_qukf",
     "make_qukf_heading",
+    "make_qekf_heading",
     "make_tilt_correction",
     "make_vekf",
     "make_vukf",
@@ -92,9 +96,10 @@ ESTIMATORS: Mapping[str, Callable[..., ca.Function]] = MappingProxyType({
     "vukf": make_vukf,
     "vekf": make_vekf,
     "qukf_heading": make_qukf_heading,
+    "qekf_heading": make_qekf_heading,
 })
 
-_ATTITUDE = ("qukf", "qekf", "qukf_heading")
+_ATTITUDE = ("qukf", "qekf", "qukf_heading", "qekf_heading")
 
 
 @dataclass(frozen=True)
@@ -112,6 +117,8 @@ class Tuning:
 _SENSORS = load_sensor_params()
 _HEADING_TUNING = heading_tuning(_SENSORS.heading_noise_var[0], _SENSORS.gyro_bias_rw[2],
                                  TS_CONTROL)
+_QEKF_HEADING_TUNING = qekf_heading_tuning(_SENSORS.heading_noise_var[0],
+                                           _SENSORS.gyro_bias_rw[2], TS_CONTROL)
 
 #: Thesis default tuning per estimator (see :mod:`~ballbot_casadi.estimation.tuning`).
 DEFAULT_TUNING: Mapping[str, Tuning] = MappingProxyType({
@@ -120,6 +127,7 @@ DEFAULT_TUNING: Mapping[str, Tuning] = MappingProxyType({
     "vukf": Tuning(VUKF_Q, VUKF_R, VUKF_P0, VUKF_X0),
     "vekf": Tuning(VUKF_Q, VUKF_R, VUKF_P0, VUKF_X0),
     "qukf_heading": Tuning(**_HEADING_TUNING),
+    "qekf_heading": Tuning(**_QEKF_HEADING_TUNING),
 })
 
 
@@ -178,5 +186,7 @@ def initial_state(name: str, x0: Any = None) -> tuple[np.ndarray, np.ndarray]:
         raise StateError(
             f"x0 of {name!r}: quaternion norm {Q.norm(x[:4])!r} must be 1 (within 1e-9)"
         )
-    P0 = qekf_initial_covariance(x[:4]) if name == "qekf" else np.array(tun.P0)
+    P0 = np.array(tun.P0)
+    if name in ("qekf", "qekf_heading"):  # the additive chart's covariance around q
+        P0[:7, :7] = qekf_initial_covariance(x[:4])
     return x, P0

@@ -73,6 +73,7 @@ from ballbot_casadi.estimation import (
 from ballbot_casadi.estimation.attitude import tangent_map
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_observer
 from ballbot_casadi.estimation.heading import HEADING_FILTER_STATE, make_qukf_heading
+from ballbot_casadi.estimation.predecessor import QEKF_HEADING_STATE, make_qekf_heading
 from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.model.sensors import (
@@ -115,11 +116,19 @@ __all__ = [
 
 #: Filters of each estimator choice: (attitude filter, velocity filter).  ``ukf_heading``
 #: is the QUKF with the heading reading and the z gyro bias as a state
-#: (:mod:`~ballbot_casadi.estimation.heading`, thesis (4.30), ch. 11 future work).
+#: (:mod:`~ballbot_casadi.estimation.heading`, thesis (4.30), ch. 11 future work);
+#: ``ekf_heading`` the predecessor's QEKF with its heading correction and gyro-bias
+#: states (:mod:`~ballbot_casadi.estimation.predecessor`, thesis §6) and the VEKF.
 ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ekf": ("qekf", "vekf"),
-                                                    "ukf_heading": ("qukf_heading", "vukf")}
-#: Attitude filters that read the heading sensor.
-_HEADING_FILTERS = ("qukf_heading",)
+                                                    "ukf_heading": ("qukf_heading", "vukf"),
+                                                    "ekf_heading": ("qekf_heading", "vekf")}
+#: The state layouts of the attitude filters that read the heading sensor (the others'
+#: is :data:`~ballbot_casadi.core.layout.ATTITUDE_FILTER_STATE`).
+_HEADING_FILTERS: Mapping[str, Layout] = {"qukf_heading": HEADING_FILTER_STATE,
+                                          "qekf_heading": QEKF_HEADING_STATE}
+#: Attitude filters on the predecessor's additive chart (covariance on the quaternion's
+#: four components).
+_ADDITIVE_FILTERS = ("qekf", "qekf_heading")
 #: Per-period standard-normal noise input of the sensors (the heading sensor's last: a
 #: noise stream of its own, so it changes no other sensor's numbers).
 NOISE = Layout("sensor noise", [("acc", 3), ("gyro", 3), ("gyro_rw", 3), ("heading", 1)])
@@ -205,7 +214,7 @@ def embedded_readings(embedded: ca.Function) -> Layout:
 
 
 def _attitude_state(att: str) -> Layout:
-    return HEADING_FILTER_STATE if att in _HEADING_FILTERS else ATTITUDE_FILTER_STATE
+    return _HEADING_FILTERS.get(att, ATTITUDE_FILTER_STATE)
 
 
 def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function) -> EstimatorBlocks:
@@ -213,8 +222,8 @@ def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function
     if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
     att, vel = ESTIMATOR_FILTERS[estimator]
-    if att in _HEADING_FILTERS:
-        attitude = make_qukf_heading()  # compensates the acceleration (input a) always
+    if att in _HEADING_FILTERS:  # they compensate the acceleration (input a) always
+        attitude = make_qukf_heading() if att == "qukf_heading" else make_qekf_heading()
     else:
         attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
     velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True)
@@ -480,9 +489,10 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     # filters
     omega = 2 * Q.vee(Q.mul(Q.conj(q), dq))
     Pa = ca.DM(att.P0)
-    if ESTIMATOR_FILTERS[estimator][0] == "qekf":
-        Pa = ca.mtimes([tangent_map(q), ca.DM(QUKF_P0), tangent_map(q).T])
-        Pa[:4, :4] += QEKF_P0_RADIAL * ca.mtimes(q, q.T)
+    if ESTIMATOR_FILTERS[estimator][0] in _ADDITIVE_FILTERS:  # around the initial attitude
+        P7 = ca.mtimes([tangent_map(q), ca.DM(QUKF_P0), tangent_map(q).T])
+        P7[:4, :4] += QEKF_P0_RADIAL * ca.mtimes(q, q.T)
+        Pa = ca.diagcat(P7, ca.DM(att.P0[7:, 7:])) if att.P0.shape[0] > 7 else P7
     xv = {f: ca.DM(vel.x0[VELOCITY_FILTER_STATE[f]]) for f in VELOCITY_FILTER_STATE.fields}
     xv["v"] = x0[STATE_DXY]
     # the heading-aided filter's z gyro bias estimate starts at zero (HEADING_P0_BIAS)

@@ -153,7 +153,9 @@ class Scenario:
         What the controllers read: ``"true"`` (the true state, default), ``"ukf"``
         (noisy sensors, QUKF + VUKF, thesis ch. 4-5) or ``"ekf"`` (noisy sensors, the
         predecessor's EKFs) or ``"ukf_heading"`` (the QUKF with the heading reading and
-        the z gyro bias as a state, :mod:`~ballbot_casadi.estimation.heading`, + VUKF).
+        the z gyro bias as a state, :mod:`~ballbot_casadi.estimation.heading`, + VUKF) or
+        ``"ekf_heading"`` (the predecessor's QEKF with heading correction and gyro-bias
+        states, :mod:`~ballbot_casadi.estimation.predecessor`, + VEKF; thesis §6).
     seed
         Seed of the sensor-noise generator (int >= 0; runs with the same seed are
         identical bit for bit).
@@ -184,7 +186,8 @@ class Scenario:
     heading_sensor
         The robot carries the heading sensor (an absolute yaw reading at the sensor
         parameter ``heading_rate``, :func:`~ballbot_casadi.model.sensors.make_heading_sensor`).
-        Off (default): its reading is always missing.  Only ``ukf_heading`` reads it.
+        Off (default): its reading is always missing.  Only ``ukf_heading`` and
+        ``ekf_heading`` read it.
     com_observer
         The controllers use the online estimate of the COM offset
         (:mod:`ballbot_casadi.estimation.com_observer`) as their internal model: the

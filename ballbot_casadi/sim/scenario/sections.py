@@ -64,7 +64,7 @@ __all__ = [
 #: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
 FEEDFORWARD_MODES = ("exact", "none", "no-rate")
 #: What the controllers read: the true state, or estimates from noisy sensors.
-ESTIMATOR_CHOICES = ("true", "ukf", "ekf", "ukf_heading")
+ESTIMATOR_CHOICES = ("true", "ukf", "ekf", "ukf_heading", "ekf_heading")
 #: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
 #: input each sets and the diagonal block of it (the value times the identity).
 ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
@@ -456,7 +456,7 @@ class SensorsSection:
     ``acc``/``gyro``/``enc``/``heading`` (file ``[[sensor_dropout]]``) and whether the
     robot carries the heading sensor (``heading_sensor``, off by default: it samples at
     the sensor parameter ``heading_rate``, :func:`~ballbot_casadi.model.sensors.heading_schedule`;
-    only the ``ukf_heading`` estimator reads it)."""
+    only ``ukf_heading`` and ``ekf_heading`` read it)."""
 
     sensor_changes: Mapping[str, Any] = field(default_factory=dict)
     seed: int = 0
@@ -521,7 +521,7 @@ class SensorsSection:
 
 @dataclass(frozen=True)
 class EstimationSection:
-    """What the controllers read: ``estimator`` ``true``/``ukf``/``ekf``/``ukf_heading``, the estimators'
+    """What the controllers read: ``estimator`` ``true``/``ukf``/``ekf``/``ukf_heading``/``ekf_heading``, the estimators'
     internal model (``est_changes``, file ``[estimator_model]``) and changes to the
     filters' thesis tuning (``estimator_tuning``: variances per period, file
     ``[estimator_tuning]``)."""
