@@ -193,3 +193,22 @@ def test_sixty_seconds_without_the_sensor_drift_at_the_gyro_rate_and_recover(sim
     assert abs(grown - drift) <= 4 * arw + 0.05
     back = t >= loss[1] + 10.0
     assert np.abs(h[back]).max() <= 0.5
+
+
+def test_predecessor_ekf_with_heading_in_the_loop_finds_the_gyro_bias(sim):
+    """``ekf_heading`` (the predecessor's QEKF with heading correction and gyro biases +
+    VEKF): the heading stays bounded and its z bias state moves towards the bias.  Its heading is
+    noisier than the heading-aided QUKF's (about the sensor's 0.2 deg RMS standing; the
+    lateral ramps' acceleration leaks into it through the additive chart)."""
+    log = run_scenario(_standing(duration=60.0, estimator="ekf_heading", heading_sensor=True),
+                       sim, log_every=20)
+    t, h = _heading_error_deg(log)
+    assert np.abs(h[t >= 10.0]).max() <= 1.5  # measured 0.83 deg
+    assert log["meas"].shape[1] == MEAS_HEADING.size
+    L = controller_layout("ekf_heading", 8, 7)
+    b = log["c_final"][L["xa"]][L.part("xa")["b"]]
+    # with the thesis's tight initial bias variance ((0.1 deg/s)^2) the QEKF leaves most of
+    # the offset in its rate state's random walk for a minute: the bias state moves towards
+    # it with the right sign only (measured 0.00029 of 0.002 rad/s after 60 s; the
+    # heading-aided QUKF's finds it within 10 %, test above)
+    assert 0.05 * BIAS_Z < b[2] < BIAS_Z
