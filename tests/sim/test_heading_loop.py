@@ -96,6 +96,10 @@ def test_scenario_switch_schedule_dropout_and_noise_stream():
     off = _standing(duration=2.0, seed=5)
     on = off.replace(heading_sensor=True, sensor_dropouts=[(0.5, 1.0, "heading")])
     a, b = off.estimation_inputs(), on.estimation_inputs()
+    # off by default: in the constructor and in a file without the key
+    assert Scenario(name="d", duration=1.0).heading_sensor is False
+    assert parse_scenario({"duration_s": 1.0}).scenario.heading_sensor is False
+    assert off.heading_sensor is False
     assert not a["valid"][:, VALID.index("heading")].any()  # off by default
     n = a["valid"].shape[0]
     want = heading_schedule(0, n, TS_CONTROL, 10.0)
