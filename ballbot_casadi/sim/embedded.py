@@ -26,7 +26,11 @@ With an estimator in the loop the plant carries the three wheel angles as well
    ``dq = 1/2 q_c o [0, omega]``; the position integrates the velocity estimate: the
    robot has no position sensor), then the controllers and the torque limit of
    :func:`~ballbot_casadi.sim.period.controller_part` on ``x_hat``.  A NaN reading makes
-   its filter predict only for that sensor.
+   its filter predict only for that sensor.  With a heading-reading estimator
+   (``ukf_heading``: the QUKF with the z gyro bias, ``ekf_heading``: the predecessor's
+   QEKF with heading correction and gyro biases) the readings end with the heading
+   (:data:`MEAS_HEADING`, the heading sensor of ``heading_sensor`` scenarios, NaN between
+   its samples) and the attitude filter reads it.
 
 The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos]`` (:func:`controller_layout`;
 with the COM observer of :mod:`ballbot_casadi.estimation.com_observer` its state ``obs``

@@ -216,3 +216,16 @@ def test_predecessor_ekf_with_heading_in_the_loop_finds_the_gyro_bias(sim):
     # it with the right sign only (measured 0.00029 of 0.002 rad/s after 60 s; the
     # heading-aided QUKF's finds it within 10 %, test above)
     assert 0.05 * BIAS_Z < b[2] < BIAS_Z
+
+
+@pytest.mark.slow
+def test_one_hour_of_the_complete_system_with_the_heading_sensor(sim):
+    """Issue 22 acceptance in the embedded step: the complete system (velocity profile, then
+    standing) for an hour with the heading sensor at 10 Hz and a 0.11 deg/s z gyro bias:
+    heading error <= 0.5 deg after the first 10 s (decimated log)."""
+    sc = _standing(duration=3600.0, estimator="ukf_heading", heading_sensor=True, seed=3)
+    log = run_scenario(sc, sim, log_every=200)
+    t, h = _heading_error_deg(log)
+    assert t[-1] >= 3599.0
+    assert np.abs(h[t >= 10.0]).max() <= 0.5
+    assert np.sqrt(np.mean(h[t >= 10.0] ** 2)) <= 0.2
