@@ -16,7 +16,8 @@ from ballbot_casadi.estimation import tuning as T
 
 
 def test_registry_names_and_function_signatures():
-    assert set(E.ESTIMATORS) == {"qukf", "qekf", "vukf", "vekf", "qukf_heading"}
+    assert set(E.ESTIMATORS) == {"qukf", "qekf", "vukf", "vekf", "qukf_heading", "qekf_heading"}
+    assert E.build_estimator("qekf_heading").size_in(1) == (10, 10)
     q = E.build_estimator("qukf")
     assert q.name() == "ballbot_qukf"
     assert q.name_in() == ["xhat", "P", "z", "Q", "R", "dt", "p"]
