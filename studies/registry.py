@@ -21,6 +21,8 @@ never decide pass/fail.
 ``velocity``       velocity profile in the spirit of thesis Fig. 9.3 (§9.2)
 ``chirp``          roll chirp 0.05 -> 5 Hz, bandwidth and saturation (thesis §9.1)
 ``estimators``     noisy sine and velocity profile, QUKF + VUKF against QEKF + VEKF (ch. 6)
+``predecessor``    the V2019 QEKF with heading correction and gyro biases + VEKF, against the
+                   QUKF with and without heading (thesis §6.1-6.3)
 ``full``           the complete system with noise and estimators, beside SMC + EKF (§9.3, §9.4)
 ``full_cascade``   the complete system's sine through the velocity controller (§9.3.1)
 ``thesis_tuning``  the complete system with the thesis's QUKF tuning (1e-5): failure, diagnosis
@@ -57,6 +59,7 @@ from ballbot_casadi.studies import chirp as CH
 from ballbot_casadi.studies import com as COM
 from ballbot_casadi.studies import estimators as E
 from ballbot_casadi.studies import lag as LAG
+from ballbot_casadi.studies import predecessor as PRE
 from ballbot_casadi.studies import robustness as ROB
 from ballbot_casadi.studies import velocity as VEL
 
@@ -250,6 +253,24 @@ _ESTIMATOR_SPECS = (
          "(replayed on the sine's readings): its norm is already 1 to rounding",
          "the renormalised UKF 'deeply deviated' (ch. 10)"),
 )
+_PREDECESSOR_SPECS = (
+    Spec("ekfh_heading_max_deg", "<=", 1.5,
+         "the predecessor's heading correction bounds its heading error (10 Hz, 0.2 deg sensor; "
+         "its additive chart lets the lateral ramps' unmodelled acceleration into the heading: "
+         "about 1 deg during the 0.5 m/s ramp, standing about the sensor's 0.2 deg RMS)",
+         "the QEKF had heading readings (§6.2)"),
+    Spec("ukfh_heading_max_deg", "<=", 1.0,
+         "the heading-aided QUKF bounds its heading error with the same sensor"),
+    Spec("ukf_heading_max_deg", ">=", 0.5,
+         "without a heading sensor the QUKF's heading drifts with the gyroscope (it is not "
+         "observed): at least 0.5 deg on the 100 s profile"),
+    Spec("ukf_vs_ekfh_roll_rms_ratio", "<=", 2.0,
+         "tilt: the UKF without heading within 2x of the EKF with heading",
+         "as accurate (§6.3)"),
+    Spec("ukf_vs_ekfh_pitch_rms_ratio", "<=", 2.0,
+         "tilt: the UKF without heading within 2x of the EKF with heading",
+         "as accurate (§6.3)"),
+)
 _FULL_SPECS = (
     Spec("tilt_error_max_deg", "<=", 1.0, "thesis §7.2: attitude within +-1 deg, both scenarios",
          "within +-1 deg (Fig. 9.10, 9.13)"),
@@ -342,6 +363,11 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
           "QEKF + VEKF, estimates against the truth (thesis ch. 6)", ("full_sine", "full_velocity"),
           E.estimators_metrics, expand=E.comparison_expand({"estimator": "ekf"}),
           specs=_ESTIMATOR_SPECS, plot=E.plot_estimates, report=E.report_lines),
+    Study("predecessor", "the predecessor's QEKF with heading correction and gyro-bias states + "
+          "VEKF against the QUKF + VUKF without heading (the thesis's set-up) and with it, "
+          "same noise draws (thesis §6.1-6.3)", ("full_sine", "full_velocity"),
+          PRE.predecessor_metrics, expand=PRE.predecessor_expand, specs=_PREDECESSOR_SPECS,
+          report=PRE.predecessor_report_lines, controllers=("flc",)),
     Study("full", "complete system with noise and estimators (QUKF + VUKF, FLC in the thesis mode) "
           "on the sine and the velocity profile, beside SMC + EKF (thesis §9.3, §9.4)",
           ("full_sine", "full_velocity"), E.full_metrics, expand=E.comparison_expand(E.BASELINE),

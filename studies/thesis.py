@@ -144,12 +144,25 @@ THESIS_RESULTS: tuple[ThesisResult, ...] = (
                  "integrated velocity error of the 100 s velocity profile; pass within 2x"),
     ThesisResult("vekf_y_better", "§6.2", "VEKF better in y velocity (VUKF/VEKF vy RMS ratio)",
                  "> 1 (slightly)",
-                 None, Ratio(Col("estimators", "ukf_vy_error_rms_mps"), Col("estimators", "ekf_vy_error_rms_mps")),
-                 ">", 1.0, "the thesis blames the QEKF's heading readings; our EKF baseline has none "
-                 "(the heading sensor is another branch), so this is ours without heading"),
-    ThesisResult("ukf_no_heading", "§6.3", "UKF without heading as accurate as EKF with heading",
-                 "as accurate", None, None, "<=", None,
-                 "needs the predecessor's EKF with its heading correction (heading-sensor branch)"),
+                 Ratio(Col("predecessor", "ukf_vy_error_rms_mps"), Col("predecessor", "ekfh_vy_error_rms_mps")),
+                 Ratio(Col("estimators", "ukf_vy_error_rms_mps"), Col("estimators", "ekf_vy_error_rms_mps")),
+                 ">", 1.0, "thesis's set-up: the VEKF fed by the predecessor's QEKF with heading "
+                 "readings and gyro biases; ours: both without heading. The thesis blames the "
+                 "heading correction; with it in our QUKF (predecessor study) the gap all but closes"),
+    ThesisResult("ukf_no_heading", "§6.3", "UKF without heading as accurate as EKF with heading: "
+                 "roll RMS ratio", "as accurate",
+                 Col("predecessor", "ukf_vs_ekfh_roll_rms_ratio"),
+                 Col("predecessor", "ukfh_vs_ekfh_roll_rms_ratio"), "<=", 2.0,
+                 "the predecessor's QEKF with heading correction and gyro biases on the same noise "
+                 "draws; the tilt is observed by the accelerometer in both, so within 2x passes; ours: "
+                 "our QUKF with the heading too"),
+    ThesisResult("ukf_no_heading_yaw", "§6.3", "UKF without heading as accurate as EKF with "
+                 "heading: largest heading error ratio", "as accurate",
+                 Col("predecessor", "ukf_vs_ekfh_heading_max_ratio"),
+                 Col("predecessor", "ukfh_vs_ekfh_heading_max_ratio"), "<=", 2.0,
+                 "without a heading sensor the heading integrates the gyroscope's noise and bias: "
+                 "over the 100 s profile it drifts past the EKF-with-heading's error, and the ratio "
+                 "grows with the run's length"),
     ThesisResult("renormalised_qukf", "§10 / ch. 4", "renormalised UKF: tilt error RMS / the QUKF's",
                  "deeply deviated (≫ 1)", Col("estimators", "qukf_additive_vs_qukf_tilt_rms_ratio"),
                  Col("estimators", "qukf_renorm_vs_qukf_tilt_rms_ratio"), ">=", 2.0,

@@ -11,6 +11,12 @@ Keys
     loop period is 5000 us).  Also the parts ``qukf_step_us``, ``vukf_step_us``,
     ``tilt_correction_step_us``, ``com_observer_step_us`` and ``embedded_step_us``
     (the whole embedded software: filters, observer, controllers, limit).
+``estimator_heading_step_us``
+    The same with the heading-aided QUKF (``ballbot_qukf_heading``: the z gyro bias a
+    state, the heading reading in the update; estimator ``ukf_heading``) in place of the
+    QUKF, timed on a period with a heading reading; also ``qukf_heading_step_us``,
+    ``embedded_heading_step_us`` and the predecessor's QEKF with heading and gyro biases
+    ``qekf_heading_step_us`` (estimator ``ekf_heading``).
 ``mission_full_100s_s``
     Wall time of 100 s of the complete system (sensor noise, QUKF + VUKF, velocity LQR,
     FLC, plant) run from Python as one call of the compiled mission, inputs prepared
@@ -34,7 +40,7 @@ from ballbot_casadi.bench.exports import estimation_bench_library
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
-from ballbot_casadi.sim.embedded import MEAS, software_layout
+from ballbot_casadi.sim.embedded import embedded_readings, software_layout
 from ballbot_casadi.sim.ports import REFERENCE_SEQUENCES
 from ballbot_casadi.sim.scenario import load_scenario_file
 
@@ -86,38 +92,69 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
         raise BuildError("the complete-system benchmark mission diverged")
     data = {"mission_full_100s_s": best, "mission_full_100s_with_inputs_s": best + t_inputs,
             "mission_full_100s_target_s": 0.5}
+    parts = _estimator_parts(sc, inputs, log, log["x_hat"].shape[0] // 2, n_calls)
+    data.update({f"{k}_step_us": v for k, v in parts.items() if k not in ("attitude", "embedded")})
+    data["estimator_step_us"] = sum(parts[k] for k in ("qukf", "vukf", "tilt_correction",
+                                                       "com_observer"))
+    data["embedded_step_us"] = parts["embedded"]
+    # the heading-aided QUKF in the same place, on a period with a heading reading (20 s of
+    # the same profile give its operating point), and the predecessor's QEKF with heading
+    for est_name, att in (("ukf_heading", "qukf_heading"), ("ekf_heading", "qekf_heading")):
+        sh = sc.replace(estimator=est_name, heading_sensor=True, duration=20.0)
+        inp_h = sh.inputs()
+        log_h = sim.simulate(sh.controller, **inp_h, n_sub=sh.n_sub)
+        k_h = int(np.flatnonzero(inp_h["estimation"]["valid"][:, -1] > 0)[-1])
+        ph = _estimator_parts(sh, inp_h, log_h, k_h, n_calls, with_rest=est_name == "ukf_heading")
+        data[f"{att}_step_us"] = ph["attitude"]
+        if est_name == "ukf_heading":
+            data["estimator_heading_step_us"] = sum(ph[k] for k in ("attitude", "vukf",
+                                                                    "tilt_correction",
+                                                                    "com_observer"))
+            data["embedded_heading_step_us"] = ph["embedded"]
+    data["estimator_step_target_us"] = 10.0
+    return data
+
+
+def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: bool = True
+                     ) -> dict[str, float]:
+    """Microseconds per call of the parts of ``sc``'s estimation (its attitude filter under
+    ``attitude`` and under its own name, ``vukf``/``vekf``, ``tilt_correction``,
+    ``com_observer``) and ``embedded``, at the operating point of period ``k`` of ``log``
+    (the filters' state at the end of the run, the readings of period ``k``); only the
+    attitude filter unless ``with_rest``."""
     lib, names = estimation_bench_library(sc.controller, sc.estimator)
     est = inputs["estimation"]
-    # a realistic operating point: the filters' state in the middle of the run
-    k = log["x_hat"].shape[0] // 2
     c = log["c_final"]
-    qukf, vukf = names["ballbot_qukf"], names["ballbot_vukf"]
-    tilt, observer = names["ballbot_tilt_correction"], names["ballbot_com_observer"]
     embedded = names[f"ballbot_embedded_{sc.controller}_{sc.estimator}"]
+    att_f = next(f for n, f in names.items() if n.startswith("ballbot_q"))
+    vel_f = next(f for n, f in names.items() if n.startswith("ballbot_v"))
+    tilt, observer = names["ballbot_tilt_correction"], names["ballbot_com_observer"]
     C = software_layout(embedded, sc.estimator)
     xa, Pa, xv, Pv, obs = (c[C[f]] for f in ("xa", "Pa", "xv", "Pv", "obs"))
     meas = log["meas"][k]
+    M = embedded_readings(embedded)
     p = est["p_est"]
-    acc, gyro, enc = (meas[MEAS[f]] for f in ("acc", "gyro", "enc"))
+    acc, gyro, enc = (meas[M[f]] for f in ("acc", "gyro", "enc"))
+    z_att = np.r_[acc, gyro, meas[M["heading"]] if M.has("heading") else []]
     XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
-    q_in = [xa, Pa, np.r_[acc, gyro], est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
-    v_in = [xv, Pv, np.r_[enc * inputs["Ts"], acc], xa, np.eye(3) * 1e-8, est["Qv"],
+    q_in = [xa, Pa, z_att, est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
+    out = {"attitude": c_function_us(lib, att_f, q_in, n_calls)}
+    out[att_f.name().removeprefix("ballbot_")] = out["attitude"]
+    if not with_rest:
+        return out
+    v_in = [xv, Pv, np.r_[enc * inputs["Ts"], acc], xa[:XA.size], np.eye(3) * 1e-8, est["Qv"],
             est["Rv"], inputs["Ts"], p]
     t_in = [xa[XA["q"]], xv[XV["a"]], xv[XV["b_acc"]], p]
     x_hat = log["x_hat"][k]
     o_in = [x_hat, np.zeros(3), obs, inputs["p_ctrl"], inputs["k_obs"], inputs["Ts"]]
-    data["qukf_step_us"] = c_function_us(lib, qukf, q_in, n_calls)
-    data["vukf_step_us"] = c_function_us(lib, vukf, v_in, n_calls)
-    data["tilt_correction_step_us"] = c_function_us(lib, tilt, t_in, n_calls)
-    data["com_observer_step_us"] = c_function_us(lib, observer, o_in, n_calls)
-    data["estimator_step_us"] = sum(data[f"{k}_step_us"] for k in ("qukf", "vukf", "tilt_correction",
-                                                                   "com_observer"))
+    out[vel_f.name().removeprefix("ballbot_")] = c_function_us(lib, vel_f, v_in, n_calls)
+    out["tilt_correction"] = c_function_us(lib, tilt, t_in, n_calls)
+    out["com_observer"] = c_function_us(lib, observer, o_in, n_calls)
     # the reference rows of period k after the whole-run inputs (which hold the sequences)
     values = {**inputs, **est, "c": c, "meas": meas, **{r: inputs[r][k] for r in REFERENCE_SEQUENCES},
               "cascade": 1.0 if inputs["cascade"] else 0.0,
               "feedforward": 1.0 if inputs["feedforward"] else 0.0,
               "com_observer": 1.0 if inputs.get("com_observer") else 0.0}
     e_in = [values[n] for n in embedded.name_in()]
-    data["embedded_step_us"] = c_function_us(lib, embedded, e_in, n_calls)
-    data["estimator_step_target_us"] = 10.0
-    return data
+    out["embedded"] = c_function_us(lib, embedded, e_in, n_calls)
+    return out

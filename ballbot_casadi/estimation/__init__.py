@@ -14,6 +14,10 @@ qukf    quaternion UKF, attitude and rate (thesis ch. 4)       6 x 6      make_q
 qekf    predecessor's additive quaternion EKF (baseline)       7 x 7      make_qekf()
 vukf    velocity UKF (thesis ch. 5)                            7 x 7      make_vukf(ws)
 vekf    predecessor's velocity EKF (baseline)                  7 x 7      make_vekf(ws)
+qukf_   heading-aided QUKF, z gyro bias a state (thesis 4.30)  7 x 7      make_qukf_
+heading                                                                   heading()
+qekf_   predecessor's QEKF: heading reading, 3 gyro biases     10 x 10    make_qekf_
+heading (thesis §6, V2019)                                                heading()
 ======  =====================================================  =========  ==========
 
 ``ws`` is the model's ``ballbot_wheel_speeds`` Function.  ``make_tilt_correction()``
@@ -41,6 +45,8 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.constants import TS_CONTROL
+from ballbot_casadi.core.sensor_params import load_sensor_params
 from ballbot_casadi.errors import (
     ArgumentError,
     BallbotTypeError,
@@ -52,6 +58,8 @@ from ballbot_casadi.estimation.attitude import (
     make_qukf,
     qekf_initial_covariance,
 )
+from ballbot_casadi.estimation.heading import heading_tuning, make_qukf_heading
+from ballbot_casadi.estimation.predecessor import make_qekf_heading, qekf_heading_tuning
 from ballbot_casadi.estimation.tuning import (
     QUKF_P0,
     QUKF_Q,
@@ -74,6 +82,8 @@ __all__ = [
     "initial_state",
     "make_qekf",
     "make_qukf",
+    "make_qukf_heading",
+    "make_qekf_heading",
     "make_tilt_correction",
     "make_vekf",
     "make_vukf",
@@ -85,9 +95,11 @@ ESTIMATORS: Mapping[str, Callable[..., ca.Function]] = MappingProxyType({
     "qekf": make_qekf,
     "vukf": make_vukf,
     "vekf": make_vekf,
+    "qukf_heading": make_qukf_heading,
+    "qekf_heading": make_qekf_heading,
 })
 
-_ATTITUDE = ("qukf", "qekf")
+_ATTITUDE = ("qukf", "qekf", "qukf_heading", "qekf_heading")
 
 
 @dataclass(frozen=True)
@@ -100,12 +112,22 @@ class Tuning:
     x0: np.ndarray
 
 
+# the heading-aided QUKF: the thesis's QUKF tuning with the nominal heading sensor's
+# variance and the nominal z gyro bias random walk at the control period
+_SENSORS = load_sensor_params()
+_HEADING_TUNING = heading_tuning(_SENSORS.heading_noise_var[0], _SENSORS.gyro_bias_rw[2],
+                                 TS_CONTROL)
+_QEKF_HEADING_TUNING = qekf_heading_tuning(_SENSORS.heading_noise_var[0],
+                                           _SENSORS.gyro_bias_rw[2], TS_CONTROL)
+
 #: Thesis default tuning per estimator (see :mod:`~ballbot_casadi.estimation.tuning`).
 DEFAULT_TUNING: Mapping[str, Tuning] = MappingProxyType({
     "qukf": Tuning(QUKF_Q, QUKF_R, QUKF_P0, QUKF_X0),
     "qekf": Tuning(QUKF_Q, QUKF_R, read_only(qekf_initial_covariance(QUKF_X0[:4])), QUKF_X0),
     "vukf": Tuning(VUKF_Q, VUKF_R, VUKF_P0, VUKF_X0),
     "vekf": Tuning(VUKF_Q, VUKF_R, VUKF_P0, VUKF_X0),
+    "qukf_heading": Tuning(**_HEADING_TUNING),
+    "qekf_heading": Tuning(**_QEKF_HEADING_TUNING),
 })
 
 
@@ -164,5 +186,7 @@ def initial_state(name: str, x0: Any = None) -> tuple[np.ndarray, np.ndarray]:
         raise StateError(
             f"x0 of {name!r}: quaternion norm {Q.norm(x[:4])!r} must be 1 (within 1e-9)"
         )
-    P0 = qekf_initial_covariance(x[:4]) if name == "qekf" else np.array(tun.P0)
+    P0 = np.array(tun.P0)
+    if name in ("qekf", "qekf_heading"):  # the additive chart's covariance around q
+        P0[:7, :7] = qekf_initial_covariance(x[:4])
     return x, P0

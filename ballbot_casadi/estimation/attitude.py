@@ -38,7 +38,8 @@ rate); its ``Q`` input is the same 6 x 6 tangent matrix as the QUKF's, mapped wi
 ``G = blkdiag(1/2 Phi(q) [0; I3], I3)``.  The predecessor propagated the quaternion by
 forward Euler (``q + dt dq``) and carried gyroscope-bias states; the baseline uses the
 thesis' models above, so the two filters differ only in the filter algorithm and the
-quaternion algebra.
+quaternion algebra.  The predecessor's filter as the thesis describes it (forward Euler,
+gyro-bias states, heading correction) is :mod:`~ballbot_casadi.estimation.predecessor`.
 """
 
 from __future__ import annotations

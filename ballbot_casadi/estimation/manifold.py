@@ -112,7 +112,11 @@ def attitude(mean_iterations: int = MEAN_ITERATIONS, n_vec: int = 3,
                     mean, _normalise_q(nx) if renormalise else None)
 
 
-def attitude_additive() -> Manifold:
-    """The predecessor's additive ``[q, omega]`` chart with renormalisation after updates."""
-    base = euclidean(7)
-    return Manifold("R7/normalised", 7, 7, base.oplus, base.ominus, base.mean, _normalise_q())
+def attitude_additive(n: int = 7) -> Manifold:
+    """The predecessor's additive ``[q, omega]`` chart (``n = 7``; ``[q, omega, b]`` with
+    ``n = 10``, :mod:`~ballbot_casadi.estimation.predecessor`) with the quaternion
+    renormalised after updates."""
+    if n < 4:
+        raise ShapeError(f"additive attitude chart needs n >= 4, got {n}")
+    base = euclidean(n)
+    return Manifold(f"R{n}/normalised", n, n, base.oplus, base.ominus, base.mean, _normalise_q(n))

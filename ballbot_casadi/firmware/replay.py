@@ -25,7 +25,7 @@ from ballbot_casadi.firmware.build import FirmwareBuild
 from ballbot_casadi.firmware.sources import FirmwareValues, firmware_function, scenario_values
 from ballbot_casadi.firmware.toolchain import require
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.embedded import MEAS
+from ballbot_casadi.sim.embedded import embedded_readings
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["REPLAY_ATOL", "OUT_HEADER", "CALIB_LOOPS", "QEMU_COMMAND", "RecordedLog", "ReplayResult",
@@ -93,9 +93,10 @@ def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild) -> Pa
     """The binary input file of the replay program (little-endian doubles)."""
     f = firmware_function(build.controller, build.estimator)
     flat = rec.values.flat_params(f)
-    if rec.meas.shape[1] != MEAS.size or rec.refs.shape != (rec.n, 15):
+    n_meas = embedded_readings(f).size
+    if rec.meas.shape[1] != n_meas or rec.refs.shape != (rec.n, 15):
         raise BuildError(f"replay log has readings {rec.meas.shape} and references "
-                         f"{rec.refs.shape}; expected (N, {MEAS.size}) and (N, 15)")
+                         f"{rec.refs.shape}; expected (N, {n_meas}) and (N, 15)")
     hdr = [rec.n, flat.size, rec.values.c0.size, float(rec.balance_only), CALIB_LOOPS]
     data = np.concatenate([hdr, flat, rec.values.c0, np.hstack([rec.meas, rec.refs]).ravel()])
     path.write_bytes(data.astype("<f8").tobytes())

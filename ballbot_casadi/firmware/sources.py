@@ -3,7 +3,8 @@
 The period is ``ballbot_embedded_<ctrl>_<est>``, taken from the Functions the compiled
 mission runs (:func:`~ballbot_casadi.sim.embedded.embedded_software`, as the
 controller FMU takes it).  Its inputs split into the state ``c``, the readings ``meas``
-(:data:`~ballbot_casadi.sim.embedded.MEAS`), the references (:data:`REFERENCE_INPUTS`),
+(:data:`~ballbot_casadi.sim.embedded.MEAS`, or ``MEAS_HEADING`` for ``ukf_heading``:
+:func:`~ballbot_casadi.sim.embedded.embedded_readings`), the references (:data:`REFERENCE_INPUTS`),
 the mode ``cascade`` and the parameters (every other input, in the Function's order:
 ``ballbot_fw_params``, settable at run time).  ``ballbot_fw_config.h`` is generated from the
 Function (sizes, argument positions, X-macro field lists), so the API follows the
@@ -34,7 +35,7 @@ import numpy as np
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.firmware.toolchain import PRECISIONS
 from ballbot_casadi.sim.embedded import (
-    MEAS,
+    embedded_readings,
     embedded_software,
     initial_controller_state,
     software_layout,
@@ -196,6 +197,7 @@ def _config_header(f: ca.Function, real: str) -> str:
     outputs = [n for n in f.name_out() if n != "c_next"]
     cov = [f"X({n}, {int(round(np.sqrt(f.numel_in(f.index_in(n)))))})" for n in COVARIANCE_INPUTS
            if n in params]
+    M = embedded_readings(f)  # MEAS, or MEAS_HEADING with the heading reading last
     lines = [
         f"/* ballbot_fw_config.h - generated from {f.name()} ({real}); do not edit. */",
         "#ifndef BALLBOT_FW_CONFIG_H", "#define BALLBOT_FW_CONFIG_H", "",
@@ -204,9 +206,9 @@ def _config_header(f: ca.Function, real: str) -> str:
         f"#define BALLBOT_FW_PRECISION_{'DOUBLE' if real == 'double' else 'SINGLE'} 1",
         f"#define BALLBOT_FW_EMBEDDED {f.name()}",
         f"#define BALLBOT_FW_NC {f.numel_in(0)}",
-        f"#define BALLBOT_FW_N_READINGS {MEAS.size}",
-        *(f"#define BALLBOT_FW_READING_{k.upper()} {MEAS[k].start}" for k in MEAS.fields),
-        f"#define BALLBOT_FW_N_ENC {MEAS['enc'].stop - MEAS['enc'].start}",
+        f"#define BALLBOT_FW_N_READINGS {M.size}",
+        *(f"#define BALLBOT_FW_READING_{k.upper()} {M[k].start}" for k in M.fields),
+        f"#define BALLBOT_FW_N_ENC {M['enc'].stop - M['enc'].start}",
         f"#define BALLBOT_FW_SZ_ARG {f.sz_arg()}",
         f"#define BALLBOT_FW_SZ_RES {f.sz_res()}",
         f"#define BALLBOT_FW_SZ_IW {f.sz_iw()}",

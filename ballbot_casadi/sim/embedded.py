@@ -26,7 +26,11 @@ With an estimator in the loop the plant carries the three wheel angles as well
    ``dq = 1/2 q_c o [0, omega]``; the position integrates the velocity estimate: the
    robot has no position sensor), then the controllers and the torque limit of
    :func:`~ballbot_casadi.sim.period.controller_part` on ``x_hat``.  A NaN reading makes
-   its filter predict only for that sensor.
+   its filter predict only for that sensor.  With a heading-reading estimator
+   (``ukf_heading``: the QUKF with the z gyro bias, ``ekf_heading``: the predecessor's
+   QEKF with heading correction and gyro biases) the readings end with the heading
+   (:data:`MEAS_HEADING`, the heading sensor of ``heading_sensor`` scenarios, NaN between
+   its samples) and the attitude filter reads it.
 
 The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos]`` (:func:`controller_layout`;
 with the COM observer of :mod:`ballbot_casadi.estimation.com_observer` its state ``obs``
@@ -72,9 +76,16 @@ from ballbot_casadi.estimation import (
 )
 from ballbot_casadi.estimation.attitude import tangent_map
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_observer
+from ballbot_casadi.estimation.heading import HEADING_FILTER_STATE, make_qukf_heading
+from ballbot_casadi.estimation.predecessor import QEKF_HEADING_STATE, make_qekf_heading
 from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
-from ballbot_casadi.model.sensors import make_encoders, make_gyro_bias_step, make_imu
+from ballbot_casadi.model.sensors import (
+    make_encoders,
+    make_gyro_bias_step,
+    make_heading_sensor,
+    make_imu,
+)
 from ballbot_casadi.sim.period import controller_part
 from ballbot_casadi.sim.ports import (
     OBSERVER_CONSTANTS,
@@ -88,7 +99,10 @@ __all__ = [
     "NOISE",
     "VALID",
     "MEAS",
+    "MEAS_HEADING",
     "SENSOR_STATE",
+    "readings_layout",
+    "embedded_readings",
     "EstimatorBlocks",
     "estimator_blocks",
     "estimator_layout",
@@ -104,14 +118,34 @@ __all__ = [
     "initial_estimator_state",
 ]
 
-#: Filters of each estimator choice: (attitude filter, velocity filter).
-ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ekf": ("qekf", "vekf")}
-#: Per-period standard-normal noise input of the sensors.
-NOISE = Layout("sensor noise", [("acc", 3), ("gyro", 3), ("gyro_rw", 3)])
-#: Per-period sensor availability (1 = reading available, 0 = missing).
-VALID = Layout("sensor availability", [("acc", 1), ("gyro", 1), ("enc", 1)])
+#: Filters of each estimator choice: (attitude filter, velocity filter).  ``ukf_heading``
+#: is the QUKF with the heading reading and the z gyro bias as a state
+#: (:mod:`~ballbot_casadi.estimation.heading`, thesis (4.30), ch. 11 future work);
+#: ``ekf_heading`` the predecessor's QEKF with its heading correction and gyro-bias
+#: states (:mod:`~ballbot_casadi.estimation.predecessor`, thesis §6) and the VEKF.
+ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ekf": ("qekf", "vekf"),
+                                                    "ukf_heading": ("qukf_heading", "vukf"),
+                                                    "ekf_heading": ("qekf_heading", "vekf")}
+#: The state layouts of the attitude filters that read the heading sensor (the others'
+#: is :data:`~ballbot_casadi.core.layout.ATTITUDE_FILTER_STATE`).
+_HEADING_FILTERS: Mapping[str, Layout] = {"qukf_heading": HEADING_FILTER_STATE,
+                                          "qekf_heading": QEKF_HEADING_STATE}
+#: Attitude filters on the predecessor's additive chart (covariance on the quaternion's
+#: four components).
+_ADDITIVE_FILTERS = ("qekf", "qekf_heading")
+#: Per-period standard-normal noise input of the sensors (the heading sensor's last: a
+#: noise stream of its own, so it changes no other sensor's numbers).
+NOISE = Layout("sensor noise", [("acc", 3), ("gyro", 3), ("gyro_rw", 3), ("heading", 1)])
+#: Per-period sensor availability (1 = reading available, 0 = missing); the heading
+#: sensor's entry is 0 unless the scenario switches the sensor on (``heading_sensor``),
+#: then 1 at its own rate (:func:`~ballbot_casadi.model.sensors.heading_schedule`).
+VALID = Layout("sensor availability", [("acc", 1), ("gyro", 1), ("enc", 1), ("heading", 1)])
 #: The readings the embedded software gets: m/s^2, rad/s, ticks/s (NaN = missing).
 MEAS = Layout("sensor readings", [("acc", 3), ("gyro", 3), ("enc", 3)])
+#: The readings of an estimator with the heading sensor: :data:`MEAS` and the heading
+#: (rad, wrapped to (-pi, pi]; NaN = no reading this period).
+MEAS_HEADING = Layout("sensor readings with heading", [("acc", 3), ("gyro", 3), ("enc", 3),
+                                                      ("heading", 1)])
 #: Plant-side sensor state: torque of the previous period, gyro bias, wheel angles at the last sample.
 SENSOR_STATE = Layout("sensor state", [("tau_prev", 3), ("bias", 3), ("phi_prev", 3)])
 
@@ -135,6 +169,10 @@ class EstimatorBlocks:
     ode, wheel_speeds
         The model Functions the sensors and filters were built on (the plant of a
         mission with these sensors uses the same ones).
+    heading
+        ``ballbot_heading`` (:func:`~ballbot_casadi.model.sensors.make_heading_sensor`)
+        when the attitude filter reads the heading (``ukf_heading``), else ``None``: the
+        readings are then :data:`MEAS_HEADING`, otherwise :data:`MEAS`.
     """
 
     imu: ca.Function
@@ -146,29 +184,71 @@ class EstimatorBlocks:
     tilt_correction: ca.Function
     ode: ca.Function | None = None
     wheel_speeds: ca.Function | None = None
+    heading: ca.Function | None = None
+
+    @property
+    def readings(self) -> Layout:
+        """The readings layout of this estimator (:data:`MEAS` or :data:`MEAS_HEADING`)."""
+        return MEAS if self.heading is None else MEAS_HEADING
+
+
+def readings_layout(estimator: str) -> Layout:
+    """The readings the embedded software of ``estimator`` gets: :data:`MEAS_HEADING` for
+    an estimator with the heading sensor, :data:`MEAS` otherwise."""
+    if estimator not in ESTIMATOR_FILTERS:
+        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
+    return MEAS_HEADING if ESTIMATOR_FILTERS[estimator][0] in _HEADING_FILTERS else MEAS
+
+
+def embedded_readings(embedded: ca.Function) -> Layout:
+    """The readings layout of an embedded-software Function (by the size of its ``meas``
+    input: :data:`MEAS` or :data:`MEAS_HEADING`).
+
+    Raises
+    ------
+    BuildError
+        The Function's ``meas`` matches neither.
+    """
+    n = embedded.numel_in(embedded.index_in("meas"))
+    for layout in (MEAS, MEAS_HEADING):
+        if n == layout.size:
+            return layout
+    raise BuildError(f"{embedded.name()}: readings of {n} entries match neither {MEAS} nor "
+                     f"{MEAS_HEADING}")
+
+
+def _attitude_state(att: str) -> Layout:
+    return _HEADING_FILTERS.get(att, ATTITUDE_FILTER_STATE)
 
 
 def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function) -> EstimatorBlocks:
-    """The sensing and estimation Functions of estimator choice ``"ukf"`` or ``"ekf"``."""
+    """The sensing and estimation Functions of an estimator choice (:data:`ESTIMATOR_FILTERS`)."""
     if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
     att, vel = ESTIMATOR_FILTERS[estimator]
-    attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
+    if att in _HEADING_FILTERS:  # they compensate the acceleration (input a) always
+        attitude = make_qukf_heading() if att == "qukf_heading" else make_qekf_heading()
+    else:
+        attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
     velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True)
     return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
-                           velocity, estimator, make_tilt_correction(), ode, wheel_speeds)
+                           velocity, estimator, make_tilt_correction(), ode, wheel_speeds,
+                           make_heading_sensor() if att in _HEADING_FILTERS else None)
 
 
 def estimator_layout(estimator: str) -> Layout:
-    """Layout of the filters' part of the controller state (``"ukf"`` or ``"ekf"``)."""
+    """Layout of the filters' part of the controller state (an estimator of
+    :data:`ESTIMATOR_FILTERS`; the heading-aided attitude filter's state ends with the z
+    gyro bias, :data:`~ballbot_casadi.estimation.heading.HEADING_FILTER_STATE`)."""
     if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
+    XA = _attitude_state(ESTIMATOR_FILTERS[estimator][0])
     att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[estimator])
-    if (att.x0.size, vel.x0.size) != (ATTITUDE_FILTER_STATE.size, VELOCITY_FILTER_STATE.size):
+    if (att.x0.size, vel.x0.size) != (XA.size, VELOCITY_FILTER_STATE.size):
         raise BuildError(f"estimator {estimator!r}: filter states of {att.x0.size} and "
-                         f"{vel.x0.size} entries do not match the layouts {ATTITUDE_FILTER_STATE} "
+                         f"{vel.x0.size} entries do not match the layouts {XA} "
                          f"and {VELOCITY_FILTER_STATE}")
-    return Layout("estimator state", [("xa", ATTITUDE_FILTER_STATE), ("Pa", att.P0.size),
+    return Layout("estimator state", [("xa", XA), ("Pa", att.P0.size),
                                       ("xv", VELOCITY_FILTER_STATE), ("Pv", vel.P0.size),
                                       ("pos", 2)])
 
@@ -217,7 +297,8 @@ def sense(blocks: EstimatorBlocks, xk: ca.MX, s_state: ca.MX, noise: ca.MX, vali
     """The readings at ``t_k`` and the sensor state after it (without the new ``tau_prev``).
 
     ``xk``: plant state with wheel angles (15) after the push; ``s_state``:
-    :data:`SENSOR_STATE`.  Returns ``meas`` (:data:`MEAS`, NaN where missing) and
+    :data:`SENSOR_STATE`.  Returns ``meas`` (``blocks.readings``: :data:`MEAS`, or
+    :data:`MEAS_HEADING` with the heading sensor; NaN where missing) and
     ``[bias_next, phi]`` (the caller prepends the period's torque).
     """
     S = SENSOR_STATE
@@ -227,6 +308,9 @@ def sense(blocks: EstimatorBlocks, xk: ca.MX, s_state: ca.MX, noise: ca.MX, vali
     enc, _ = blocks.encoders(phi, s_state[S["phi_prev"]], p_plant, Ts)
     meas = ca.vertcat(_drop(acc, valid[VALID.index("acc")]), _drop(gyro, valid[VALID.index("gyro")]),
                       _drop(enc, valid[VALID.index("enc")]))
+    if blocks.heading is not None:
+        yaw = blocks.heading(x12[STATE["q"]], s, noise[NOISE["heading"]])
+        meas = ca.vertcat(meas, _drop(yaw, valid[VALID.index("heading")]))
     bias_next = blocks.bias_step(s_state[S["bias"]], s, Ts, noise[NOISE["gyro_rw"]])
     return meas, ca.vertcat(bias_next, phi)
 
@@ -260,23 +344,34 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                                                       for f in ("obs", "guide", "bal")))
     na = int(round(np.sqrt(C.size_of("Pa"))))
     nv = int(round(np.sqrt(C.size_of("Pv"))))
-    ports = embedded_ports(blocks, NP, C, MEAS.size, {"Qa": 36, "Ra": 36, "Qv": nv * nv, "Rv": 36})
+    M = est.readings
+    nq, nr = est.attitude.size1_in(est.attitude.index_in("Q")), M.size - 3  # no encoders
+    ports = embedded_ports(blocks, NP, C, M.size,
+                           {"Qa": nq * nq, "Ra": nr * nr, "Qv": nv * nv, "Rv": 36})
     sym = ports.symbols()
     c, meas, Ts, p_est = sym["c"], sym["meas"], sym["Ts"], sym["p_est"]
-    acc, gyro, enc = meas[MEAS["acc"]], meas[MEAS["gyro"]], meas[MEAS["enc"]]
-    XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
+    acc, gyro, enc = meas[M["acc"]], meas[M["gyro"]], meas[M["enc"]]
+    XA, XV = C.part("xa"), VELOCITY_FILTER_STATE
+    # the attitude filter reads [acc, gyro] (and the heading, thesis (4.30) with the bias)
+    z_att = ca.vertcat(acc, gyro, *((meas[M["heading"]],) if M.has("heading") else ()))
 
     # the velocity filter's last acceleration estimate compensates the accelerometer
     xv_prev = c[C["xv"]]
-    att = est.attitude(xhat=c[C["xa"]], P=ca.reshape(c[C["Pa"]], na, na), z=ca.vertcat(acc, gyro),
-                       Q=ca.reshape(sym["Qa"], 6, 6), R=ca.reshape(sym["Ra"], 6, 6), dt=Ts, p=p_est,
-                       a=ca.vertcat(xv_prev[XV["a"]], 0))
+    att = est.attitude(xhat=c[C["xa"]], P=ca.reshape(c[C["Pa"]], na, na), z=z_att,
+                       Q=ca.reshape(sym["Qa"], nq, nq), R=ca.reshape(sym["Ra"], nr, nr), dt=Ts,
+                       p=p_est, a=ca.vertcat(xv_prev[XV["a"]], 0))
     xa = att["xhat_next"]
     # a velocity filter with the body-rate covariance input gets the attitude filter's
-    # (the rate is the last 3 x 3 block of its covariance)
-    rate = {"P_rate": att["P_next"][-3:, -3:]} if "P_rate" in est.velocity.name_in() else {}
+    # (the rate block of its covariance: the tangent has one entry less than the state
+    # on S^3, the additive chart of the QEKF none)
+    r0 = XA.offset("omega") - (XA.size - na)
+    rate = ({"P_rate": att["P_next"][r0:r0 + 3, r0:r0 + 3]}
+            if "P_rate" in est.velocity.name_in() else {})
+    # the velocity filter reads the attitude [q, omega] (a bias state of the attitude
+    # filter is not the velocity filter's)
+    xa_qw = xa if XA.size == ATTITUDE_FILTER_STATE.size else xa[:ATTITUDE_FILTER_STATE.size]
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
-                       att=xa, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
+                       att=xa_qw, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
                        R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate)
     xv = vel["xhat_next"]
     # the velocity filter's horizontal accelerometer bias is the attitude filter's slow
@@ -367,7 +462,8 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     * the filters aligned with the initial attitude, body rate ``omega = 2 vec(q* o dq)``
       and velocity (as after the robot's start-up calibration at rest) with the thesis's
       initial covariances (4.4, 5.4; the QEKF's ``G P0 G^T + radial blkdiag(q q^T, 0)``)
-      and a zero accelerometer-bias estimate; the position estimate at the true position;
+      and a zero accelerometer-bias estimate (and z gyro-bias estimate, ``ukf_heading``);
+      the position estimate at the true position;
     * with ``observer``, the COM observer's state: the model's COM offset as both
       estimates, the measurement filters at the initial attitude's static measurement,
       ball velocity and body rate
@@ -397,12 +493,15 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     # filters
     omega = 2 * Q.vee(Q.mul(Q.conj(q), dq))
     Pa = ca.DM(att.P0)
-    if ESTIMATOR_FILTERS[estimator][0] == "qekf":
-        Pa = ca.mtimes([tangent_map(q), ca.DM(QUKF_P0), tangent_map(q).T])
-        Pa[:4, :4] += QEKF_P0_RADIAL * ca.mtimes(q, q.T)
+    if ESTIMATOR_FILTERS[estimator][0] in _ADDITIVE_FILTERS:  # around the initial attitude
+        P7 = ca.mtimes([tangent_map(q), ca.DM(QUKF_P0), tangent_map(q).T])
+        P7[:4, :4] += QEKF_P0_RADIAL * ca.mtimes(q, q.T)
+        Pa = ca.diagcat(P7, ca.DM(att.P0[7:, 7:])) if att.P0.shape[0] > 7 else P7
     xv = {f: ca.DM(vel.x0[VELOCITY_FILTER_STATE[f]]) for f in VELOCITY_FILTER_STATE.fields}
     xv["v"] = x0[STATE_DXY]
-    parts.update({"xa": ca.vertcat(q, omega), "Pa": ca.vec(Pa),
+    # the heading-aided filter's z gyro bias estimate starts at zero (HEADING_P0_BIAS)
+    xa = ca.vertcat(q, omega, ca.SX.zeros(att.x0.size - ATTITUDE_FILTER_STATE.size))
+    parts.update({"xa": xa, "Pa": ca.vec(Pa),
                   "xv": ca.vertcat(*(xv[f] for f in VELOCITY_FILTER_STATE.fields)),
                   "Pv": ca.vec(ca.DM(vel.P0)), "pos": x0[STATE_XY]})
     # COM observer

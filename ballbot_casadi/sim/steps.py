@@ -153,7 +153,8 @@ def make_estimating_step(
         (``c`` the controller state of :func:`~ballbot_casadi.sim.embedded.software_layout`,
         ``s`` the sensor state :data:`~ballbot_casadi.sim.embedded.SENSOR_STATE`; ``u``
         last with the delay), the sequences of :func:`make_closed_loop_step` plus
-        ``noise`` (9, standard normal) and ``valid`` (3), its constants plus ``s``
+        ``noise`` (:data:`~ballbot_casadi.sim.embedded.NOISE`, standard normal) and ``valid``
+        (:data:`~ballbot_casadi.sim.embedded.VALID`), its constants plus ``s``
         (sensor parameters), ``p_est`` (the filters' model parameters) and the filter
         covariances ``Qa, Ra, Qv, Rv`` (column-major).  Outputs those of
         :func:`make_closed_loop_step` (``x`` the true 12-state) plus ``x_hat`` (what the

@@ -66,8 +66,8 @@ static int check_initial(const fmu_values *v, int restored, char *msg, size_t le
                  restored ? CTRL_QUAT_TOL_RESTORED : CTRL_QUAT_TOL);
         return 1;
     }
-    return check_cov(r, CTRL_QA_IX, 6, "Qa", msg, len) ||
-           check_cov(r, CTRL_RA_IX, 6, "Ra", msg, len) ||
+    return check_cov(r, CTRL_QA_IX, CTRL_NQA, "Qa", msg, len) ||
+           check_cov(r, CTRL_RA_IX, CTRL_NRA, "Ra", msg, len) ||
            check_cov(r, CTRL_QV_IX, CTRL_NQV, "Qv", msg, len) ||
            check_cov(r, CTRL_RV_IX, 6, "Rv", msg, len);
 }

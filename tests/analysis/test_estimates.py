@@ -71,4 +71,9 @@ def test_estimation_metrics_of_a_heading_offset_and_counters():
     assert (m["nis_attitude_mean"], m["nis_velocity_mean"]) == (3.0, 6.0)
     assert m["covariance_repairs"] == 3
     assert m["missing_reading_fraction"] == pytest.approx(3 / 30, rel=1e-12)
+    # the heading sensor's column (every 20th period, or off) is not a missing reading
+    heading = np.zeros((n, 1))
+    heading[::5] = 1.0
+    m4 = estimation_metrics({**log, "valid": np.hstack([valid, heading])})
+    assert m4["missing_reading_fraction"] == pytest.approx(3 / 30, rel=1e-12)
     assert m["quat_norm_max_dev"] == pytest.approx(0.0, abs=1e-15)

@@ -16,7 +16,8 @@ from ballbot_casadi.estimation import tuning as T
 
 
 def test_registry_names_and_function_signatures():
-    assert set(E.ESTIMATORS) == {"qukf", "qekf", "vukf", "vekf"}
+    assert set(E.ESTIMATORS) == {"qukf", "qekf", "vukf", "vekf", "qukf_heading", "qekf_heading"}
+    assert E.build_estimator("qekf_heading").size_in(1) == (10, 10)
     q = E.build_estimator("qukf")
     assert q.name() == "ballbot_qukf"
     assert q.name_in() == ["xhat", "P", "z", "Q", "R", "dt", "p"]
@@ -35,6 +36,14 @@ def test_default_tuning_is_the_thesis_values_and_read_only():
     v = E.DEFAULT_TUNING["vukf"]
     np.testing.assert_array_equal(np.diag(v.P0), [0.1, 0.1, 0.01, 0.01, 1e-9, 1e-9, 1e-9])  # (5.4)
     np.testing.assert_array_equal(v.R[:3, :3], np.eye(3) / 9)  # §3.1.3
+    # the heading-aided QUKF: the QUKF's blocks, then the nominal sensor's z gyro bias
+    # random walk per period and heading variance (0.2 deg)^2 (default_params.toml)
+    h = E.DEFAULT_TUNING["qukf_heading"]
+    np.testing.assert_array_equal(h.Q[:6, :6], t.Q)
+    np.testing.assert_array_equal(h.R[:6, :6], t.R)
+    assert h.Q[6, 6] == pytest.approx(2e-5 ** 2 * 0.005, rel=1e-12)
+    assert h.R[6, 6] == pytest.approx(np.radians(0.2) ** 2, rel=1e-4)
+    assert h.x0.size == 8 and h.x0[7] == 0.0
     for tun in E.DEFAULT_TUNING.values():
         for a in (tun.Q, tun.R, tun.P0, tun.x0):
             with pytest.raises(ValueError):

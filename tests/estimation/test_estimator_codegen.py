@@ -39,6 +39,13 @@ def _inputs(name: str, rng: np.random.Generator, z_nan: bool) -> list:
         acc = Q.rotate_inv(Q.from_rpy(0.05, -0.02, 0.9), [0, 0, PAR.g])
         z = np.r_[acc + 0.1 * rng.standard_normal(3), 0.1, -0.19, 0.06]
         args = [x, P * 30, z, tun.Q, tun.R, DT, PV]
+    elif name in ("qukf_heading", "qekf_heading"):  # bias state(s), heading reading, a
+        nb = tun.x0.size - 7
+        x = np.r_[Q.from_rpy(0.04, -0.02, 0.9), 0.1, -0.2, 0.05, 0.003 * np.ones(nb)]
+        _, P = E.initial_state(name, x)
+        acc = Q.rotate_inv(Q.from_rpy(0.05, -0.02, 0.9), [0, 0, PAR.g])
+        z = np.r_[acc + 0.1 * rng.standard_normal(3), 0.1, -0.19, 0.06, 0.91]
+        args = [x, P * 30, z, tun.Q, tun.R, DT, PV, np.array([0.1, -0.2, 0.0])]
     else:
         att = np.r_[Q.from_rpy(0.04, -0.02, 0.9), 0.1, -0.2, 0.05]
         x = np.r_[0.2, -0.1, 0.3, 0.1, 0.0, 0.0, 0.01]

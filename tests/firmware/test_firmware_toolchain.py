@@ -63,3 +63,20 @@ def test_unknown_precision_is_a_user_error(capsys):
         main(["firmware", "--precision", "half"])
     assert exc.value.code == 2
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_heading_variant_configures_its_readings_from_the_function():
+    """``ukf_heading``: the readings end with the heading (NaN = no reading), the attitude
+    covariances are 7 x 7; the configuration follows the Function, not a fixed layout."""
+    f = firmware_function("flc", "ukf_heading")
+    vals = scenario_values(f, default_scenario("flc", "ukf_heading"))
+    config = generate_sources(f, "double", vals)["ballbot_fw_config.h"]
+    assert "#define BALLBOT_FW_N_READINGS 10" in config
+    assert "#define BALLBOT_FW_READING_HEADING 9" in config
+    assert "#define BALLBOT_FW_READING_ENC 6" in config
+    assert "X(Qa, 7)" in config and "X(Ra, 7)" in config
+    assert vals.c0.size == f.numel_in(0)
+    base = generate_sources(firmware_function("flc", "ukf"),
+                            "double", scenario_values(firmware_function("flc", "ukf"),
+                                                      default_scenario()))["ballbot_fw_config.h"]
+    assert "#define BALLBOT_FW_N_READINGS 9" in base and "READING_HEADING" not in base

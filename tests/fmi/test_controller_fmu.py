@@ -16,6 +16,7 @@ from fmpy.validation import validate_fmu
 
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
 from ballbot_casadi.fmi.controller.controller import (
+    HEADING_READING_NAME,
     READING_NAMES,
     REFERENCE_NAMES,
     X0_NAMES,
@@ -24,6 +25,7 @@ from ballbot_casadi.fmi.controller.controller import (
     controller_state_layout,
     controller_values,
     embedded_function,
+    reading_names,
 )
 from ballbot_casadi.fmi.package import build_tool, fmu_source_dir
 from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
@@ -137,6 +139,36 @@ def test_fmu_equals_the_compiled_embedded_step(ctrl, est):
             worst = max(worst, float(np.max(np.abs(got - want))))
     assert worst <= 1e-12
     assert np.all(np.isfinite(fmu.get("tau0", "tau1", "tau2")))
+    assert fmu.errors() == []
+    fmu.free()
+
+
+def test_heading_variant_reads_the_heading_and_equals_the_compiled_embedded_step():
+    """``ukf_heading``: one more reading input, ``sensor_heading`` (NaN between the heading
+    sensor's samples), the 7 x 7 attitude covariances; the FMU equals the mission's
+    embedded step and its heading reading moves the heading estimate."""
+    assert reading_names("ukf_heading") == (*READING_NAMES, HEADING_READING_NAME)
+    assert reading_names("ukf") == READING_NAMES
+    b = controller_build("flc", "ukf_heading")
+    assert validate_fmu(str(b.fmu)) == []
+    rng = np.random.default_rng(12)
+    fmu, ref = Controller("flc", "ukf_heading"), _Reference("flc", "ukf_heading")
+    fmu.init()
+    fmu.set(v_ref_x=VREF[0], v_ref_y=VREF[1], yaw_rate_ref=VREF[2])
+    names = reading_names("ukf_heading")
+    worst = 0.0
+    for k in range(60):
+        # a heading reading every 20th period, 5 deg off the power-on estimate
+        meas = np.concatenate([_readings(rng), [np.radians(5.0) if k % 20 == 0 else np.nan]])
+        fmu.set_many(names, meas)
+        fmu.step()
+        out = ref.period(meas)
+        c_fmu = fmu.get(*[n for n in fmu.vars if n.startswith("c_")])
+        for got, want in ((fmu.get("tau0", "tau1", "tau2"), out["tau_lim"]),
+                          (fmu.get(*XHAT_NAMES), out["x_hat"]), (c_fmu, out["c_next"])):
+            worst = max(worst, float(np.max(np.abs(got - want))))
+    assert worst <= 1e-12
+    assert float(fmu.get("yaw_hat")[0]) > np.radians(0.5)  # pulled towards the reading
     assert fmu.errors() == []
     fmu.free()
 

@@ -46,7 +46,7 @@ def results(sim, study_out) -> dict:
 
 
 #: Studies of several 100 s runs with estimators: slow tests.
-_LONG = ("yaw_seeds", "thesis_tuning")
+_LONG = ("yaw_seeds", "thesis_tuning", "predecessor")
 
 
 @pytest.mark.parametrize("name,controller", [

@@ -68,7 +68,15 @@ def test_verdicts_pass_differs_and_not_reproducible():
     assert rows["smc_pitch"]["thesis_setup"] == pytest.approx(3.0)
     assert rows["pitch_degrades"]["verdict"] == "pass"
     assert rows["pitch_degrades"]["ours"] is None
-    assert rows["ukf_no_heading"]["verdict"] == "not reproducible"   # no measurement at all
+    assert rows["ukf_no_heading"]["verdict"] == "not reproducible"   # predecessor study not run
+    pre = _by_key(TH.thesis_table(_runs({("predecessor", "flc"): {
+        "ukf_vs_ekfh_roll_rms_ratio": 0.8, "ukfh_vs_ekfh_roll_rms_ratio": 0.7,
+        "ukf_vs_ekfh_heading_max_ratio": 2.1, "ukf_vy_error_rms_mps": 0.00186,
+        "ekfh_vy_error_rms_mps": 0.00182}})))
+    assert pre["ukf_no_heading"]["verdict"] == "pass" and pre["ukf_no_heading"]["ours"] == 0.7
+    assert pre["ukf_no_heading_yaw"]["verdict"] == "differs"         # 2.1 > 2: the heading drifts
+    assert pre["vekf_y_better"]["verdict"] == "pass"                  # thesis's set-up: > 1
+    assert pre["vekf_y_better"]["thesis_setup"] == pytest.approx(0.00186 / 0.00182)
     assert rows["speed"]["verdict"] == "not reproducible"            # study not run
     assert "velocity" in rows["speed"]["why"]
     bad = _by_key(TH.thesis_table(_runs({("estimators", "flc"): {"ukf_q2_error_max": 0.01}})))

@@ -84,7 +84,7 @@ from ballbot_casadi.control.velocity import (
 )
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import TS_CONTROL
-from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, STATE, VELOCITY_FILTER_STATE, Layout
+from ballbot_casadi.core.layout import STATE, VELOCITY_FILTER_STATE, Layout
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
 from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError, ScenarioError
@@ -92,9 +92,10 @@ from ballbot_casadi.estimation.com_observer import COM_OBSERVER_GAIN_NAMES
 from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.embedded import (
-    MEAS,
+    MEAS_HEADING,
     embedded_software,
     initial_controller_state_function,
+    readings_layout,
     software_layout,
 )
 from ballbot_casadi.sim.ports import (
@@ -111,6 +112,8 @@ __all__ = [
     "STEP_TOL",
     "MAX_PERIODS",
     "READING_NAMES",
+    "HEADING_READING_NAME",
+    "reading_names",
     "REFERENCE_NAMES",
     "XHAT_NAMES",
     "model_identifier",
@@ -133,6 +136,10 @@ MAX_PERIODS = 1_000_000
 QUAT_TOL_RESTORED = 1e-3
 #: The readings (inputs), named as the plant FMU's outputs: acc (3), gyro (3), enc (3).
 READING_NAMES = SENSOR_OUTPUT_NAMES
+#: The heading reading of an estimator that reads the heading sensor (``ukf_heading``):
+#: the last reading input (the plant FMU has no heading sensor; a master that has one
+#: sets it, NaN = no reading this period).
+HEADING_READING_NAME = "sensor_heading"
 #: Reference inputs in the order the per-model C reads them: q_ref, dq_ref, ddq_ref (4
 #: each, balance-only mode), then the velocity reference and the heading-rate reference.
 REFERENCE_NAMES = (*(f"q_ref{i}" for i in range(4)), *(f"dq_ref{i}" for i in range(4)),
@@ -157,7 +164,17 @@ _READING_DESC = {
     "enc": ("1/s", "wheel {c} encoder reading in ticks per second (the plant FMU's output of "
                    "that name); NaN = missing (the velocity filter predicts only); the reading "
                    "of period 0 is always taken as missing"),
+    "heading": ("rad", "heading-sensor reading (ZYX yaw of the body, wrapped to (-pi, pi]); NaN "
+                       "= no reading this period (the sensor samples at a low rate)"),
 }
+
+
+def reading_names(estimator: str) -> tuple[str, ...]:
+    """The reading inputs of the controller FMU of ``estimator``, in the order of its
+    readings layout (:func:`~ballbot_casadi.sim.embedded.readings_layout`): the plant
+    FMU's sensor outputs, then the heading reading if the estimator reads it."""
+    heading = readings_layout(estimator) is MEAS_HEADING
+    return (*READING_NAMES, *((HEADING_READING_NAME,) if heading else ()))
 
 
 def model_identifier(controller: str, estimator: str) -> str:
@@ -227,6 +244,11 @@ def _kvel_names() -> list[str]:
             + [f"k_vel_{n}" for n in VELOCITY_LIMIT_NAMES])
 
 
+def _side(embedded: ca.Function, arg: str) -> int:
+    """Side of the square covariance input ``arg`` (column-major vector)."""
+    return int(round(np.sqrt(embedded.size1_in(embedded.index_in(arg)))))
+
+
 def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
                       ) -> list[tuple[str, list[str]]]:
     """``(Function input, [FMU parameter names])`` of every vector parameter, in the
@@ -237,8 +259,8 @@ def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
         ("p_est", [f"est_{n}" for n in PARAM_NAMES]),
         ("k_bal", [f"k_bal_{n}" for n in BALANCE_GAIN_NAMES[controller]]),
         ("k_vel", _kvel_names()),
-        ("Qa", _matrix_names("Qa", 6)),
-        ("Ra", _matrix_names("Ra", 6)),
+        ("Qa", _matrix_names("Qa", _side(embedded, "Qa"))),
+        ("Ra", _matrix_names("Ra", _side(embedded, "Ra"))),
         ("Qv", _matrix_names("Qv", nv)),
         ("Rv", _matrix_names("Rv", 6)),
     ]
@@ -317,7 +339,7 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
         if start is None else start
     layout = controller_state_layout(embedded, estimator)
     t = VarTable()
-    for name in READING_NAMES:
+    for name in reading_names(estimator):
         group = name.removeprefix("sensor_").rstrip("xyz012_")
         unit, desc = _READING_DESC[group]
         t.add(name, "discrete_input", desc.format(c=name[-1]), start=0.0, unit=unit, missing=True)
@@ -418,7 +440,8 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
         return tuple(n for f in layout.fields
                      for n in _element_names(f"{prefix}_{f}", layout.size_of(f)))
 
-    for f, sub in (("xa", ATTITUDE_FILTER_STATE), ("xv", VELOCITY_FILTER_STATE)):
+    xa = layout.part("xa")  # the heading-aided filter's ends with the z gyro bias
+    for f, sub in (("xa", xa), ("xv", VELOCITY_FILTER_STATE)):
         if layout[f].stop - layout[f].start != sub.size:
             raise BuildError(f"{embedded.name()}: field {f} of the controller state has "
                              f"{layout[f].stop - layout[f].start} entries, the {sub.name} {sub.size}")
@@ -426,9 +449,9 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
     blocks = [
         FmuBlock("c", layout, field_names("c")),
         FmuBlock("x0", STATE, X0_NAMES),
-        FmuBlock("xa", ATTITUDE_FILTER_STATE),
+        FmuBlock("xa", xa),
         FmuBlock("xv", VELOCITY_FILTER_STATE),
-        FmuBlock("meas", MEAS, READING_NAMES),
+        FmuBlock("meas", readings_layout(estimator), reading_names(estimator)),
         FmuBlock("ref", REFERENCE, REFERENCE_NAMES),
         FmuBlock("tau", None, tuple(f"tau{i}" for i in range(3))),
         FmuBlock("tau_cmd", None, tuple(f"tau_cmd{i}" for i in range(3))),
@@ -445,6 +468,8 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
         blocks.append(FmuBlock("com_hat", None, ("com_hat_x", "com_hat_y")))
     defines: dict[str, Any] = {
         "NQV": int(round(np.sqrt(len(groups["Qv"])))),
+        "NQA": int(round(np.sqrt(len(groups["Qa"])))),
+        "NRA": int(round(np.sqrt(len(groups["Ra"])))),
         "HAS_OBSERVER": int(has_obs),
         "STEP_TOL": repr(STEP_TOL),
         "MAX_PERIODS": repr(float(MAX_PERIODS)),

@@ -55,6 +55,7 @@ from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES, X0_PREFIX
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_player_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.system.ssp import SspComponent, SspConnection, SspSystem, write_ssp
+from ballbot_casadi.sim.embedded import MEAS, readings_layout
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
@@ -181,14 +182,18 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     Raises
     ------
     ScenarioError
-        A scenario without an estimator, with pushes or sensor dropouts, or a seed beyond
-        32 bits.
+        A scenario without an estimator, with pushes or sensor dropouts, with the heading
+        sensor or an estimator that reads it, or a seed beyond 32 bits.
     BuildError
         The plant FMU lacks a variable the system connects.
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the SIL runs the embedded software, "
                             "which reads sensors; set estimator = 'ukf' or 'ekf'")
+    if scenario.heading_sensor or readings_layout(scenario.estimator) is not MEAS:
+        raise ScenarioError(f"scenario {scenario.name!r}: the plant FMU has no heading sensor, so "
+                            f"the SIL cannot feed estimator {scenario.estimator!r} its heading "
+                            "reading; use estimator = 'ukf' or 'ekf' without heading_sensor")
     if scenario.sensor_dropouts:  # refused, never silently dropped
         raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_dropout]] rows, which the "
                             "SSP cannot express (the FMUs have no dropout input); remove them "

@@ -41,7 +41,7 @@ from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS
 from ballbot_casadi.model.dynamics import make_jacobians, make_model_functions
 from ballbot_casadi.model.linearization import linearize
-from ballbot_casadi.model.sensors import NOISE_STREAMS
+from ballbot_casadi.model.sensors import NOISE_STREAMS, heading_schedule
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES, controller_torque_limit
 from ballbot_casadi.sim.embedded import (
@@ -93,7 +93,7 @@ SCENARIO_FIELDS = (
     "name", "controller", "duration", "x0", "cascade", "attitude", "velocity_keyframes", "pushes",
     "torque_disturbances", "plant_changes", "ctrl_changes", "k_bal", "k_vel", "Ts", "n_sub",
     "feedforward", "torque_limit", "estimator", "seed", "noise", "sensor_changes", "est_changes", "estimator_tuning",
-    "sensor_dropouts", "com_observer", "k_obs", "study", "description",
+    "sensor_dropouts", "com_observer", "k_obs", "study", "description", "heading_sensor",
 )
 #: Attribute -> the section holding it.
 #: Position of the torque limit in the parameter vector.
@@ -152,7 +152,10 @@ class Scenario:
     estimator
         What the controllers read: ``"true"`` (the true state, default), ``"ukf"``
         (noisy sensors, QUKF + VUKF, thesis ch. 4-5) or ``"ekf"`` (noisy sensors, the
-        predecessor's EKFs).
+        predecessor's EKFs) or ``"ukf_heading"`` (the QUKF with the heading reading and
+        the z gyro bias as a state, :mod:`~ballbot_casadi.estimation.heading`, + VUKF) or
+        ``"ekf_heading"`` (the predecessor's QEKF with heading correction and gyro-bias
+        states, :mod:`~ballbot_casadi.estimation.predecessor`, + VEKF; thesis §6).
     seed
         Seed of the sensor-noise generator (int >= 0; runs with the same seed are
         identical bit for bit).
@@ -179,7 +182,12 @@ class Scenario:
     sensor_dropouts
         Rows ``(t_start, t_end, sensor)`` with sensor ``"acc"``, ``"gyro"`` or ``"enc"``:
         that sensor's readings are missing (NaN) in the periods starting in
-        ``[t_start, t_end)``; the filters predict only for it.
+        ``[t_start, t_end)``; the filters predict only for it (also ``"heading"``).
+    heading_sensor
+        The robot carries the heading sensor (an absolute yaw reading at the sensor
+        parameter ``heading_rate``, :func:`~ballbot_casadi.model.sensors.make_heading_sensor`).
+        Off (default): its reading is always missing.  Only ``ukf_heading`` and
+        ``ekf_heading`` read it.
     com_observer
         The controllers use the online estimate of the COM offset
         (:mod:`ballbot_casadi.estimation.com_observer`) as their internal model: the
@@ -392,19 +400,22 @@ class Scenario:
             raise ScenarioError(f"scenario {self.name!r} has no estimator in the loop")
         k0, k1 = self.window(periods)
         n = k1 - k0
-        if self.noise:
+        if self.noise:  # the heading sensor's noise has a stream of its own
             rng = NoiseStream(self.seed)
-            noise = np.hstack([rng.normal(NOISE_STREAMS[k], n, 3, start=k0)
-                               for k in ("acc", "gyro", "gyro_bias_rw")])
+            noise = np.hstack([rng.normal(NOISE_STREAMS[k], n, m, start=k0)
+                               for k, m in (("acc", 3), ("gyro", 3), ("gyro_bias_rw", 3),
+                                            ("heading", 1))])
         else:
             noise = np.zeros((n, NOISE.size))
         valid = np.ones((n, VALID.size))
+        sp = self.sensor_params()
+        valid[:, VALID.index("heading")] = (
+            heading_schedule(k0, k1, self.Ts, sp.heading_rate[0]) if self.heading_sensor else 0.0)
         if k0 == 0:
             valid[0, VALID.index("enc")] = 0.0  # no previous count to difference at the first sample
         t = self.time(periods)
         for t0, t1, sensor in self.sensor_dropouts:
             valid[(t >= t0 - 1e-12) & (t < t1 - 1e-12), VALID.index(sensor)] = 0.0
-        sp = self.sensor_params()
         att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[self.estimator])
         cov = {"Qa": np.array(att.Q, float), "Ra": np.array(att.R, float),
                "Qv": np.array(vel.Q, float), "Rv": np.array(vel.R, float)}

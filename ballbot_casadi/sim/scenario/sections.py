@@ -64,7 +64,7 @@ __all__ = [
 #: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
 FEEDFORWARD_MODES = ("exact", "none", "no-rate")
 #: What the controllers read: the true state, or estimates from noisy sensors.
-ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
+ESTIMATOR_CHOICES = ("true", "ukf", "ekf", "ukf_heading", "ekf_heading")
 #: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
 #: input each sets and the diagonal block of it (the value times the identity).
 ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
@@ -452,22 +452,29 @@ class ModelSection:
 class SensorsSection:
     """The robot's sensors: parameter changes (``sensor_changes``, file ``[sensors]``,
     vector values allowed), the noise ``seed`` (int in [0, 2^32)) and whether ``noise`` is
-    drawn, and ``sensor_dropouts`` rows ``(t_start, t_end, sensor)`` in s with sensor
-    ``acc``/``gyro``/``enc`` (file ``[[sensor_dropout]]``)."""
+    drawn, ``sensor_dropouts`` rows ``(t_start, t_end, sensor)`` in s with sensor
+    ``acc``/``gyro``/``enc``/``heading`` (file ``[[sensor_dropout]]``) and whether the
+    robot carries the heading sensor (``heading_sensor``, off by default: it samples at
+    the sensor parameter ``heading_rate``, :func:`~ballbot_casadi.model.sensors.heading_schedule`;
+    only ``ukf_heading`` and ``ekf_heading`` read it)."""
 
     sensor_changes: Mapping[str, Any] = field(default_factory=dict)
     seed: int = 0
     noise: bool = True
     sensor_dropouts: tuple = ()
+    heading_sensor: bool = False
 
-    FIELDS = ("sensor_changes", "seed", "noise", "sensor_dropouts")
-    TABLE_KEYS = ("sensors", "seed", "noise", "sensor_dropout")
+    FIELDS = ("sensor_changes", "seed", "noise", "sensor_dropouts", "heading_sensor")
+    TABLE_KEYS = ("sensors", "seed", "noise", "sensor_dropout", "heading_sensor")
 
     def check(self, run: RunSection) -> None:
         if not _is_int(self.seed) or not 0 <= self.seed < 2**32:
             raise ScenarioError(f"seed must be an int in [0, 2^32), got {self.seed!r}", key="seed")
         if not isinstance(self.noise, bool):
             raise ScenarioError(f"noise must be true or false, got {self.noise!r}", key="noise")
+        if not isinstance(self.heading_sensor, bool):
+            raise ScenarioError(f"heading_sensor must be true or false, got "
+                                f"{self.heading_sensor!r}", key="heading_sensor")
         drops = []
         for i, row in enumerate(self.sensor_dropouts):
             ok = (isinstance(row, (list, tuple)) and len(row) == 3 and row[2] in VALID.fields
@@ -492,7 +499,8 @@ class SensorsSection:
             t0, t1 = c.interval(row, key, "sensor")
             drops.append((t0, t1, c.choice(row, "sensor", f"{key}.sensor", "", VALID.fields)))
         return cls(_changes_from_file(c, table, SENSOR_CHANGES), seed,
-                   c.boolean(table, "noise", "noise", True), tuple(drops))
+                   c.boolean(table, "noise", "noise", True), tuple(drops),
+                   c.boolean(table, "heading_sensor", "heading_sensor", False))
 
     def to_file(self) -> dict[str, Any]:
         out = _changes_to_file(SENSOR_CHANGES, self.sensor_changes)
@@ -503,6 +511,8 @@ class SensorsSection:
         if self.sensor_dropouts:
             out["sensor_dropout"] = [{"t_start_s": t0, "t_end_s": t1, "sensor": s}
                                      for t0, t1, s in self.sensor_dropouts]
+        if self.heading_sensor:
+            out["heading_sensor"] = True
         return out
 
 
@@ -511,7 +521,7 @@ class SensorsSection:
 
 @dataclass(frozen=True)
 class EstimationSection:
-    """What the controllers read: ``estimator`` ``true``/``ukf``/``ekf``, the estimators'
+    """What the controllers read: ``estimator`` ``true``/``ukf``/``ekf``/``ukf_heading``/``ekf_heading``, the estimators'
     internal model (``est_changes``, file ``[estimator_model]``) and changes to the
     filters' thesis tuning (``estimator_tuning``: variances per period, file
     ``[estimator_tuning]``)."""
