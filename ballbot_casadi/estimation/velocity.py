@@ -48,6 +48,7 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.errors import BallbotTypeError
 from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, ukf_step
+from ballbot_casadi.estimation.linalg import FINITE_MAX
 from ballbot_casadi.estimation.manifold import euclidean
 
 __all__ = [
@@ -57,6 +58,7 @@ __all__ = [
     "make_vekf",
     "make_velocity_model",
     "make_vukf",
+    "encoder_rate",
 ]
 
 
@@ -203,6 +205,29 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
     return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, rate_covariance)
 
 
-def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False) -> ca.Function:
+def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False,
+              rate_covariance: bool = False) -> ca.Function:
     """``ballbot_vekf``: the predecessor's velocity EKF, same interface as :func:`make_vukf`."""
-    return _build("ballbot_vekf", wheel_speeds, "ekf", midpoint)
+    return _build("ballbot_vekf", wheel_speeds, "ekf", midpoint, rate_covariance)
+
+
+def encoder_rate(omega_att, P_rate_att, gyro, Sigma_gyro) -> tuple[ca.MX, ca.MX]:
+    """The body rate the encoder prediction uses, and its covariance (the ``P_rate`` input).
+
+    The tick increment of a period depends on the body rate through ``dq`` (thesis 5.17,
+    B.47): ``J_w = d enc / d omega`` is about 60-100 ticks per period per rad/s, so the
+    rate's error dominates the encoder's quantisation (``I/9`` ticks^2).  The attitude
+    filter's rate ``omega_att`` is the gyroscope low-passed by its rate random walk
+    (thesis 4.39): its error is *coloured* (correlated over several periods), which the
+    velocity filter, taking ``J_w P_rate J_w^T`` as white measurement noise, cannot
+    represent - it averages the correlated error away and becomes overconfident in the
+    velocity.  The period's gyroscope reading ``gyro`` has white noise of the known
+    covariance ``Sigma_gyro`` (thesis 3.8), so it is the matched input: returns
+    ``(gyro, Sigma_gyro)`` when every gyro component is a reading, else (a dropout)
+    ``(omega_att, P_rate_att)``.
+    """
+    ok = ca.logic_and(ca.logic_and(ca.fabs(gyro[0]) <= FINITE_MAX, ca.fabs(gyro[1]) <= FINITE_MAX),
+                      ca.fabs(gyro[2]) <= FINITE_MAX)
+    safe = ca.if_else(ok, gyro, ca.DM.zeros(3))  # no NaN reaches the arithmetic
+    return (ca.if_else(ok, safe, omega_att),
+            ca.if_else(ok, Sigma_gyro, P_rate_att))

@@ -73,6 +73,7 @@ from ballbot_casadi.estimation import (
 from ballbot_casadi.estimation.attitude import tangent_map
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_observer
 from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0
+from ballbot_casadi.estimation.velocity import encoder_rate
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.model.sensors import make_encoders, make_gyro_bias_step, make_imu
 from ballbot_casadi.sim.period import controller_part
@@ -154,7 +155,8 @@ def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
     att, vel = ESTIMATOR_FILTERS[estimator]
     attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
-    velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True)
+    velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True,
+                                                            rate_covariance=True)
     return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
                            velocity, estimator, make_tilt_correction(), ode, wheel_speeds)
 
@@ -272,11 +274,17 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                        Q=ca.reshape(sym["Qa"], 6, 6), R=ca.reshape(sym["Ra"], 6, 6), dt=Ts, p=p_est,
                        a=ca.vertcat(xv_prev[XV["a"]], 0))
     xa = att["xhat_next"]
-    # a velocity filter with the body-rate covariance input gets the attitude filter's
-    # (the rate is the last 3 x 3 block of its covariance)
-    rate = {"P_rate": att["P_next"][-3:, -3:]} if "P_rate" in est.velocity.name_in() else {}
+    # a velocity filter with the body-rate covariance input predicts the encoders with the
+    # period's gyroscope reading and its noise covariance (the attitude filter's gyro
+    # block of Ra); in a gyro dropout with the attitude filter's rate and covariance
+    # (the last 3 x 3 block of its covariance): estimation.velocity.encoder_rate
+    rate, att_v = {}, xa
+    if "P_rate" in est.velocity.name_in():
+        w_enc, P_rate = encoder_rate(xa[XA["omega"]], att["P_next"][-3:, -3:], gyro,
+                                     ca.reshape(sym["Ra"], 6, 6)[3:, 3:])
+        rate, att_v = {"P_rate": P_rate}, ca.vertcat(xa[XA["q"]], w_enc)
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
-                       att=xa, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
+                       att=att_v, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
                        R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate)
     xv = vel["xhat_next"]
     # the velocity filter's horizontal accelerometer bias is the attitude filter's slow
