@@ -64,7 +64,7 @@ __all__ = [
 #: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
 FEEDFORWARD_MODES = ("exact", "none", "no-rate")
 #: What the controllers read: the true state, or estimates from noisy sensors.
-ESTIMATOR_CHOICES = ("true", "ukf", "ekf")
+ESTIMATOR_CHOICES = ("true", "ukf", "ekf", "ukf_consistent")
 #: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
 #: input each sets and the diagonal block of it (the value times the identity).
 ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
