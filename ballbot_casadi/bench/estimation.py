@@ -10,7 +10,9 @@ Keys
     ``csrc/bench_function.c`` on a realistic operating point.  Target <= 10 us (the
     loop period is 5000 us).  Also the parts ``qukf_step_us``, ``vukf_step_us``,
     ``tilt_correction_step_us``, ``com_observer_step_us`` and ``embedded_step_us``
-    (the whole embedded software: filters, observer, controllers, limit).
+    (the whole embedded software: filters, observer, controllers, limit); with the
+    matched velocity filter of estimator ``ukf_consistent``: ``vukf_matched_step_us``,
+    ``estimator_step_matched_us`` and ``embedded_step_matched_us``.
 ``mission_full_100s_s``
     Wall time of 100 s of the complete system (sensor noise, QUKF + VUKF, velocity LQR,
     FLC, plant) run from Python as one call of the compiled mission, inputs prepared
@@ -34,7 +36,7 @@ from ballbot_casadi.bench.exports import estimation_bench_library
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
-from ballbot_casadi.sim.embedded import MEAS, software_layout
+from ballbot_casadi.sim.embedded import MATCHED_VELOCITY, MEAS, software_layout
 from ballbot_casadi.sim.ports import REFERENCE_SEQUENCES
 from ballbot_casadi.sim.scenario import load_scenario_file
 
@@ -63,6 +65,10 @@ def c_function_us(lib: Library, function: ca.Function, inputs: list, n_calls: in
     if not res["finite"]:
         raise BuildError(f"benchmark of {function.name()} produced a non-finite output")
     return float(res["us_per_call"])
+
+
+#: The estimator choice with the matched velocity filter (timed beside the scenario's).
+MATCHED = min(MATCHED_VELOCITY)
 
 
 def _full_scenario():
@@ -119,5 +125,16 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
               "com_observer": 1.0 if inputs.get("com_observer") else 0.0}
     e_in = [values[n] for n in embedded.name_in()]
     data["embedded_step_us"] = c_function_us(lib, embedded, e_in, n_calls)
+    # the matched velocity filter (estimator "ukf_consistent": the gyro-rate input P_rate
+    # and the period's acceleration noise G Q G^T), at the same operating point
+    lib_m, names_m = estimation_bench_library(sc.controller, MATCHED)
+    data["vukf_matched_step_us"] = c_function_us(
+        lib_m, names_m["ballbot_vukf"], [*v_in, est["Ra"][3:, 3:]], n_calls)
+    data["estimator_step_matched_us"] = sum(
+        data[k] for k in ("qukf_step_us", "vukf_matched_step_us", "tilt_correction_step_us",
+                          "com_observer_step_us"))
+    embedded_m = names_m[f"ballbot_embedded_{sc.controller}_{MATCHED}"]
+    data["embedded_step_matched_us"] = c_function_us(
+        lib_m, embedded_m, [values[n] for n in embedded_m.name_in()], n_calls)
     data["estimator_step_target_us"] = 10.0
     return data
