@@ -16,7 +16,8 @@ Format (every key optional unless marked; units in the names)::
     feedforward = "exact"           # exact | none (thesis mode: zero reference acceleration)
                                     # | no-rate (neither rate nor acceleration, thesis §7.2 item 5)
     torque_limit = "direction"      # direction (ours) | per-wheel (the thesis's clipping, §9.1)
-    estimator = "true"              # true | ukf | ekf (noisy sensors + QUKF/VUKF or QEKF/VEKF)
+    estimator = "true"              # true | ukf | ekf | ukf_consistent (noisy sensors + QUKF/VUKF,
+                                    # QEKF/VEKF, or the QUKF with the matched velocity filter)
     seed = 0                        # sensor-noise seed, int >= 0
     noise = true                    # with an estimator: draw sensor noise (false: noise-free sensors)
     com_observer = false            # controllers use the online COM-offset estimate (position hold)

@@ -511,8 +511,9 @@ class SensorsSection:
 
 @dataclass(frozen=True)
 class EstimationSection:
-    """What the controllers read: ``estimator`` ``true``/``ukf``/``ekf``, the estimators'
-    internal model (``est_changes``, file ``[estimator_model]``) and changes to the
+    """What the controllers read: ``estimator`` ``true``/``ukf``/``ekf``/``ukf_consistent``
+    (the QUKF with the matched velocity filter,
+    :data:`~ballbot_casadi.sim.embedded.MATCHED_VELOCITY`), the estimators' internal model (``est_changes``, file ``[estimator_model]``) and changes to the
     filters' thesis tuning (``estimator_tuning``: variances per period, file
     ``[estimator_tuning]``)."""
 
