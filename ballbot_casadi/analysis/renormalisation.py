@@ -34,7 +34,7 @@ from ballbot_casadi.estimation.attitude import (
     qekf_initial_covariance,
 )
 from ballbot_casadi.estimation.tuning import QUKF_P0
-from ballbot_casadi.sim.embedded import MEAS
+from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS, MEAS
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["ATTITUDE_VARIANTS", "PROBE_EPS", "attitude_variant", "norm_probe_dev", "replay_attitude",
@@ -120,6 +120,6 @@ def norm_probe_metrics(log: Any) -> dict[str, float]:
     ``log``'s estimator (``ukf``: the QUKF, ``ekf``: the QEKF) with the run's tuning."""
     sc = Scenario.from_dict(log.scenario)
     est = sc.estimation_inputs(periods=(0, 1))
-    f, _, P0 = attitude_variant({"ukf": "qukf", "ekf": "qekf"}[sc.estimator], np.array([1.0, 0, 0, 0]),
+    f, _, P0 = attitude_variant(ESTIMATOR_FILTERS[sc.estimator][0], np.array([1.0, 0, 0, 0]),
                                 np.zeros(3))
     return {"attitude_norm_probe_dev": norm_probe_dev(f, P0, est["Qa"], est["Ra"], est["p_est"], sc.Ts)}

@@ -10,7 +10,9 @@ Keys
     ``csrc/bench_function.c`` on a realistic operating point.  Target <= 10 us (the
     loop period is 5000 us).  Also the parts ``qukf_step_us``, ``vukf_step_us``,
     ``tilt_correction_step_us``, ``com_observer_step_us`` and ``embedded_step_us``
-    (the whole embedded software: filters, observer, controllers, limit).
+    (the whole embedded software: filters, observer, controllers, limit); with the
+    matched velocity filter of estimator ``ukf_consistent``: ``vukf_matched_step_us``,
+    ``estimator_step_matched_us`` and ``embedded_step_matched_us``.
 ``estimator_heading_step_us``
     The same with the heading-aided QUKF (``ballbot_qukf_heading``: the z gyro bias a
     state, the heading reading in the update; estimator ``ukf_heading``) in place of the
@@ -40,7 +42,7 @@ from ballbot_casadi.bench.exports import estimation_bench_library
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
-from ballbot_casadi.sim.embedded import embedded_readings, software_layout
+from ballbot_casadi.sim.embedded import MATCHED_VELOCITY, embedded_readings, software_layout
 from ballbot_casadi.sim.ports import REFERENCE_SEQUENCES
 from ballbot_casadi.sim.scenario import load_scenario_file
 
@@ -71,6 +73,14 @@ def c_function_us(lib: Library, function: ca.Function, inputs: list, n_calls: in
     return float(res["us_per_call"])
 
 
+#: The estimator choice with the matched velocity filter (timed beside the scenario's).
+MATCHED = min(MATCHED_VELOCITY)
+
+
+#: The estimator choice with the matched velocity filter (timed beside the scenario's).
+MATCHED = min(MATCHED_VELOCITY)
+
+
 def _full_scenario():
     path = Path(str(resources.files("ballbot_casadi.studies") / "scenarios" / "full_velocity.toml"))
     return load_scenario_file(path).scenario
@@ -92,7 +102,8 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
         raise BuildError("the complete-system benchmark mission diverged")
     data = {"mission_full_100s_s": best, "mission_full_100s_with_inputs_s": best + t_inputs,
             "mission_full_100s_target_s": 0.5}
-    parts = _estimator_parts(sc, inputs, log, log["x_hat"].shape[0] // 2, n_calls)
+    k = log["x_hat"].shape[0] // 2
+    parts = _estimator_parts(sc, inputs, log, k, n_calls)
     data.update({f"{k}_step_us": v for k, v in parts.items() if k not in ("attitude", "embedded")})
     data["estimator_step_us"] = sum(parts[k] for k in ("qukf", "vukf", "tilt_correction",
                                                        "com_observer"))
@@ -111,6 +122,13 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
                                                                     "tilt_correction",
                                                                     "com_observer"))
             data["embedded_heading_step_us"] = ph["embedded"]
+    # the matched velocity filter (estimator "ukf_consistent": the gyro-rate input P_rate
+    # and the period's acceleration noise G Q G^T), at the same operating point
+    pm = _estimator_parts(sc.replace(estimator=MATCHED), inputs, log, k, n_calls)
+    data["vukf_matched_step_us"] = pm["vukf"]
+    data["estimator_step_matched_us"] = sum(pm[k] for k in ("qukf", "vukf", "tilt_correction",
+                                                           "com_observer"))
+    data["embedded_step_matched_us"] = pm["embedded"]
     data["estimator_step_target_us"] = 10.0
     return data
 
@@ -144,6 +162,8 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
         return out
     v_in = [xv, Pv, np.r_[enc * inputs["Ts"], acc], xa[:XA.size], np.eye(3) * 1e-8, est["Qv"],
             est["Rv"], inputs["Ts"], p]
+    if "P_rate" in vel_f.name_in():  # the matched filter's gyro-rate covariance (Ra's gyro block)
+        v_in.append(np.asarray(est["Ra"])[3:6, 3:6])
     t_in = [xa[XA["q"]], xv[XV["a"]], xv[XV["b_acc"]], p]
     x_hat = log["x_hat"][k]
     o_in = [x_hat, np.zeros(3), obs, inputs["p_ctrl"], inputs["k_obs"], inputs["Ts"]]

@@ -48,6 +48,7 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.errors import BallbotTypeError
 from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, ukf_step
+from ballbot_casadi.estimation.linalg import FINITE_MAX
 from ballbot_casadi.estimation.manifold import euclidean
 
 __all__ = [
@@ -57,6 +58,8 @@ __all__ = [
     "make_vekf",
     "make_velocity_model",
     "make_vukf",
+    "encoder_rate",
+    "period_acceleration_noise",
 ]
 
 
@@ -150,13 +153,32 @@ def _encoder_rate_jacobian(wheel_speeds: ca.Function) -> ca.Function:
     return ca.Function("enc_rate_jacobian", [att, dt, p], [J], ["att", "dt", "p"], ["J_w"])
 
 
+def period_acceleration_noise(Q, dt):
+    """``G Q G^T`` with ``G = [[I2, dt I2, 0], [0, I2, 0], [0, 0, I3]]``: the process noise
+    when the acceleration's random-walk increment of a period acts *during* that period.
+
+    The accelerometer at ``t_k`` reads the acceleration the torque of the period ending at
+    ``t_k`` gives (:func:`~ballbot_casadi.sim.embedded.sense`), so the filter's ``a_k`` is
+    the acceleration over ``[t_{k-1}, t_k]`` and ``v_k = v_{k-1} + dt a_k``.  With the
+    random walk ``a_k = a_{k-1} + w_k`` that is the thesis's process (5.9-5.10) plus
+    ``dt w_k`` on the velocity: additive noise ``G Q G^T``, whose velocity block
+    ``dt^2 Q_a`` and cross terms ``dt Q_a`` the diagonal ``Q`` of (5.26) leaves out (with
+    ``sigma_v = 0`` the velocity then cannot follow an acceleration step for a period).
+    """
+    G = ca.MX.eye(NX) + ca.vertcat(ca.horzcat(ca.MX.zeros(2, 2), dt * ca.MX.eye(2),
+                                              ca.MX.zeros(2, 3)), ca.MX.zeros(5, NX))
+    return ca.mtimes([G, Q, G.T])
+
+
 def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = False,
-           rate_covariance: bool = False) -> ca.Function:
+           rate_covariance: bool = False, period_acceleration: bool = False) -> ca.Function:
     model = make_velocity_model(wheel_speeds, midpoint)
     args = (ca.MX.sym("xhat", NX), ca.MX.sym("P", NX, NX), ca.MX.sym("z", 6), ca.MX.sym("att", 7),
             ca.MX.sym("P_att", 3, 3), ca.MX.sym("Q", NX, NX), ca.MX.sym("R", 6, 6),
             ca.MX.sym("dt"), ca.MX.sym("p", _NP))
     xhat, P, z, att, P_att, Qn, R, dt, p = args
+    if period_acceleration:
+        Qn = period_acceleration_noise(0.5 * (Qn + Qn.T), dt)
     u = ca.vertcat(att, ca.vec(0.5 * (P_att + P_att.T)))
     names = list(INPUT_NAMES)
     if rate_covariance:
@@ -174,7 +196,7 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
 
 
 def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
-              rate_covariance: bool = False) -> ca.Function:
+              rate_covariance: bool = False, period_acceleration: bool = False) -> ca.Function:
     """``ballbot_vukf``: one period of the velocity UKF (thesis 5.1-5.28).
 
     Parameters
@@ -190,6 +212,12 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
         the encoder prediction depends on the body rate through ``dq``, so
         ``J_w P_rate J_w^T`` (``J_w = d enc / d omega``, AD) is added to the encoder block
         of ``R``, as the attitude covariance is to the accelerometer's (5.27-5.28).
+        The embedded software passes the gyroscope reading as the rate and its noise
+        covariance here (:func:`encoder_rate`).
+    period_acceleration
+        The acceleration's random-walk increment of a period acts during that period:
+        ``Q`` enters as ``G Q G^T`` (:func:`period_acceleration_noise`) instead of the
+        thesis's diagonal (5.26).
 
     Returns
     -------
@@ -200,9 +228,38 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
         non-finite component is not used); ``att = [q, omega]`` and ``P_att`` from the
         attitude filter; ``R`` without the attitude term (added inside).
     """
-    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, rate_covariance)
+    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, rate_covariance,
+                  period_acceleration)
 
 
-def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False) -> ca.Function:
+def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False,
+              rate_covariance: bool = False, period_acceleration: bool = False) -> ca.Function:
     """``ballbot_vekf``: the predecessor's velocity EKF, same interface as :func:`make_vukf`."""
-    return _build("ballbot_vekf", wheel_speeds, "ekf", midpoint)
+    return _build("ballbot_vekf", wheel_speeds, "ekf", midpoint, rate_covariance,
+                  period_acceleration)
+
+
+def encoder_rate(omega_att, P_rate_att, gyro, Sigma_gyro, Q_rate) -> tuple[ca.MX, ca.MX]:
+    """The body rate the encoder prediction uses, and its covariance (the ``P_rate`` input).
+
+    The tick increment of a period depends on the body rate through ``dq`` (thesis 5.17,
+    B.47): ``J_w = d enc / d omega`` is about 60-100 ticks per period per rad/s, so the
+    rate's error dominates the encoder's quantisation (``I/9`` ticks^2).  The attitude
+    filter's rate ``omega_att`` is the gyroscope low-passed by its rate random walk
+    (thesis 4.39): its error is *coloured* (correlated over several periods), which the
+    velocity filter, taking ``J_w P_rate J_w^T`` as white measurement noise, cannot
+    represent - it averages the correlated error away and becomes overconfident in the
+    velocity.  The period's gyroscope reading ``gyro`` has white noise of the known
+    covariance ``Sigma_gyro`` (thesis 3.8), so it is the matched input.  The increment
+    integrates the rate over the period while the gyro reads it at the period's end: for
+    the attitude filter's rate random walk of ``Q_rate`` per period (thesis 4.39) the end
+    value differs from the period's mean by a variance of ``Q_rate / 3``.
+
+    Returns ``(gyro, Sigma_gyro + Q_rate / 3)`` when every gyro component is a reading,
+    else (a dropout) ``(omega_att, P_rate_att)``.
+    """
+    ok = ca.logic_and(ca.logic_and(ca.fabs(gyro[0]) <= FINITE_MAX, ca.fabs(gyro[1]) <= FINITE_MAX),
+                      ca.fabs(gyro[2]) <= FINITE_MAX)
+    safe = ca.if_else(ok, gyro, ca.DM.zeros(3))  # no NaN reaches the arithmetic
+    return (ca.if_else(ok, safe, omega_att),
+            ca.if_else(ok, Sigma_gyro + Q_rate / 3.0, P_rate_att))

@@ -16,9 +16,10 @@ Format (every key optional unless marked; units in the names)::
     feedforward = "exact"           # exact | none (thesis mode: zero reference acceleration)
                                     # | no-rate (neither rate nor acceleration, thesis §7.2 item 5)
     torque_limit = "direction"      # direction (ours) | per-wheel (the thesis's clipping, §9.1)
-    estimator = "true"              # true | ukf | ekf | ukf_heading | ekf_heading (noisy sensors +
-                                    # QUKF/VUKF, QEKF/VEKF, the heading-aided QUKF with its z gyro
-                                    # bias + VUKF, the predecessor's QEKF with heading + VEKF)
+    estimator = "true"              # true | ukf | ekf | ukf_heading | ekf_heading | ukf_consistent
+                                    # (noisy sensors + QUKF/VUKF, QEKF/VEKF, the heading-aided QUKF
+                                    # with its z gyro bias + VUKF, the predecessor's QEKF with
+                                    # heading + VEKF, or the QUKF with the matched velocity filter)
     heading_sensor = false          # the robot carries the heading sensor ([sensors] heading_rate)
     seed = 0                        # sensor-noise seed, int >= 0
     noise = true                    # with an estimator: draw sensor noise (false: noise-free sensors)
