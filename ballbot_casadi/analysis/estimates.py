@@ -105,7 +105,10 @@ def estimation_metrics(log: Any) -> dict[str, Any]:
     error RMS, velocity error RMS and max, position drift (final distance between the
     integrated and the true position), the worst deviation of the estimated quaternion's
     norm from 1 (and per hour, :func:`quat_norm_dev_per_hour`), the mean normalised innovation squared of both filters, the number of
-    covariance repairs and the fraction of missing sensor readings.
+    covariance repairs, the innovation-gate rejections (``gate_rejections``: readings of a
+    measurement group the filters' chi-square gate rejected, summed over the groups and
+    the run; 0 for a log without the ``rejections`` output) and the fraction of missing
+    sensor readings.
 
     Thesis ch. 6 as numbers: ``estimator_q2_error_max`` / ``estimator_q3_error_max`` (the
     largest error of the quaternion components q2, q3, sign-aligned; thesis §6.1:
@@ -159,5 +162,6 @@ def estimation_metrics(log: Any) -> dict[str, Any]:
         "nis_attitude_mean": float(np.mean(nis[:, 0])),
         "nis_velocity_mean": float(np.mean(nis[:, 1])),
         "covariance_repairs": int(np.sum(a["repairs"])),
+        "gate_rejections": int(np.sum(a["rejections"])) if "rejections" in a else 0,
         "missing_reading_fraction": float(1.0 - np.mean(valid)),
     }

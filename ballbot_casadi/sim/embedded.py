@@ -28,7 +28,7 @@ With an estimator in the loop the plant carries the three wheel angles as well
    :func:`~ballbot_casadi.sim.period.controller_part` on ``x_hat``.  A NaN reading makes
    its filter predict only for that sensor.
 
-The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos]`` (:func:`controller_layout`;
+The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos, gate]`` (:func:`controller_layout`;
 with the COM observer of :mod:`ballbot_casadi.estimation.com_observer` its state ``obs``
 follows, and the observer reads ``x_hat`` before the controllers) and the sensor state ``[tau_prev, bias, phi_prev]`` (:data:`SENSOR_STATE`) are carried
 by the mission.  The sensors belong to the plant (``p_plant`` and the sensor
@@ -70,7 +70,8 @@ from ballbot_casadi.estimation import (
     make_vekf,
     make_vukf,
 )
-from ballbot_casadi.estimation.attitude import tangent_map
+from ballbot_casadi.estimation.attitude import ATTITUDE_GATE, tangent_map
+from ballbot_casadi.estimation.velocity import VELOCITY_GATE
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_observer
 from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
@@ -85,6 +86,7 @@ from ballbot_casadi.sim.ports import (
 
 __all__ = [
     "ESTIMATOR_FILTERS",
+    "GATE_GROUPS",
     "NOISE",
     "VALID",
     "MEAS",
@@ -114,6 +116,12 @@ VALID = Layout("sensor availability", [("acc", 1), ("gyro", 1), ("enc", 1)])
 MEAS = Layout("sensor readings", [("acc", 3), ("gyro", 3), ("enc", 3)])
 #: Plant-side sensor state: torque of the previous period, gyro bias, wheel angles at the last sample.
 SENSOR_STATE = Layout("sensor state", [("tau_prev", 3), ("bias", 3), ("phi_prev", 3)])
+#: The innovation gate's measurement groups, attitude filter's then velocity filter's: the
+#: entries of the output ``rejections`` (1 = the group's reading was rejected this period)
+#: and of the controller state's ``gate`` (consecutive rejections).
+GATE_GROUPS = Layout("innovation-gate groups",
+                     [*((f"attitude_{n}", 1) for n in ATTITUDE_GATE.names),
+                      *((f"velocity_{n}", 1) for n in VELOCITY_GATE.names)])
 
 
 @dataclass(frozen=True)
@@ -127,7 +135,8 @@ class EstimatorBlocks:
         (:mod:`ballbot_casadi.model.sensors`).
     attitude, velocity
         The filters (``ballbot_qukf``/``ballbot_qekf`` with the acceleration input,
-        ``ballbot_vukf``/``ballbot_vekf`` with mid-period encoder prediction).
+        ``ballbot_vukf``/``ballbot_vekf`` with mid-period encoder prediction), with the
+        chi-square innovation gate (input ``n_rej``; filters without it are used ungated).
     tilt_correction
         ``ballbot_tilt_correction`` (:mod:`~ballbot_casadi.estimation.tilt_aiding`).
     name
@@ -153,8 +162,8 @@ def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function
     if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
     att, vel = ESTIMATOR_FILTERS[estimator]
-    attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
-    velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True)
+    attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True, gate=True)
+    velocity = (make_vukf if vel == "vukf" else make_vekf)(wheel_speeds, midpoint=True, gate=True)
     return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
                            velocity, estimator, make_tilt_correction(), ode, wheel_speeds)
 
@@ -170,7 +179,7 @@ def estimator_layout(estimator: str) -> Layout:
                          f"and {VELOCITY_FILTER_STATE}")
     return Layout("estimator state", [("xa", ATTITUDE_FILTER_STATE), ("Pa", att.P0.size),
                                       ("xv", VELOCITY_FILTER_STATE), ("Pv", vel.P0.size),
-                                      ("pos", 2)])
+                                      ("pos", 2), ("gate", GATE_GROUPS.size)])
 
 
 def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0,
@@ -242,8 +251,9 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     ``feedforward`` switches and the filter covariances (column-major).  Outputs
     :data:`~ballbot_casadi.sim.ports.EMBEDDED_OUTPUTS`: ``c_next``, ``tau_lim`` (the wheel torque command after
     the direction-preserving limit), ``tau_cmd``, ``x_hat`` (the estimate the
-    controllers read), the references used, ``diag``, ``nis`` (attitude, velocity) and
-    ``repairs`` (covariance repairs this period).
+    controllers read), the references used, ``diag``, ``nis`` (attitude, velocity),
+    ``repairs`` (covariance repairs this period) and ``rejections`` (:data:`GATE_GROUPS`:
+    the measurement groups the innovation gates rejected this period).
 
     With ``observer`` (``ballbot_com_observer``,
     :mod:`ballbot_casadi.estimation.com_observer`, a called Function) ``c`` ends with the
@@ -266,19 +276,27 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     acc, gyro, enc = meas[MEAS["acc"]], meas[MEAS["gyro"]], meas[MEAS["enc"]]
     XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
 
+    # the innovation gates' consecutive-rejection counters (filters without a gate: none)
+    gate = c[C["gate"]]
+    n_att = len(ATTITUDE_GATE.groups)
+    gate_in = {"att": {"n_rej": gate[:n_att]} if "n_rej" in est.attitude.name_in() else {},
+               "vel": {"n_rej": gate[n_att:]} if "n_rej" in est.velocity.name_in() else {}}
     # the velocity filter's last acceleration estimate compensates the accelerometer
     xv_prev = c[C["xv"]]
     att = est.attitude(xhat=c[C["xa"]], P=ca.reshape(c[C["Pa"]], na, na), z=ca.vertcat(acc, gyro),
                        Q=ca.reshape(sym["Qa"], 6, 6), R=ca.reshape(sym["Ra"], 6, 6), dt=Ts, p=p_est,
-                       a=ca.vertcat(xv_prev[XV["a"]], 0))
+                       a=ca.vertcat(xv_prev[XV["a"]], 0), **gate_in["att"])
     xa = att["xhat_next"]
     # a velocity filter with the body-rate covariance input gets the attitude filter's
     # (the rate is the last 3 x 3 block of its covariance)
     rate = {"P_rate": att["P_next"][-3:, -3:]} if "P_rate" in est.velocity.name_in() else {}
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
                        att=xa, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
-                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate)
+                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate, **gate_in["vel"])
     xv = vel["xhat_next"]
+    no_gate = ca.DM.zeros(n_att), ca.DM.zeros(GATE_GROUPS.size - n_att)
+    rejected = ca.vertcat(*(f.get("rejected", z0) for f, z0 in zip((att, vel), no_gate)))
+    gate_next = ca.vertcat(*(f.get("n_rej_next", z0) for f, z0 in zip((att, vel), no_gate)))
     # the velocity filter's horizontal accelerometer bias is the attitude filter's slow
     # tilt error (velocity-aided tilt, estimation.tilt_aiding): the controllers read q_c
     q_hat = est.tilt_correction(q=xa[XA["q"]], a=xv[XV["a"]], b_acc=xv[XV["b_acc"]], p=p_est)["q_c"]
@@ -293,9 +311,10 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     if len(Z.fields) > 1:
         z_next = z_next[Z["z"]]
     after = [ctrl["z_next"][Z[f]] for f in Z.fields[1:]]
-    c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos, *after)
+    c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos,
+                        gate_next, *after)
     outs = {"c_next": c_next, "x_hat": x_hat, "nis": ca.vertcat(att["nis"], vel["nis"]),
-            "repairs": att["n_repair"] + vel["n_repair"], **ctrl}
+            "repairs": att["n_repair"] + vel["n_repair"], "rejections": rejected, **ctrl}
     return ports.function(f"ballbot_embedded_{blocks.name}_{est.name}", sym, outs)
 
 
@@ -368,6 +387,7 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
       and velocity (as after the robot's start-up calibration at rest) with the thesis's
       initial covariances (4.4, 5.4; the QEKF's ``G P0 G^T + radial blkdiag(q q^T, 0)``)
       and a zero accelerometer-bias estimate; the position estimate at the true position;
+      no innovation-gate rejections yet (``gate`` zero);
     * with ``observer``, the COM observer's state: the model's COM offset as both
       estimates, the measurement filters at the initial attitude's static measurement,
       ball velocity and body rate
@@ -404,7 +424,8 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     xv["v"] = x0[STATE_DXY]
     parts.update({"xa": ca.vertcat(q, omega), "Pa": ca.vec(Pa),
                   "xv": ca.vertcat(*(xv[f] for f in VELOCITY_FILTER_STATE.fields)),
-                  "Pv": ca.vec(ca.DM(vel.P0)), "pos": x0[STATE_XY]})
+                  "Pv": ca.vec(ca.DM(vel.P0)), "pos": x0[STATE_XY],
+                  "gate": ca.DM.zeros(GATE_GROUPS.size)})
     # COM observer
     if observer:
         pi = {n: PARAM_NAMES.index(n) for n in ("com_x", "com_y", "l")}

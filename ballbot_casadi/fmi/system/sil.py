@@ -45,6 +45,7 @@ from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.controller.controller import (
     READING_NAMES,
     REFERENCE_NAMES,
+    REJECTION_NAMES,
     XHAT_NAMES,
     controller_spec,
     controller_values,
@@ -83,6 +84,7 @@ CONTROLLER_RECORDED = (
     *(f"omega_hat_{c}" for c in "xyz"),
     *(f"{w}_ref_used{i}" for w in ("q", "dq", "ddq") for i in range(4)),
     *(f"diag_{n}" for n in BALANCE_DIAG_NAMES), "nis_attitude", "nis_velocity", "repairs",
+    *REJECTION_NAMES,
 )
 
 
