@@ -183,7 +183,7 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     Raises
     ------
     ScenarioError
-        A scenario without an estimator, with pushes or sensor dropouts, or a seed beyond
+        A scenario without an estimator, with pushes, sensor dropouts or glitches, or a seed beyond
         32 bits.
     BuildError
         The plant FMU lacks a variable the system connects.
@@ -195,6 +195,10 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
         raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_dropout]] rows, which the "
                             "SSP cannot express (the FMUs have no dropout input); remove them "
                             "to write the SIL system")
+    if scenario.sensor_glitches:  # the plant FMU draws its own noise: no way to inject them
+        raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_glitch]] rows, which the "
+                            "SSP cannot express (the plant FMU draws its own sensor noise); "
+                            "remove them to write the SIL system")
     out = Path(out) if out is not None else None
     plant = Path(build_fmu(out).fmu if plant_fmu is None else plant_fmu)
     causality = {v.name: v.causality for v in read_model_description(str(plant)).modelVariables}
