@@ -78,7 +78,7 @@ def full_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     (after the non-minimum-phase delay), ``position_drift_m`` and
     ``estimator_velocity_rms_mps``: the velocity run; ``estimator_tilt_rms_deg`` and the
     per-axis roll/pitch RMS: the sine run; ``quat_norm_max_dev``, peak tilt and tilt
-    rate: the worst run; ``covariance_repairs``: all runs.
+    rate: the worst run; ``covariance_repairs`` and ``gate_rejections``: all runs.
     """
     runs = by_run(logs)
     sine, vel = (runs[log.scenario["name"]] for log in _primary(logs))
@@ -99,6 +99,7 @@ def full_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
         "peak_tilt_deg_all": max(m["peak_tilt_deg"] for m in prim),
         "peak_tilt_rate_deg_s_all": max(m["peak_tilt_rate_deg_s"] for m in prim),
         "covariance_repairs": int(sum(m.get("covariance_repairs", 0) for m in runs.values())),
+        "gate_rejections": int(sum(m.get("gate_rejections", 0) for m in runs.values())),
         **norm_probe_metrics(_primary(logs)[0]),
         "by_run": runs,
     }
@@ -133,6 +134,7 @@ def estimators_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
         "ukf_nis_attitude_mean": ukf_sine["nis_attitude_mean"],
         "ukf_nis_velocity_mean": ukf_vel["nis_velocity_mean"],
         "covariance_repairs": int(sum(m.get("covariance_repairs", 0) for m in runs.values())),
+        "gate_rejections": int(sum(m.get("gate_rejections", 0) for m in runs.values())),
         # the QUKF with and without renormalisation and the additive UKF on the sine's readings
         **renormalisation_metrics(logs[n]),
         "by_run": runs,
@@ -193,7 +195,7 @@ def report_lines(metrics: dict[str, Any]) -> list[str]:
     keys = ("tilt_error_max_deg", "heading_error_max_deg", "estimator_roll_rms_deg",
             "estimator_pitch_rms_deg", "estimator_heading_drift_deg", "estimator_velocity_rms_mps",
             "position_drift_m", "quat_norm_max_dev", "nis_attitude_mean", "nis_velocity_mean",
-            "covariance_repairs", "peak_tilt_deg", "peak_tilt_rate_deg_s")
+            "covariance_repairs", "gate_rejections", "peak_tilt_deg", "peak_tilt_rate_deg_s")
     lines = ["## Runs side by side", "", "| metric | " + " | ".join(f"`{n}`" for n in runs) + " |",
              "| --- |" + " --- |" * len(runs)]
     for k in keys:

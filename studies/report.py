@@ -156,7 +156,7 @@ def write_report(out: Path, bench: Path | None = None) -> Path:
                             "(thesis §9.3, §9.4)",
                             ["tilt_error_max_deg", "heading_error_max_deg", "estimator_roll_rms_deg",
                              "estimator_pitch_rms_deg", "estimator_velocity_rms_mps", "position_drift_m",
-                             "quat_norm_max_dev", "covariance_repairs"])
+                             "quat_norm_max_dev", "covariance_repairs", "gate_rejections"])
     lines += _montecarlo_section(out)
     lines += _fmu_section(out)
     lines += _bench_section(bench)

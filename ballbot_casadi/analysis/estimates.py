@@ -110,9 +110,12 @@ def estimation_metrics(log: Any) -> dict[str, Any]:
     error RMS, velocity error RMS and max, position drift (final distance between the
     integrated and the true position), the worst deviation of the estimated quaternion's
     norm from 1 (and per hour, :func:`quat_norm_dev_per_hour`), the mean normalised innovation squared of both filters, the number of
-    covariance repairs and the fraction of missing readings of the sensors sampled every
-    period (accelerometer, gyroscope, encoders; the heading sensor samples at its own low
-    rate, so its empty periods are not missing readings).
+    covariance repairs, the innovation-gate rejections (``gate_rejections``: readings of a
+    measurement group the filters' chi-square gate rejected, summed over the groups and
+    the run; 0 for a log without the ``rejections`` output) and the fraction of missing
+    readings of the sensors sampled every period (accelerometer, gyroscope, encoders; the
+    heading sensor samples at its own low rate, so its empty periods are not missing
+    readings).
 
     Thesis ch. 6 as numbers: ``estimator_q2_error_max`` / ``estimator_q3_error_max`` (the
     largest error of the quaternion components q2, q3, sign-aligned; thesis §6.1:
@@ -166,5 +169,6 @@ def estimation_metrics(log: Any) -> dict[str, Any]:
         "nis_attitude_mean": float(np.mean(nis[:, 0])),
         "nis_velocity_mean": float(np.mean(nis[:, 1])),
         "covariance_repairs": int(np.sum(a["repairs"])),
+        "gate_rejections": int(np.sum(a["rejections"])) if "rejections" in a else 0,
         "missing_reading_fraction": float(1.0 - np.mean(valid[:, _EVERY_PERIOD])),
     }

@@ -51,12 +51,25 @@ import numpy as np
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
-from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, ukf_step
+from ballbot_casadi.estimation.core import (
+    GATE_OUTPUT_NAMES,
+    OUTPUT_NAMES,
+    FilterModel,
+    InnovationGate,
+    ekf_step,
+    ukf_step,
+)
 from ballbot_casadi.estimation.manifold import attitude, attitude_additive
 from ballbot_casadi.estimation.quaternion_mean import MEAN_ITERATIONS
-from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0, QUKF_X0
+from ballbot_casadi.estimation.tuning import (
+    GATE_SCALE_ATTITUDE,
+    QEKF_P0_RADIAL,
+    QUKF_P0,
+    QUKF_X0,
+)
 
 __all__ = [
+    "ATTITUDE_GATE",
     "ATTITUDE_OUTPUT_NAMES",
     "INPUT_NAMES",
     "make_attitude_measurement",
@@ -73,6 +86,10 @@ __all__ = [
 INPUT_NAMES = ("xhat", "P", "z", "Q", "R", "dt", "p")
 #: Outputs: the core outputs plus ``P_att``, the 3x3 attitude covariance (body rotation vector).
 ATTITUDE_OUTPUT_NAMES = (*OUTPUT_NAMES, "P_att")
+#: Measurement groups of the attitude filters' gate (``gate=True``): the accelerometer
+#: (``z[0:3]``) and the gyroscope (``z[3:6]``).
+ATTITUDE_GATE = InnovationGate((("acc", (0, 1, 2)), ("gyro", (3, 4, 5))),
+                               scale=GATE_SCALE_ATTITUDE, name="attitude_gate")
 
 _NP = len(PARAM_NAMES)
 _NO_INPUT = ca.DM.zeros(3)
@@ -117,10 +134,22 @@ def _normalised_z(z: ca.MX, p: ca.MX) -> ca.MX:
     return ca.vertcat(z[:3] / ParamView(p).g, z[3:])
 
 
-def _function(name: str, args: tuple, out: dict, P_att: ca.MX) -> ca.Function:
+def _function(name: str, args: tuple, out: dict, P_att: ca.MX,
+              gate: dict | None = None) -> ca.Function:
     names = list(INPUT_NAMES) + ["a"] * (len(args) - len(INPUT_NAMES))
-    return ca.Function(name, list(args), [*(out[k] for k in OUTPUT_NAMES), P_att],
-                       names, list(ATTITUDE_OUTPUT_NAMES))
+    outs, names_out = [*(out[k] for k in OUTPUT_NAMES), P_att], list(ATTITUDE_OUTPUT_NAMES)
+    if gate:
+        args, names = (*args, gate["n_rej"]), [*names, "n_rej"]
+        outs += [out[k] for k in GATE_OUTPUT_NAMES]
+        names_out += GATE_OUTPUT_NAMES
+    return ca.Function(name, list(args), outs, names, names_out)
+
+
+def _gate(gate: bool) -> dict:
+    """The step functions' gate keywords (empty without gating)."""
+    if not gate:
+        return {}
+    return {"gate": ATTITUDE_GATE, "n_rej": ca.MX.sym("n_rej", len(ATTITUDE_GATE.groups))}
 
 
 def _acceleration(args: tuple, p: ca.MX, compensate: bool) -> tuple[tuple, ca.MX]:
@@ -134,7 +163,7 @@ def _acceleration(args: tuple, p: ca.MX, compensate: bool) -> tuple[tuple, ca.MX
 
 
 def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: bool = False,
-              renormalise: bool = False) -> ca.Function:
+              renormalise: bool = False, gate: bool = False) -> ca.Function:
     """``ballbot_qukf``: one period of the quaternion UKF (thesis 4.1-4.40).
 
     Parameters
@@ -159,6 +188,11 @@ def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: b
         at rounding level (:mod:`~ballbot_casadi.analysis.renormalisation`); the
         deviation the thesis saw comes from the additive sigma points and weighted-sum
         mean, :func:`make_additive_ukf`.
+    gate
+        Chi-square gating of the accelerometer and the gyroscope (:data:`ATTITUDE_GATE`,
+        :class:`~ballbot_casadi.estimation.core.InnovationGate`): a last input ``n_rej``
+        (2, consecutive rejections of ``[acc, gyro]``) and the outputs ``rejected`` and
+        ``n_rej_next`` (2 each) appended.
 
     Returns
     -------
@@ -176,9 +210,10 @@ def make_qukf(mean_iterations: int = MEAN_ITERATIONS, compensate_acceleration: b
                         make_attitude_measurement(), noise="pre")
     args = xhat, P, z, Qn, R, dt, p = _inputs(6)
     args, u = _acceleration(args, p, compensate_acceleration)
-    out = ukf_step(model, xhat, P, _normalised_z(z, p), u, Qn, R, dt, p, kappa=0.0)
+    g = _gate(gate)
+    out = ukf_step(model, xhat, P, _normalised_z(z, p), u, Qn, R, dt, p, kappa=0.0, **g)
     return _function("ballbot_qukf_renorm" if renormalise else "ballbot_qukf", args, out,
-                     out["P_next"][:3, :3])
+                     out["P_next"][:3, :3], g)
 
 
 def make_additive_ukf() -> ca.Function:
@@ -229,10 +264,11 @@ def qekf_initial_covariance(q: Any = QUKF_X0[:4], P0: Any = QUKF_P0,
     return P
 
 
-def make_qekf(compensate_acceleration: bool = False) -> ca.Function:
+def make_qekf(compensate_acceleration: bool = False, gate: bool = False) -> ca.Function:
     """``ballbot_qekf``: the predecessor's additive quaternion EKF (baseline, thesis §6.3).
 
-    Same inputs and outputs as :func:`make_qukf` (including ``compensate_acceleration``) except that ``P`` and ``P_next`` are
+    Same inputs and outputs as :func:`make_qukf` (including ``compensate_acceleration``
+    and ``gate``) except that ``P`` and ``P_next`` are
     7 x 7 covariances of ``[q0..q3, omega]`` (the additive chart).  ``Q`` is the QUKF's
     6 x 6 tangent matrix, added as ``G Q G^T`` (:func:`tangent_map` at ``xhat``) to the
     predicted covariance; the quaternion is renormalised after the correction.
@@ -244,9 +280,10 @@ def make_qekf(compensate_acceleration: bool = False) -> ca.Function:
     args = xhat, P, z, Qn, R, dt, p = _inputs(7)
     args, u = _acceleration(args, p, compensate_acceleration)
     G = tangent_map(xhat[:4])
+    g = _gate(gate)
     out = ekf_step(model, xhat, P, _normalised_z(z, p), u, ca.mtimes([G, Qn, G.T]),
-                   R, dt, p)
+                   R, dt, p, **g)
     q_next = out["xhat_next"][:4]
     T = 2 * Q.Phi(q_next).T[1:, :]
     P_att = ca.mtimes([T, out["P_next"][:4, :4], T.T])
-    return _function("ballbot_qekf", args, out, P_att)
+    return _function("ballbot_qekf", args, out, P_att, g)

@@ -38,6 +38,15 @@ Conventions
   ``F = d/dd [f(x ⊕ d) ⊖ f(x)]``, ``H = d/dd h(x_pred ⊕ d)`` at ``d = 0``; the
   prediction is ``F (P + Q) F^T`` (pre) or ``F P F^T + Q`` (additive); after the
   correction the manifold's ``normalise`` (if any) is applied to the state.
+* Innovation gating (optional, :class:`InnovationGate`, keyword ``gate`` of the step
+  functions): before the correction each measurement group's normalised innovation
+  squared (with the group's block of ``P_zz``) is compared with a chi-square quantile;
+  a rejected group is masked like a missing reading (predict-only for it), so one glitch
+  sample cannot move the estimate.  ``n_rej`` carries the consecutive rejections per
+  group from period to period (the lock-out guard of
+  :func:`~ballbot_casadi.estimation.linalg.make_innovation_gate`); the step then also
+  returns ``rejected`` and ``n_rej_next`` (:data:`GATE_OUTPUT_NAMES`).  ``nu``, ``nis``
+  and ``n_valid`` describe the components actually used.
 * Every covariance is symmetrised; the incoming, the predicted and the corrected
   covariance are repaired if they are not positive definite
   (:func:`~ballbot_casadi.estimation.linalg.make_spd_repair`), and ``n_repair`` counts
@@ -50,18 +59,23 @@ import math
 from dataclasses import dataclass
 
 import casadi as ca
+from scipy.stats import chi2
 
 from ballbot_casadi.errors import BallbotTypeError, ShapeError
 from ballbot_casadi.estimation.linalg import (
     make_cholesky,
+    make_innovation_gate,
     make_masked_update,
     make_spd_repair,
 )
 from ballbot_casadi.estimation.manifold import Manifold
+from ballbot_casadi.estimation.tuning import GATE_MAX_REJECTIONS, GATE_PROBABILITY
 
 __all__ = [
+    "GATE_OUTPUT_NAMES",
     "OUTPUT_NAMES",
     "FilterModel",
+    "InnovationGate",
     "ekf_step",
     "make_filter",
     "sigma_weights",
@@ -71,7 +85,77 @@ __all__ = [
 #: Outputs of every filter Function, in this order (the concrete filters may append more).
 OUTPUT_NAMES = ("xhat_next", "P_next", "nu", "nis", "n_valid", "n_repair")
 
+#: Outputs a gated filter appends (per measurement group): rejected this period (0/1) and
+#: the consecutive-rejection counters for the next period (input ``n_rej``).
+GATE_OUTPUT_NAMES = ("rejected", "n_rej_next")
+
 _NOISE = ("pre", "additive")
+
+
+@dataclass(frozen=True)
+class InnovationGate:
+    """Chi-square gating of a filter's measurement groups (see the module docstring).
+
+    Attributes
+    ----------
+    groups
+        ``((name, (indices into z ...)), ...)``: disjoint groups of measurement
+        components that are accepted or rejected together (one sensor each).
+    probability
+        The gate's chi-square probability (default
+        :data:`~ballbot_casadi.estimation.tuning.GATE_PROBABILITY`).
+    max_rejections
+        Consecutive rejections after which a group's gate opens (default
+        :data:`~ballbot_casadi.estimation.tuning.GATE_MAX_REJECTIONS`).
+    scale
+        The gate tests the innovation against ``scale S``: the thresholds are ``scale``
+        times the chi-square quantiles (1: the textbook test of a consistent filter).
+    name
+        Name of the gate's Function.
+    """
+
+    groups: tuple
+    probability: float = GATE_PROBABILITY
+    max_rejections: int = GATE_MAX_REJECTIONS
+    scale: float = 1.0
+    name: str = "innovation_gate"
+
+    def __post_init__(self) -> None:
+        seen: list[int] = []
+        for g in self.groups:
+            ok = (isinstance(g, tuple) and len(g) == 2 and isinstance(g[0], str)
+                  and isinstance(g[1], tuple) and len(g[1]) > 0
+                  and all(isinstance(i, int) and i >= 0 for i in g[1]))
+            if not ok:
+                raise BallbotTypeError(f"gate group must be (name, (index, ...)), got {g!r}")
+            seen += list(g[1])
+        if not self.groups or len(set(seen)) != len(seen):
+            raise ShapeError(f"gate groups must be non-empty and disjoint, got {self.groups!r}")
+        if not 0.0 < self.probability < 1.0:
+            raise ShapeError(f"gate probability must be in (0, 1), got {self.probability!r}")
+        if not (isinstance(self.scale, (int, float)) and math.isfinite(self.scale)
+                and self.scale > 0):
+            raise ShapeError(f"gate scale must be a finite number > 0, got {self.scale!r}")
+        if not isinstance(self.max_rejections, int) or self.max_rejections < 1:
+            raise ShapeError(f"gate max_rejections must be an int >= 1, got {self.max_rejections!r}")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The groups' names, in order."""
+        return tuple(g[0] for g in self.groups)
+
+    def thresholds(self) -> list[list[float]]:
+        """Per group: ``scale`` times the chi-square quantiles for 1 .. len(group) valid
+        components."""
+        return [[self.scale * float(chi2.ppf(self.probability, k)) for k in range(1, len(idx) + 1)]
+                for _, idx in self.groups]
+
+    def function(self, nz: int) -> ca.Function:
+        """The gate Function (:func:`~ballbot_casadi.estimation.linalg.make_innovation_gate`)."""
+        if max(i for _, idx in self.groups for i in idx) >= nz:
+            raise ShapeError(f"gate groups {self.groups!r} index beyond the {nz} measurements")
+        return make_innovation_gate(nz, [idx for _, idx in self.groups], self.thresholds(),
+                                    self.max_rejections, self.name)
 
 
 @dataclass(frozen=True)
@@ -145,15 +229,22 @@ def _measurement_cov(model: FilterModel, x_pred, u, p, R):
     return R if model.measurement_noise is None else model.measurement_noise(x_pred, u, p, R)
 
 
-def _correct(model: FilterModel, x_pred, P_pred, P_xz, P_zz, z, z_pred, n_rep) -> dict:
+def _correct(model: FilterModel, x_pred, P_pred, P_xz, P_zz, z, z_pred, n_rep,
+             gate: InnovationGate | None = None, n_rej=None) -> dict:
     man = model.manifold
+    gated = {}
+    if gate is not None:
+        if n_rej is None:
+            n_rej = ca.DM.zeros(len(gate.groups))
+        z, rejected, n_next = gate.function(model.nz)(P_zz, z, z_pred, n_rej)
+        gated = {"rejected": rejected, "n_rej_next": n_next}
     upd = make_masked_update(model.nd, model.nz)(P_pred, P_xz, P_zz, z, z_pred)
     dx, P_post, nu, nis, n_valid = upd
     x_post = man.oplus(x_pred, dx)
     if man.normalise is not None:
         x_post = man.normalise(x_post)
     P_post, r = make_spd_repair(model.nd)(P_post)
-    return dict(zip(OUTPUT_NAMES, (x_post, P_post, nu, nis, n_valid, n_rep + r)))
+    return {**dict(zip(OUTPUT_NAMES, (x_post, P_post, nu, nis, n_valid, n_rep + r))), **gated}
 
 
 def _sigma_points(man: Manifold, chol: ca.Function, x, P, spread: float):
@@ -165,8 +256,10 @@ def _sigma_points(man: Manifold, chol: ca.Function, x, P, spread: float):
     return X, ca.horzcat(ca.DM.zeros(n, 1), D)
 
 
-def ukf_step(model: FilterModel, xhat, P, z, u, Q, R, dt, p, kappa: float = 0.0) -> dict:
-    """MX expressions of one UKF period (thesis 3.20-3.31, ch. 4 and 5); keys = OUTPUT_NAMES.
+def ukf_step(model: FilterModel, xhat, P, z, u, Q, R, dt, p, kappa: float = 0.0, *,
+             gate: InnovationGate | None = None, n_rej=None) -> dict:
+    """MX expressions of one UKF period (thesis 3.20-3.31, ch. 4 and 5); keys = OUTPUT_NAMES
+    (and :data:`GATE_OUTPUT_NAMES` with ``gate``; ``n_rej`` its counters, default 0).
 
     With ``"additive"`` noise the measurement sigma points are redrawn from the predicted
     mean and covariance (which contains ``Q``): the thesis (5.15) reuses the propagated
@@ -196,7 +289,7 @@ def ukf_step(model: FilterModel, xhat, P, z, u, Q, R, dt, p, kappa: float = 0.0)
     dZ = Zp - ca.repmat(z_pred, 1, ns)
     P_zz = ca.mtimes([dZ, Wd, dZ.T]) + _measurement_cov(model, x_pred, u, p, R)
     P_xz = ca.mtimes([dX, Wd, dZ.T])
-    return _correct(model, x_pred, P_pred, P_xz, P_zz, z, z_pred, r0 + r1)
+    return _correct(model, x_pred, P_pred, P_xz, P_zz, z, z_pred, r0 + r1, gate, n_rej)
 
 
 def _chart_jacobians(model: FilterModel) -> tuple[ca.Function, ca.Function]:
@@ -218,8 +311,10 @@ def _chart_jacobians(model: FilterModel) -> tuple[ca.Function, ca.Function]:
             ca.Function("ekf_H", args, [H], names, ["H"]))
 
 
-def ekf_step(model: FilterModel, xhat, P, z, u, Q, R, dt, p) -> dict:
-    """MX expressions of one EKF period (Jacobians by AD); keys = OUTPUT_NAMES."""
+def ekf_step(model: FilterModel, xhat, P, z, u, Q, R, dt, p, *,
+             gate: InnovationGate | None = None, n_rej=None) -> dict:
+    """MX expressions of one EKF period (Jacobians by AD); keys = OUTPUT_NAMES (and
+    :data:`GATE_OUTPUT_NAMES` with ``gate``, as :func:`ukf_step`)."""
     Ff, Hf = _chart_jacobians(model)
     repair = make_spd_repair(model.nd)
     P0, r0 = repair(P)
@@ -234,12 +329,13 @@ def ekf_step(model: FilterModel, xhat, P, z, u, Q, R, dt, p) -> dict:
     z_pred = model.measurement(x_pred, u, dt, p)
     P_xz = ca.mtimes(P_pred, H.T)
     P_zz = ca.mtimes(H, P_xz) + _measurement_cov(model, x_pred, u, p, R)
-    return _correct(model, x_pred, P_pred, P_xz, P_zz, z, z_pred, r0 + r1)
+    return _correct(model, x_pred, P_pred, P_xz, P_zz, z, z_pred, r0 + r1, gate, n_rej)
 
 
 def make_filter(name: str, model: FilterModel, kind: str = "ukf",
-                kappa: float = 0.0) -> ca.Function:
-    """Generic filter Function ``name(xhat, P, z, u, Q, R, dt, p) -> OUTPUT_NAMES``.
+                kappa: float = 0.0, gate: InnovationGate | None = None) -> ca.Function:
+    """Generic filter Function ``name(xhat, P, z, u, Q, R, dt, p) -> OUTPUT_NAMES``
+    (with ``gate``: a last input ``n_rej`` and the outputs :data:`GATE_OUTPUT_NAMES` appended).
 
     Parameters
     ----------
@@ -251,6 +347,8 @@ def make_filter(name: str, model: FilterModel, kind: str = "ukf",
         ``"ukf"`` (:func:`ukf_step`) or ``"ekf"`` (:func:`ekf_step`).
     kappa
         Sigma-point parameter of the UKF (ignored by the EKF).
+    gate
+        Optional chi-square gating of measurement groups (:class:`InnovationGate`).
     """
     if kind not in ("ukf", "ekf"):
         raise BallbotTypeError(f"kind must be 'ukf' or 'ekf', got {kind!r}")
@@ -264,6 +362,14 @@ def make_filter(name: str, model: FilterModel, kind: str = "ukf",
     dt = ca.MX.sym("dt")
     p = ca.MX.sym("p", model.np)
     args = (xhat, P, z, u, Q, R, dt, p)
-    out = ukf_step(model, *args, kappa=kappa) if kind == "ukf" else ekf_step(model, *args)
-    return ca.Function(name, list(args), [out[k] for k in OUTPUT_NAMES],
-                       ["xhat", "P", "z", "u", "Q", "R", "dt", "p"], list(OUTPUT_NAMES))
+    names_in, names_out = ["xhat", "P", "z", "u", "Q", "R", "dt", "p"], list(OUTPUT_NAMES)
+    extra = {}
+    if gate is not None:
+        n_rej = ca.MX.sym("n_rej", len(gate.groups))
+        extra = {"gate": gate, "n_rej": n_rej}
+        names_in.append("n_rej")
+        names_out += GATE_OUTPUT_NAMES
+    out = (ukf_step(model, *args, kappa=kappa, **extra) if kind == "ukf"
+           else ekf_step(model, *args, **extra))
+    ins = list(args) + ([extra["n_rej"]] if extra else [])
+    return ca.Function(name, ins, [out[k] for k in names_out], names_in, names_out)

@@ -9,6 +9,9 @@ by the filter core (thesis §3.4, eqs 3.20, 3.29-3.31):
   add the smallest jitter of a short ladder that makes it so; reports whether it had to.
 * :func:`make_masked_update` - the Kalman gain and correction (thesis 3.29-3.31) for a
   measurement vector whose non-finite components are masked out *inside* the Function.
+* :func:`make_innovation_gate` - the chi-square test of each measurement group's
+  normalised innovation; a rejected group's components are replaced by NaN, so the
+  masked update skips them.
 
 Positive definiteness test
 --------------------------
@@ -31,6 +34,7 @@ first that passes is selected with ``if_else`` (no branch leaks a NaN into the r
 from __future__ import annotations
 
 import sys
+from typing import Sequence
 
 import casadi as ca
 
@@ -39,6 +43,7 @@ __all__ = [
     "JITTER",
     "PIVOT_TOL",
     "make_cholesky",
+    "make_innovation_gate",
     "make_masked_update",
     "make_spd_repair",
 ]
@@ -186,5 +191,64 @@ def make_masked_update(n: int, m: int) -> ca.Function:
         [dx, P_post, nu, nis, ca.sum1(valid)],
         ["P_pred", "P_xz", "P_zz", "z", "z_pred"],
         ["dx", "P_post", "nu", "nis", "n_valid"],
+        {"cse": True},
+    )
+
+
+def make_innovation_gate(m: int, groups: Sequence[Sequence[int]],
+                         thresholds: Sequence[Sequence[float]],
+                         max_rejections: int, name: str = "gate") -> ca.Function:
+    """``{name}(P_zz, z, z_pred, n_rej) -> (z_gated, rejected, n_rej_next)``: chi-square
+    gating of the measurement groups (``g = len(groups)``).
+
+    For group ``G`` (indices into ``z``) with valid components ``M`` (``|z_i| <=
+    FINITE_MAX``, as in :func:`make_masked_update`): ``nu_G = M (z_G - z_pred_G)``,
+    ``S_G = M P_zz[G, G] M + (I - M)`` and ``d_G = nu_G^T S_G^-1 nu_G``, the normalised
+    innovation squared of the group alone.  The group *fails* when it has ``k > 0``
+    valid components and ``d_G`` is not ``<= thresholds[G][k - 1]`` (a NaN or infinite
+    ``d_G`` fails too).  A failing group is *rejected* unless ``n_rej_G >=
+    max_rejections``: after that many consecutive rejections the gate is open and stays
+    open (the group is used whatever its innovation) until an innovation passes again -
+    the guard against lock-out after a real manoeuvre or a long dropout that the filter's
+    model did not foresee.  A rejected group's components of ``z_gated`` are NaN (the
+    masked update then skips them: a predict-only step for that group); the others are
+    ``z``.  ``rejected`` (g) is 1 for a rejected group; the counters of the next period
+    are ``n_rej_next = fails min(n_rej + 1, max_rejections)`` (0 once a group passes).
+    """
+    if len(groups) != len(thresholds) or not all(len(t) == len(g)
+                                                   for g, t in zip(groups, thresholds)):
+        raise ValueError("one threshold per possible number of valid components of each group")
+    Pzz = ca.SX.sym("P_zz", m, m)
+    z = ca.SX.sym("z", m)
+    zp = ca.SX.sym("z_pred", m)
+    n_rej = ca.SX.sym("n_rej", len(groups))
+    z_out = [z[i] for i in range(m)]
+    rejected, counts = [], []
+    for j, (idx, thr) in enumerate(zip(groups, thresholds)):
+        idx = list(idx)
+        zg, zpg = z[idx], zp[idx]
+        valid = ca.fabs(zg) <= FINITE_MAX
+        nu = valid * (ca.if_else(valid, zg, 0) - zpg)
+        M = ca.diag(valid)
+        S = ca.mtimes([M, 0.5 * (Pzz[idx, idx] + Pzz[idx, idx].T), M]) + ca.diag(1 - valid)
+        L, _ = _chol_pivots(S)
+        d = ca.sumsqr(_tri_solve_lower(L, nu))
+        k = ca.sum1(valid)
+        limit = ca.SX(thr[-1])
+        for n_valid in range(len(thr) - 1, 0, -1):
+            limit = ca.if_else(k == n_valid, thr[n_valid - 1], limit)
+        fails = ca.logic_and(k > 0, ca.logic_not(d <= limit))
+        rej = ca.logic_and(fails, n_rej[j] < max_rejections)
+        rejected.append(rej)
+        counts.append(fails * ca.fmin(n_rej[j] + 1, max_rejections))
+        for i in idx:
+            z_out[i] = ca.if_else(rej, ca.DM.nan(1), z[i])
+    rejected = ca.vertcat(*rejected)
+    return ca.Function(
+        name,
+        [Pzz, z, zp, n_rej],
+        [ca.vertcat(*z_out), rejected, ca.vertcat(*counts)],
+        ["P_zz", "z", "z_pred", "n_rej"],
+        ["z_gated", "rejected", "n_rej_next"],
         {"cse": True},
     )

@@ -30,6 +30,26 @@ Velocity filters (VUKF, VEKF), state ``[dx, dy, ddx, ddy, b_acc]``:
   inside the filter);
 * :data:`VUKF_P0` = ``diag(1e-1 I2, 1e-2 I2, 1e-9 I3)`` (5.4); :data:`VUKF_X0` = 0 (5.3).
 
+Innovation gating (not in the thesis; what filters in the field do against glitch
+readings, :class:`~ballbot_casadi.estimation.core.InnovationGate`):
+
+* :data:`GATE_PROBABILITY` = ``1 - 1e-6``: a measurement group is rejected when its
+  normalised innovation squared exceeds the chi-square quantile of this probability
+  (``k`` degrees of freedom for ``k`` valid components: 23.9, 27.6, 30.7 for 1, 2, 3), so
+  a consistent filter rejects one group reading in a million;
+* :data:`GATE_SCALE_ATTITUDE` = 10, :data:`GATE_SCALE_VELOCITY` = 1000: the innovation
+  covariance the gate assumes is this multiple of the filter's ``S``.  The chi-square
+  test presumes a consistent filter; these are not: the models leave out what the
+  simulated sensors see (the IMU's lever arm and the body's own acceleration, the COM
+  offset, the attitude filter's lag in the encoder prediction), so the normalised
+  innovations of the shipped runs exceed their degrees of freedom by far - the velocity
+  filter's by orders of magnitude (``studies/consistency.py`` measures the means).  The
+  gate is then a guard against gross glitches (a saturated or corrupted sample: tens of
+  g, tens of rad/s, hundreds of ticks), not a consistency test;
+* :data:`GATE_MAX_REJECTIONS` = 20: after that many consecutive rejections of a group
+  (0.1 s at the 5 ms period) the gate opens and stays open until an innovation passes
+  it again (the guard against lock-out after a real manoeuvre or a long dropout).
+
 Every array is read-only.
 """
 
@@ -40,6 +60,10 @@ from scipy.linalg import block_diag
 
 __all__ = [
     "ALPHA_TRUST",
+    "GATE_MAX_REJECTIONS",
+    "GATE_PROBABILITY",
+    "GATE_SCALE_ATTITUDE",
+    "GATE_SCALE_VELOCITY",
     "QEKF_P0_RADIAL",
     "QUKF_P0",
     "QUKF_Q",
@@ -96,3 +120,12 @@ VUKF_P0 = read_only(np.diag([1e-1, 1e-1, 1e-2, 1e-2, 1e-9, 1e-9, 1e-9]))
 #: VUKF initial state: at rest, zero bias, thesis (5.3).
 VUKF_X0 = read_only(np.zeros(7))
 
+
+#: Probability of the chi-square innovation gate (see the module docstring).
+GATE_PROBABILITY = 1.0 - 1e-6
+#: Innovation-covariance scale of the attitude filters' gate (see the module docstring).
+GATE_SCALE_ATTITUDE = 10.0
+#: Innovation-covariance scale of the velocity filters' gate (see the module docstring).
+GATE_SCALE_VELOCITY = 1000.0
+#: Consecutive rejections of a measurement group after which its gate opens.
+GATE_MAX_REJECTIONS = 20

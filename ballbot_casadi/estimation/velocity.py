@@ -47,12 +47,21 @@ import casadi as ca
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.errors import BallbotTypeError
-from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, ukf_step
+from ballbot_casadi.estimation.core import (
+    GATE_OUTPUT_NAMES,
+    OUTPUT_NAMES,
+    FilterModel,
+    InnovationGate,
+    ekf_step,
+    ukf_step,
+)
 from ballbot_casadi.estimation.linalg import FINITE_MAX
 from ballbot_casadi.estimation.manifold import euclidean
+from ballbot_casadi.estimation.tuning import GATE_SCALE_VELOCITY
 
 __all__ = [
     "INPUT_NAMES",
+    "VELOCITY_GATE",
     "KAPPA",
     "NX",
     "make_vekf",
@@ -69,6 +78,11 @@ NX = 7
 KAPPA = 3.0 - NX
 #: Inputs of ``ballbot_vukf`` and ``ballbot_vekf``.
 INPUT_NAMES = ("xhat", "P", "z", "att", "P_att", "Q", "R", "dt", "p")
+
+#: Measurement groups of the velocity filters' gate (``gate=True``): the encoder
+#: increments (``z[0:3]``) and the accelerometer (``z[3:6]``).
+VELOCITY_GATE = InnovationGate((("enc", (0, 1, 2)), ("acc", (3, 4, 5))),
+                               scale=GATE_SCALE_VELOCITY, name="velocity_gate")
 
 _NP = len(PARAM_NAMES)
 _NU = 7 + 9  # att = [q, omega], then P_att column-major
@@ -171,7 +185,8 @@ def period_acceleration_noise(Q, dt):
 
 
 def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = False,
-           rate_covariance: bool = False, period_acceleration: bool = False) -> ca.Function:
+           rate_covariance: bool = False, period_acceleration: bool = False,
+           gate: bool = False) -> ca.Function:
     model = make_velocity_model(wheel_speeds, midpoint)
     args = (ca.MX.sym("xhat", NX), ca.MX.sym("P", NX, NX), ca.MX.sym("z", 6), ca.MX.sym("att", 7),
             ca.MX.sym("P_att", 3, 3), ca.MX.sym("Q", NX, NX), ca.MX.sym("R", 6, 6),
@@ -187,16 +202,21 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
         names.append("P_rate")
         Jw = _encoder_rate_jacobian(wheel_speeds)(att, dt, p)
         R = R + ca.diagcat(ca.mtimes([Jw, 0.5 * (P_rate + P_rate.T), Jw.T]), ca.DM.zeros(3, 3))
+    g, names_out = {}, list(OUTPUT_NAMES)
+    if gate:
+        g = {"gate": VELOCITY_GATE, "n_rej": ca.MX.sym("n_rej", len(VELOCITY_GATE.groups))}
+        args, names = (*args, g["n_rej"]), [*names, "n_rej"]
+        names_out += GATE_OUTPUT_NAMES
     if kind == "ukf":
-        out = ukf_step(model, xhat, P, z, u, Qn, R, dt, p, kappa=KAPPA)
+        out = ukf_step(model, xhat, P, z, u, Qn, R, dt, p, kappa=KAPPA, **g)
     else:
-        out = ekf_step(model, xhat, P, z, u, Qn, R, dt, p)
-    return ca.Function(name, list(args), [out[k] for k in OUTPUT_NAMES], names,
-                       list(OUTPUT_NAMES))
+        out = ekf_step(model, xhat, P, z, u, Qn, R, dt, p, **g)
+    return ca.Function(name, list(args), [out[k] for k in names_out], names, names_out)
 
 
 def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
-              rate_covariance: bool = False, period_acceleration: bool = False) -> ca.Function:
+              rate_covariance: bool = False, period_acceleration: bool = False,
+              gate: bool = False) -> ca.Function:
     """``ballbot_vukf``: one period of the velocity UKF (thesis 5.1-5.28).
 
     Parameters
@@ -218,6 +238,11 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
         The acceleration's random-walk increment of a period acts during that period:
         ``Q`` enters as ``G Q G^T`` (:func:`period_acceleration_noise`) instead of the
         thesis's diagonal (5.26).
+    gate
+        Chi-square gating of the encoders and the accelerometer (:data:`VELOCITY_GATE`,
+        :class:`~ballbot_casadi.estimation.core.InnovationGate`): a last input ``n_rej``
+        (2, consecutive rejections of ``[enc, acc]``) and the outputs ``rejected`` and
+        ``n_rej_next`` (2 each) appended.
 
     Returns
     -------
@@ -229,14 +254,15 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
         attitude filter; ``R`` without the attitude term (added inside).
     """
     return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, rate_covariance,
-                  period_acceleration)
+                  period_acceleration, gate)
 
 
 def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False,
-              rate_covariance: bool = False, period_acceleration: bool = False) -> ca.Function:
+              rate_covariance: bool = False, period_acceleration: bool = False,
+              gate: bool = False) -> ca.Function:
     """``ballbot_vekf``: the predecessor's velocity EKF, same interface as :func:`make_vukf`."""
     return _build("ballbot_vekf", wheel_speeds, "ekf", midpoint, rate_covariance,
-                  period_acceleration)
+                  period_acceleration, gate)
 
 
 def encoder_rate(omega_att, P_rate_att, gyro, Sigma_gyro, Q_rate) -> tuple[ca.MX, ca.MX]:

@@ -234,7 +234,9 @@ class ClosedLoop:
         saturated plus the disturbance), ``q_ref``, ``dq_ref``, ``ddq_ref`` (N, 4, the
         references used), ``v_ref`` (N, 3), ``w`` (N, 6), ``diag`` (N, ND); with an
         estimator also ``x_hat`` (N, 12, what the controllers read), ``meas`` (N, 9),
-        ``nis`` (N, 2), ``repairs`` (N, 1), ``noise``, ``valid``, ``phi`` (N+1, 3, wheel
+        ``nis`` (N, 2), ``repairs`` (N, 1), ``rejections`` (N, 4, the innovation gates'
+        rejections per :data:`~ballbot_casadi.sim.embedded.GATE_GROUPS`), ``noise``,
+        ``valid``, ``phi`` (N+1, 3, wheel
         angles) and ``c_final`` (the embedded software's final state); with the
         observer ``com_hat`` (N, 2: the estimate after each period's update).
         """

@@ -32,7 +32,7 @@ With an estimator in the loop the plant carries the three wheel angles as well
    (:data:`MEAS_HEADING`, the heading sensor of ``heading_sensor`` scenarios, NaN between
    its samples) and the attitude filter reads it.
 
-The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos]`` (:func:`controller_layout`;
+The controller state ``c = [z, xa, vec(Pa), xv, vec(Pv), pos, gate]`` (:func:`controller_layout`;
 with the COM observer of :mod:`ballbot_casadi.estimation.com_observer` its state ``obs``
 follows, and the observer reads ``x_hat`` before the controllers) and the sensor state ``[tau_prev, bias, phi_prev]`` (:data:`SENSOR_STATE`) are carried
 by the mission.  The sensors belong to the plant (``p_plant`` and the sensor
@@ -74,7 +74,8 @@ from ballbot_casadi.estimation import (
     make_vekf,
     make_vukf,
 )
-from ballbot_casadi.estimation.attitude import tangent_map
+from ballbot_casadi.estimation.attitude import ATTITUDE_GATE, tangent_map
+from ballbot_casadi.estimation.velocity import VELOCITY_GATE
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_observer
 from ballbot_casadi.estimation.heading import HEADING_FILTER_STATE, make_qukf_heading
 from ballbot_casadi.estimation.predecessor import QEKF_HEADING_STATE, make_qekf_heading
@@ -98,6 +99,7 @@ from ballbot_casadi.sim.ports import (
 __all__ = [
     "ESTIMATOR_FILTERS",
     "MATCHED_VELOCITY",
+    "GATE_GROUPS",
     "NOISE",
     "VALID",
     "MEAS",
@@ -158,6 +160,12 @@ MEAS_HEADING = Layout("sensor readings with heading", [("acc", 3), ("gyro", 3), 
                                                       ("heading", 1)])
 #: Plant-side sensor state: torque of the previous period, gyro bias, wheel angles at the last sample.
 SENSOR_STATE = Layout("sensor state", [("tau_prev", 3), ("bias", 3), ("phi_prev", 3)])
+#: The innovation gate's measurement groups, attitude filter's then velocity filter's: the
+#: entries of the output ``rejections`` (1 = the group's reading was rejected this period)
+#: and of the controller state's ``gate`` (consecutive rejections).
+GATE_GROUPS = Layout("innovation-gate groups",
+                     [*((f"attitude_{n}", 1) for n in ATTITUDE_GATE.names),
+                      *((f"velocity_{n}", 1) for n in VELOCITY_GATE.names)])
 
 
 @dataclass(frozen=True)
@@ -171,7 +179,8 @@ class EstimatorBlocks:
         (:mod:`ballbot_casadi.model.sensors`).
     attitude, velocity
         The filters (``ballbot_qukf``/``ballbot_qekf`` with the acceleration input,
-        ``ballbot_vukf``/``ballbot_vekf`` with mid-period encoder prediction).
+        ``ballbot_vukf``/``ballbot_vekf`` with mid-period encoder prediction), with the
+        chi-square innovation gate (input ``n_rej``; filters without it are used ungated).
     tilt_correction
         ``ballbot_tilt_correction`` (:mod:`~ballbot_casadi.estimation.tilt_aiding`).
     name
@@ -236,13 +245,15 @@ def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function
     if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
     att, vel = ESTIMATOR_FILTERS[estimator]
-    if att in _HEADING_FILTERS:  # they compensate the acceleration (input a) always
+    if att in _HEADING_FILTERS:  # they compensate the acceleration (input a) always; no gate
         attitude = make_qukf_heading() if att == "qukf_heading" else make_qekf_heading()
     else:
-        attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True)
+        attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True,
+                                                               gate=True)
     matched = estimator in MATCHED_VELOCITY
     velocity = (make_vukf if vel == "vukf" else make_vekf)(
-        wheel_speeds, midpoint=True, rate_covariance=matched, period_acceleration=matched)
+        wheel_speeds, midpoint=True, rate_covariance=matched, period_acceleration=matched,
+        gate=True)
     return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
                            velocity, estimator, make_tilt_correction(), ode, wheel_speeds,
                            make_heading_sensor() if att in _HEADING_FILTERS else None)
@@ -262,7 +273,7 @@ def estimator_layout(estimator: str) -> Layout:
                          f"and {VELOCITY_FILTER_STATE}")
     return Layout("estimator state", [("xa", XA), ("Pa", att.P0.size),
                                       ("xv", VELOCITY_FILTER_STATE), ("Pv", vel.P0.size),
-                                      ("pos", 2)])
+                                      ("pos", 2), ("gate", GATE_GROUPS.size)])
 
 
 def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0,
@@ -338,8 +349,9 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     ``feedforward`` switches and the filter covariances (column-major).  Outputs
     :data:`~ballbot_casadi.sim.ports.EMBEDDED_OUTPUTS`: ``c_next``, ``tau_lim`` (the wheel torque command after
     the direction-preserving limit), ``tau_cmd``, ``x_hat`` (the estimate the
-    controllers read), the references used, ``diag``, ``nis`` (attitude, velocity) and
-    ``repairs`` (covariance repairs this period).
+    controllers read), the references used, ``diag``, ``nis`` (attitude, velocity),
+    ``repairs`` (covariance repairs this period) and ``rejections`` (:data:`GATE_GROUPS`:
+    the measurement groups the innovation gates rejected this period).
 
     With ``observer`` (``ballbot_com_observer``,
     :mod:`ballbot_casadi.estimation.com_observer`, a called Function) ``c`` ends with the
@@ -367,11 +379,16 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     # the attitude filter reads [acc, gyro] (and the heading, thesis (4.30) with the bias)
     z_att = ca.vertcat(acc, gyro, *((meas[M["heading"]],) if M.has("heading") else ()))
 
+    # the innovation gates' consecutive-rejection counters (filters without a gate: none)
+    gate = c[C["gate"]]
+    n_att = len(ATTITUDE_GATE.groups)
+    gate_in = {"att": {"n_rej": gate[:n_att]} if "n_rej" in est.attitude.name_in() else {},
+               "vel": {"n_rej": gate[n_att:]} if "n_rej" in est.velocity.name_in() else {}}
     # the velocity filter's last acceleration estimate compensates the accelerometer
     xv_prev = c[C["xv"]]
     att = est.attitude(xhat=c[C["xa"]], P=ca.reshape(c[C["Pa"]], na, na), z=z_att,
                        Q=ca.reshape(sym["Qa"], nq, nq), R=ca.reshape(sym["Ra"], nr, nr), dt=Ts,
-                       p=p_est, a=ca.vertcat(xv_prev[XV["a"]], 0))
+                       p=p_est, a=ca.vertcat(xv_prev[XV["a"]], 0), **gate_in["att"])
     xa = att["xhat_next"]
     # a velocity filter with the body-rate covariance input predicts the encoders with the
     # period's gyroscope reading and its noise covariance (the attitude filter's gyro
@@ -392,8 +409,11 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
         rate, att_v = {"P_rate": P_rate}, ca.vertcat(xa[XA["q"]], w_enc)
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
                        att=att_v, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
-                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate)
+                       R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate, **gate_in["vel"])
     xv = vel["xhat_next"]
+    no_gate = ca.DM.zeros(n_att), ca.DM.zeros(GATE_GROUPS.size - n_att)
+    rejected = ca.vertcat(*(f.get("rejected", z0) for f, z0 in zip((att, vel), no_gate)))
+    gate_next = ca.vertcat(*(f.get("n_rej_next", z0) for f, z0 in zip((att, vel), no_gate)))
     # the velocity filter's horizontal accelerometer bias is the attitude filter's slow
     # tilt error (velocity-aided tilt, estimation.tilt_aiding): the controllers read q_c
     q_hat = est.tilt_correction(q=xa[XA["q"]], a=xv[XV["a"]], b_acc=xv[XV["b_acc"]], p=p_est)["q_c"]
@@ -408,9 +428,10 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     if len(Z.fields) > 1:
         z_next = z_next[Z["z"]]
     after = [ctrl["z_next"][Z[f]] for f in Z.fields[1:]]
-    c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos, *after)
+    c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos,
+                        gate_next, *after)
     outs = {"c_next": c_next, "x_hat": x_hat, "nis": ca.vertcat(att["nis"], vel["nis"]),
-            "repairs": att["n_repair"] + vel["n_repair"], **ctrl}
+            "repairs": att["n_repair"] + vel["n_repair"], "rejections": rejected, **ctrl}
     return ports.function(f"ballbot_embedded_{blocks.name}_{est.name}", sym, outs)
 
 
@@ -483,7 +504,8 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
       and velocity (as after the robot's start-up calibration at rest) with the thesis's
       initial covariances (4.4, 5.4; the QEKF's ``G P0 G^T + radial blkdiag(q q^T, 0)``)
       and a zero accelerometer-bias estimate (and z gyro-bias estimate, ``ukf_heading``);
-      the position estimate at the true position;
+      the position estimate at the true position; no innovation-gate rejections yet
+      (``gate`` zero);
     * with ``observer``, the COM observer's state: the model's COM offset as both
       estimates, the measurement filters at the initial attitude's static measurement,
       ball velocity and body rate
@@ -523,7 +545,8 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     xa = ca.vertcat(q, omega, ca.SX.zeros(att.x0.size - ATTITUDE_FILTER_STATE.size))
     parts.update({"xa": xa, "Pa": ca.vec(Pa),
                   "xv": ca.vertcat(*(xv[f] for f in VELOCITY_FILTER_STATE.fields)),
-                  "Pv": ca.vec(ca.DM(vel.P0)), "pos": x0[STATE_XY]})
+                  "Pv": ca.vec(ca.DM(vel.P0)), "pos": x0[STATE_XY],
+                  "gate": ca.DM.zeros(GATE_GROUPS.size)})
     # COM observer
     if observer:
         pi = {n: PARAM_NAMES.index(n) for n in ("com_x", "com_y", "l")}

@@ -109,7 +109,7 @@ SENSOR_CONSTANTS = ("s",)
 #: The filters' model parameters and covariances (column-major), constant.
 FILTER_CONSTANTS = ("p_est", "Qa", "Ra", "Qv", "Rv")
 #: Outputs of a period with sensors and estimators.
-ESTIMATION_OUTPUTS = ("x_hat", "meas", "nis", "repairs")
+ESTIMATION_OUTPUTS = ("x_hat", "meas", "nis", "repairs", "rejections")
 #: Constants of the COM observer: the switch (controllers use the estimate) and gains.
 OBSERVER_CONSTANTS = ("com_observer", "k_obs")
 #: Output of the COM observer: the COM-offset estimate after the period's update.
@@ -127,7 +127,7 @@ EMBEDDED_INPUTS = ("c", "meas", *REFERENCE_SEQUENCES, "p_ctrl", "p_est", "k_bal"
                    "cascade", "feedforward", "Qa", "Ra", "Qv", "Rv")
 #: Outputs of the embedded software's period.
 EMBEDDED_OUTPUTS = ("c_next", "tau_lim", "tau_cmd", "x_hat", "q_ref_used", "dq_ref_used",
-                    "ddq_ref_used", "diag", "nis", "repairs")
+                    "ddq_ref_used", "diag", "nis", "repairs", "rejections")
 #: Wheel angles appended to the plant state of a period with sensors.
 N_WHEEL = 3
 #: The torque command held from the previous period (one-period actuation delay).

@@ -158,7 +158,8 @@ def make_estimating_step(
         (sensor parameters), ``p_est`` (the filters' model parameters) and the filter
         covariances ``Qa, Ra, Qv, Rv`` (column-major).  Outputs those of
         :func:`make_closed_loop_step` (``x`` the true 12-state) plus ``x_hat`` (what the
-        controllers read), ``meas`` (the readings), ``nis`` and ``repairs``.  With the
+        controllers read), ``meas`` (the readings), ``nis``, ``repairs`` and
+        ``rejections``.  With the
         COM observer (inside the embedded software, its state last in ``c``) the
         constants end with ``com_observer, k_obs`` and the outputs with ``com_hat``.
     """

@@ -155,6 +155,7 @@ static int period(ctrl_work *wk, fmu_values *v, long k, int fresh) {
     res[CTRL_EMBEDDED_RES_DIAG] = r + CTRL_DIAG_IX;
     res[CTRL_EMBEDDED_RES_NIS] = r + CTRL_NIS_IX;
     res[CTRL_EMBEDDED_RES_REPAIRS] = r + CTRL_IX_repairs;
+    res[CTRL_EMBEDDED_RES_REJECTIONS] = r + CTRL_REJECTIONS_IX;
 #if CTRL_HAS_OBSERVER
     wk->com_observer = v->b[CTRL_IX_com_observer] ? 1.0 : 0.0;
     arg[CTRL_EMBEDDED_ARG_COM_OBSERVER] = &wk->com_observer;

@@ -70,6 +70,10 @@ def test_estimation_metrics_of_a_heading_offset_and_counters():
     assert m["estimator_rate_rms_dps"] == pytest.approx(0.0, abs=1e-12)
     assert (m["nis_attitude_mean"], m["nis_velocity_mean"]) == (3.0, 6.0)
     assert m["covariance_repairs"] == 3
+    assert m["gate_rejections"] == 0  # a log without the rejections output (older runs)
+    rej = np.zeros((n, 4))
+    rej[2, 1], rej[7, [0, 3]] = 1, 1
+    assert estimation_metrics({**log, "rejections": rej})["gate_rejections"] == 3
     assert m["missing_reading_fraction"] == pytest.approx(3 / 30, rel=1e-12)
     # the heading sensor's column (every 20th period, or off) is not a missing reading
     heading = np.zeros((n, 1))

@@ -21,7 +21,6 @@ import casadi as ca
 import numpy as np
 import pytest
 
-import ballbot_casadi.estimation as E
 from ballbot_casadi import load_params
 from ballbot_casadi.analysis.consistency import chi2_band, ensemble_average, nees
 from ballbot_casadi.core import quaternion as Q

@@ -19,6 +19,7 @@ from ballbot_casadi.fmi.controller.controller import (
     HEADING_READING_NAME,
     READING_NAMES,
     REFERENCE_NAMES,
+    REJECTION_NAMES,
     X0_NAMES,
     XHAT_NAMES,
     controller_spec,
@@ -123,21 +124,29 @@ def test_fmu_equals_the_compiled_embedded_step(ctrl, est):
     fmu, ref = Controller(ctrl, est), _Reference(ctrl, est)
     fmu.init()
     fmu.set(v_ref_x=VREF[0], v_ref_y=VREF[1], yaw_rate_ref=VREF[2])
-    worst = 0.0
+    worst, rejected = 0.0, []
     for k in range(60):
         meas = _readings(rng)
         if k == 30:
             meas[3] = np.nan  # a gyroscope dropout
+        if k == 40:
+            meas[4] += 1000.0  # a gyroscope glitch: the attitude filter's gate rejects it
         fmu.set_many(READING_NAMES, meas)
         fmu.step()
         out = ref.period(meas)
         c_fmu = fmu.get(*[n for n in fmu.vars if n.startswith("c_")])
+        rejected.append(fmu.get(*REJECTION_NAMES))
         for got, want in ((fmu.get("tau0", "tau1", "tau2"), out["tau_lim"]),
                           (fmu.get("tau_cmd0", "tau_cmd1", "tau_cmd2"), out["tau_cmd"]),
                           (fmu.get(*XHAT_NAMES), out["x_hat"]), (c_fmu, out["c_next"]),
-                          (fmu.get("nis_attitude", "nis_velocity"), out["nis"])):
+                          (fmu.get("nis_attitude", "nis_velocity"), out["nis"]),
+                          (fmu.get("repairs"), out["repairs"]),
+                          (rejected[-1], out["rejections"])):
             worst = max(worst, float(np.max(np.abs(got - want))))
     assert worst <= 1e-12
+    expected = np.zeros((60, len(REJECTION_NAMES)))
+    expected[40, REJECTION_NAMES.index("rejected_attitude_gyro")] = 1.0
+    np.testing.assert_array_equal(np.array(rejected), expected)
     assert np.all(np.isfinite(fmu.get("tau0", "tau1", "tau2")))
     assert fmu.errors() == []
     fmu.free()
@@ -389,7 +398,7 @@ def test_the_state_at_power_on_is_the_missions(ctrl, est):
     np.testing.assert_allclose(c_fmu[L["z"]], inp["z0"], rtol=0, atol=1e-15)
     e0 = inp["estimation"]["e0"]
     np.testing.assert_array_equal(np.concatenate([c_fmu[L[f]] for f in
-                                                  ("xa", "Pa", "xv", "Pv", "pos")]), e0)
+                                                  ("xa", "Pa", "xv", "Pv", "pos", "gate")]), e0)
     # one period on the mission's readings: the compiled mission's state after it
     log = run_scenario(sc, ClosedLoop())
     fmu.set(balance_only=True)

@@ -9,7 +9,7 @@ import pytest
 from fmpy import read_model_description
 
 from ballbot_casadi.core.params import load_params
-from ballbot_casadi.fmi.controller.controller import controller_spec
+from ballbot_casadi.fmi.controller.controller import REJECTION_NAMES, controller_spec
 from ballbot_casadi.fmi.model_description import model_description_xml
 from ballbot_casadi.fmi.plant.plant import plant_functions, plant_spec
 from ballbot_casadi.fmi.spec import sparsity_dependencies
@@ -70,5 +70,5 @@ def test_dependencies_match_the_numeric_jacobian():
 
 def test_no_controller_output_depends_on_an_input(tmp_path):
     md = _md(controller_spec(), tmp_path)
-    assert len(md.outputs) == 53
+    assert len(md.outputs) == 53 + len(REJECTION_NAMES)  # + the innovation-gate rejections
     assert all(u.dependencies == [] for u in md.outputs)

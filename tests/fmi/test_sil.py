@@ -171,6 +171,8 @@ def test_scenarios_the_sil_cannot_run_are_refused(work, tmp_path):
             write_sil_ssp(sc.replace(**change), tmp_path / "x.ssp")
     with pytest.raises(ScenarioError, match="pushes"):
         write_sil_ssp(sc.replace(pushes=((0.5, 1.0, 0.0, 0.0),)), tmp_path / "x.ssp")
+    with pytest.raises(ScenarioError, match="sensor_glitch"):  # never silently dropped
+        write_sil_ssp(sc.replace(sensor_glitches=((0.5, "gyro", "x", 1000.0),)), tmp_path / "x.ssp")
     with pytest.raises(ScenarioError, match="multiple of the step"):
         run_ssp(_ssp("full_sine", SINE_S, work), duration=0.0123)
     with pytest.raises(ScenarioError, match="unknown master"):

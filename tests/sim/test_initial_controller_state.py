@@ -18,6 +18,7 @@ from ballbot_casadi.estimation.com_observer import com_observer_initial_state
 from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs, run_scenario
 from ballbot_casadi.sim.embedded import (
     ESTIMATOR_FILTERS,
+    GATE_GROUPS,
     controller_layout,
     initial_controller_state,
     initial_controller_state_function,
@@ -39,7 +40,8 @@ def _numpy_filters(estimator: str, x0: np.ndarray) -> dict[str, np.ndarray]:
     xv0 = xv0.copy()
     xv0[VELOCITY_FILTER_STATE["v"]] = x0[STATE_DXY]
     return {"xa": xa0, "Pa": np.asarray(Pa0, float).ravel(order="F"), "xv": xv0,
-            "Pv": np.asarray(Pv0, float).ravel(order="F"), "pos": x0[STATE_XY]}
+            "Pv": np.asarray(Pv0, float).ravel(order="F"), "pos": x0[STATE_XY],
+            "gate": np.zeros(GATE_GROUPS.size)}  # no innovation-gate rejections yet
 
 
 def _numpy_oracle(estimator: str, x0: np.ndarray, p: np.ndarray, observer: bool) -> np.ndarray:

@@ -49,7 +49,8 @@ Variable names (see :func:`controller_variables`):
 * outputs: ``tau0..2`` (limited command), ``tau_cmd0..2``, the estimate ``pos_hat_x/y,
   q_hat0..3, v_hat_x/y, dq_hat0..3``, ``roll_hat, pitch_hat, yaw_hat``, the body rate
   ``omega_hat_x/y/z``, the references used, ``diag_<name>``, ``nis_attitude``,
-  ``nis_velocity``, ``repairs`` (and ``com_hat_x/y`` with the COM observer);
+  ``nis_velocity``, ``repairs``, the innovation-gate rejections ``rejected_<filter>_<sensor>``
+  (:data:`REJECTION_NAMES`; and ``com_hat_x/y`` with the COM observer);
 * parameters: ``Ts``; the controllers' internal model ``ctrl_<name>`` and the filters'
   internal model ``est_<name>`` under the :data:`~ballbot_casadi.core.params.PARAM_NAMES`
   of ``load_params`` (both exist, hence the prefixes); the gains ``k_bal_<gain name>``
@@ -92,6 +93,8 @@ from ballbot_casadi.estimation.com_observer import COM_OBSERVER_GAIN_NAMES
 from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.embedded import (
+    GATE_GROUPS,
+    MEAS,
     MEAS_HEADING,
     embedded_software,
     initial_controller_state_function,
@@ -116,6 +119,7 @@ __all__ = [
     "reading_names",
     "REFERENCE_NAMES",
     "XHAT_NAMES",
+    "REJECTION_NAMES",
     "model_identifier",
     "embedded_function",
     "controller_state_layout",
@@ -152,6 +156,9 @@ REFERENCE_USED = Layout("references used", [("q", 4), ("dq", 4), ("ddq", 4)])
 #: The estimate x_hat the controllers read (output block, the order of the Function's output).
 XHAT_NAMES = ("pos_hat_x", "pos_hat_y", "q_hat0", "q_hat1", "q_hat2", "q_hat3", "v_hat_x",
               "v_hat_y", "dq_hat0", "dq_hat1", "dq_hat2", "dq_hat3")
+#: The innovation-gate rejections of the last period (outputs, 1 = rejected), one per
+#: measurement group of :data:`~ballbot_casadi.sim.embedded.GATE_GROUPS`.
+REJECTION_NAMES = tuple(f"rejected_{g}" for g in GATE_GROUPS.fields)
 #: The robot's state at power-on (parameters): ``x0_<state name>``.
 X0_NAMES = tuple(f"x0_{n}" for n in STATE.names)
 _XHAT_UNITS = ("m", "m", "1", "1", "1", "1", "m/s", "m/s", "1/s", "1/s", "1/s", "1/s")
@@ -386,6 +393,10 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
     t.add("nis_velocity", "discrete_output", "normalised innovation squared of the velocity "
           "filter")
     t.add("repairs", "discrete_output", "covariance repairs of the filters in the last period")
+    for name, g in zip(REJECTION_NAMES, GATE_GROUPS.fields, strict=True):
+        filt, sensor = g.split("_", 1)
+        t.add(name, "discrete_output", f"1 when the {filt} filter's innovation gate rejected the "
+              f"{sensor} reading in the last period (chi-square test), else 0")
     if _has_observer(embedded):
         for c in "xy":
             t.add(f"com_hat_{c}", "discrete_output", f"COM offset estimate along body {c}",
@@ -462,6 +473,7 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
                  tuple(f"{w}_ref_used{i}" for w in ("q", "dq", "ddq") for i in range(4))),
         FmuBlock("diag", None, tuple(f"diag_{n}" for n in BALANCE_DIAG_NAMES)),
         FmuBlock("nis", None, ("nis_attitude", "nis_velocity")),
+        FmuBlock("rejections", None, REJECTION_NAMES),
         *(FmuBlock(a, None, tuple(n)) for a, n in groups.items()),
     ]
     if has_obs:

@@ -41,7 +41,7 @@ from fmpy.model_description import (
 
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import BuildError, FileFormatError
-from ballbot_casadi.fmi.controller.controller import READING_NAMES, XHAT_NAMES
+from ballbot_casadi.fmi.controller.controller import READING_NAMES, REJECTION_NAMES, XHAT_NAMES
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
 from ballbot_casadi.fmi.system.ssp_check import open_ssp
 
@@ -55,7 +55,7 @@ OUTPUTS = (
     *(("controller", n) for n in (*(f"tau{i}" for i in range(3)),
                                   *(f"tau_cmd{i}" for i in range(3)), *XHAT_NAMES, "roll_hat",
                                   "pitch_hat", "yaw_hat", "nis_attitude", "nis_velocity",
-                                  "repairs")),
+                                  "repairs", *REJECTION_NAMES)),
 )
 
 

@@ -45,6 +45,7 @@ from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.controller.controller import (
     READING_NAMES,
     REFERENCE_NAMES,
+    REJECTION_NAMES,
     XHAT_NAMES,
     controller_spec,
     controller_values,
@@ -84,6 +85,7 @@ CONTROLLER_RECORDED = (
     *(f"omega_hat_{c}" for c in "xyz"),
     *(f"{w}_ref_used{i}" for w in ("q", "dq", "ddq") for i in range(4)),
     *(f"diag_{n}" for n in BALANCE_DIAG_NAMES), "nis_attitude", "nis_velocity", "repairs",
+    *REJECTION_NAMES,
 )
 
 
@@ -182,8 +184,8 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     Raises
     ------
     ScenarioError
-        A scenario without an estimator, with pushes or sensor dropouts, with the heading
-        sensor or an estimator that reads it, or a seed beyond 32 bits.
+        A scenario without an estimator, with pushes, sensor dropouts or glitches, with
+        the heading sensor or an estimator that reads it, or a seed beyond 32 bits.
     BuildError
         The plant FMU lacks a variable the system connects.
     """
@@ -198,6 +200,10 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
         raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_dropout]] rows, which the "
                             "SSP cannot express (the FMUs have no dropout input); remove them "
                             "to write the SIL system")
+    if scenario.sensor_glitches:  # the plant FMU draws its own noise: no way to inject them
+        raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_glitch]] rows, which the "
+                            "SSP cannot express (the plant FMU draws its own sensor noise); "
+                            "remove them to write the SIL system")
     out = Path(out) if out is not None else None
     plant = Path(build_fmu(out).fmu if plant_fmu is None else plant_fmu)
     causality = {v.name: v.causality for v in read_model_description(str(plant)).modelVariables}

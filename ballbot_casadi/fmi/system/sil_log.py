@@ -10,7 +10,12 @@ import numpy as np
 from ballbot_casadi.control import BALANCE_DIAG_NAMES
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.fmi.controller.controller import READING_NAMES, REFERENCE_NAMES, XHAT_NAMES
+from ballbot_casadi.fmi.controller.controller import (
+    READING_NAMES,
+    REFERENCE_NAMES,
+    REJECTION_NAMES,
+    XHAT_NAMES,
+)
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES
 from ballbot_casadi.fmi.system.sil import CONTROLLER, PLANT, TORQUES, SilRun
@@ -27,7 +32,7 @@ def sil_log(run: SilRun, scenario: Scenario | None = None) -> SimulationLog:
     Row ``k`` of the per-period arrays is period ``k`` (``[t_k, t_k+1)``): ``state`` and
     ``meas`` at ``t_k``, ``tau`` the torque acting on the plant in it (its inputs
     saturated at the plant's ``tau_max``, plus the disturbance), ``tau_cmd``, ``x_hat``,
-    the references used, ``diag``, ``nis`` and ``repairs`` of the controller's period
+    the references used, ``diag``, ``nis``, ``repairs`` and ``rejections`` of the controller's period
     ``k`` (its outputs at ``t_k+1``).
     """
     sc = scenario if scenario is not None else run.scenario
@@ -55,7 +60,8 @@ def sil_log(run: SilRun, scenario: Scenario | None = None) -> SimulationLog:
         ("dq_ref", [f"dq_ref_used{i}" for i in range(4)]),
         ("ddq_ref", [f"ddq_ref_used{i}" for i in range(4)]),
         ("diag", [f"diag_{m}" for m in BALANCE_DIAG_NAMES]),
-        ("nis", ["nis_attitude", "nis_velocity"]), ("repairs", ["repairs"]))}
+        ("nis", ["nis_attitude", "nis_velocity"]), ("repairs", ["repairs"]),
+        ("rejections", list(REJECTION_NAMES)))}
     inp_v = cols(CONTROLLER, REFERENCE_NAMES[12:15])[:n]
     w = np.zeros((n, 6))
     w[:, 3:6] = dist

@@ -84,6 +84,12 @@ Format (every key optional unless marked; units in the names)::
     t_end_s = 2.5
     sensor = "enc"                  # acc | gyro | enc
 
+    [[sensor_glitch]]               # one glitch sample at the control instant nearest t_s
+    t_s = 3.0
+    sensor = "gyro"                 # acc | gyro (through the sensor's noise input)
+    axis = "x"                      # x | y | z (IMU frame; default x)
+    value = 1000.0                  # added to that reading, m/s^2 | rad/s
+
     [gains]
     k_bal = [...]                   # balance gains (default: the controller's)
     k_vel = [...]                   # velocity gains (default: LQR of thesis §7.3)

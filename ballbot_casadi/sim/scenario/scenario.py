@@ -57,6 +57,7 @@ from ballbot_casadi.sim.scenario.sections import (
     ESTIMATOR_TUNING_KEYS,
     ESTIMATOR_TUNING_TARGETS,
     FEEDFORWARD_MODES,
+    GLITCH_AXES,
     PLANT_CHANGES,
     SCENARIO_SECTIONS,
     SENSOR_CHANGES,
@@ -93,7 +94,8 @@ SCENARIO_FIELDS = (
     "name", "controller", "duration", "x0", "cascade", "attitude", "velocity_keyframes", "pushes",
     "torque_disturbances", "plant_changes", "ctrl_changes", "k_bal", "k_vel", "Ts", "n_sub",
     "feedforward", "torque_limit", "estimator", "seed", "noise", "sensor_changes", "est_changes", "estimator_tuning",
-    "sensor_dropouts", "com_observer", "k_obs", "study", "description", "heading_sensor",
+    "sensor_dropouts", "sensor_glitches", "com_observer", "k_obs", "study", "description",
+    "heading_sensor",
 )
 #: Attribute -> the section holding it.
 #: Position of the torque limit in the parameter vector.
@@ -188,6 +190,12 @@ class Scenario:
         parameter ``heading_rate``, :func:`~ballbot_casadi.model.sensors.make_heading_sensor`).
         Off (default): its reading is always missing.  Only ``ukf_heading`` and
         ``ekf_heading`` read it.
+    sensor_glitches
+        Rows ``(t, sensor, axis, value)`` with sensor ``"acc"`` or ``"gyro"`` and axis
+        ``"x"``, ``"y"`` or ``"z"``: at the control instant nearest ``t`` that reading is
+        off by ``value`` (m/s^2, rad/s), added to its noise sample (so the sensor's noise
+        variance on that axis must be positive); the filters' innovation gates should
+        reject it.  Needs an estimator in the loop.
     com_observer
         The controllers use the online estimate of the COM offset
         (:mod:`ballbot_casadi.estimation.com_observer`) as their internal model: the
@@ -244,6 +252,9 @@ class Scenario:
         try:
             for s, _ in SCENARIO_SECTIONS:
                 sections[s].check(self.run)
+            if self.sensor_glitches and self.estimator == "true":
+                raise ScenarioError("sensor_glitch rows need sensors in the loop: set estimator "
+                                    "= 'ukf' or 'ekf'", key="sensor_glitch[0]")
         except ScenarioError as exc:
             raise exc.within(f"scenario {self.name!r}") from None
 
@@ -416,6 +427,7 @@ class Scenario:
         t = self.time(periods)
         for t0, t1, sensor in self.sensor_dropouts:
             valid[(t >= t0 - 1e-12) & (t < t1 - 1e-12), VALID.index(sensor)] = 0.0
+        self._add_glitches(noise, sp, k0, k1)
         att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[self.estimator])
         cov = {"Qa": np.array(att.Q, float), "Ra": np.array(att.R, float),
                "Qv": np.array(vel.Q, float), "Rv": np.array(vel.R, float)}
@@ -432,6 +444,21 @@ class Scenario:
             "e0": initial_estimator_state(self.estimator, np.asarray(self.x0, float)),
             "s0": np.concatenate([np.zeros(3), np.asarray(sp.gyro_bias0, float), np.zeros(3)]),
         }
+
+    def _add_glitches(self, noise: np.ndarray, sp: Any, k0: int, k1: int) -> None:
+        """Add :attr:`sensor_glitches` to the noise rows of periods ``[k0, k1)`` in place:
+        ``value / sqrt(var)`` on the sensor's axis at the period nearest ``t``."""
+        for i, (t, sensor, axis, value) in enumerate(self.sensor_glitches):
+            k = int(round(t / self.Ts))
+            if not k0 <= k < k1:
+                continue
+            a = GLITCH_AXES.index(axis)
+            var = float(np.asarray(getattr(sp, f"{sensor}_noise_var"), float).reshape(-1)[a])
+            if not var > 0.0:
+                raise ScenarioError(f"scenario {self.name!r}: a {sensor} glitch enters through the "
+                                    f"noise input, but {sensor}_noise_var of axis {axis} is "
+                                    f"{var:g}; make it positive", key=f"sensor_glitch[{i}]")
+            noise[k - k0, NOISE[sensor].start + a] += value / np.sqrt(var)
 
     # -- serialisation -----------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

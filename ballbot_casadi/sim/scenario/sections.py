@@ -57,7 +57,7 @@ __all__ = [
     "MAX_PERIODS", "TORQUE_DISTURBANCE_MAX_NM", "FEEDFORWARD_MODES", "ESTIMATOR_CHOICES", "ESTIMATOR_TUNING_TARGETS", "ESTIMATOR_TUNING_KEYS",
     "PLANT_CHANGES", "CONTROLLER_CHANGES", "ESTIMATOR_CHANGES", "SENSOR_CHANGES",
     "initial_state", "RunSection", "InitialSection", "ReferencesSection", "DisturbancesSection",
-    "ModelSection", "SensorsSection", "EstimationSection", "ObserverSection", "GainsSection",
+    "GLITCH_AXES", "GLITCH_SENSORS", "ModelSection", "SensorsSection", "EstimationSection", "ObserverSection", "GainsSection",
     "SpecsSection", "DispersionsSection", "DISPERSION_TARGETS", "SCENARIO_SECTIONS",
 ]
 
@@ -447,25 +447,37 @@ class ModelSection:
 
 # --------------------------------------------------------------------------- sensors
 
+#: Sensors a ``[[sensor_glitch]]`` row can corrupt: those with a noise input, through which
+#: the glitch enters (the encoders count quantised wheel angles and have none).
+GLITCH_SENSORS = ("acc", "gyro")
+#: Axes of a glitch (IMU frame).
+GLITCH_AXES = ("x", "y", "z")
+
 
 @dataclass(frozen=True)
 class SensorsSection:
     """The robot's sensors: parameter changes (``sensor_changes``, file ``[sensors]``,
     vector values allowed), the noise ``seed`` (int in [0, 2^32)) and whether ``noise`` is
     drawn, ``sensor_dropouts`` rows ``(t_start, t_end, sensor)`` in s with sensor
-    ``acc``/``gyro``/``enc``/``heading`` (file ``[[sensor_dropout]]``) and whether the
+    ``acc``/``gyro``/``enc``/``heading`` (file ``[[sensor_dropout]]``), whether the
     robot carries the heading sensor (``heading_sensor``, off by default: it samples at
     the sensor parameter ``heading_rate``, :func:`~ballbot_casadi.model.sensors.heading_schedule`;
-    only ``ukf_heading`` and ``ekf_heading`` read it)."""
+    only ``ukf_heading`` and ``ekf_heading`` read it) and ``sensor_glitches`` rows
+    ``(t, sensor, axis, value)``: at the control instant nearest ``t`` (s, in ``[0,
+    duration)``) the ``sensor`` (:data:`GLITCH_SENSORS`) reading of ``axis`` (``x``/``y``/``z``
+    of the IMU) is off by ``value`` (m/s^2, rad/s; any finite number) - one glitch sample,
+    injected through the sensor's noise input (file ``[[sensor_glitch]]``)."""
 
     sensor_changes: Mapping[str, Any] = field(default_factory=dict)
     seed: int = 0
     noise: bool = True
     sensor_dropouts: tuple = ()
     heading_sensor: bool = False
+    sensor_glitches: tuple = ()
 
-    FIELDS = ("sensor_changes", "seed", "noise", "sensor_dropouts", "heading_sensor")
-    TABLE_KEYS = ("sensors", "seed", "noise", "sensor_dropout", "heading_sensor")
+    FIELDS = ("sensor_changes", "seed", "noise", "sensor_dropouts", "heading_sensor",
+              "sensor_glitches")
+    TABLE_KEYS = ("sensors", "seed", "noise", "sensor_dropout", "heading_sensor", "sensor_glitch")
 
     def check(self, run: RunSection) -> None:
         if not _is_int(self.seed) or not 0 <= self.seed < 2**32:
@@ -486,6 +498,20 @@ class SensorsSection:
                                     key=f"sensor_dropout[{i}]")
             drops.append((float(row[0]), float(row[1]), str(row[2])))
         _set(self, "sensor_dropouts", tuple(drops))
+        glitches = []
+        for i, row in enumerate(self.sensor_glitches):
+            ok = (isinstance(row, (list, tuple)) and len(row) == 4 and row[1] in GLITCH_SENSORS
+                  and row[2] in GLITCH_AXES
+                  and all(isinstance(row[j], (int, float)) and not isinstance(row[j], bool)
+                          and math.isfinite(row[j]) for j in (0, 3))
+                  and 0 <= row[0] < run.duration)
+            if not ok:
+                raise ScenarioError(f"sensor glitch {row!r} must be (t, sensor, axis, value) with "
+                                    f"0 <= t < duration ({run.duration:g} s), sensor in "
+                                    f"{GLITCH_SENSORS}, axis in {GLITCH_AXES} and a finite value",
+                                    key=f"sensor_glitch[{i}]")
+            glitches.append((float(row[0]), str(row[1]), str(row[2]), float(row[3])))
+        _set(self, "sensor_glitches", tuple(glitches))
         SENSOR_CHANGES.check(self.sensor_changes)
 
     @classmethod
@@ -498,9 +524,17 @@ class SensorsSection:
             key = f"sensor_dropout[{i}]"
             t0, t1 = c.interval(row, key, "sensor")
             drops.append((t0, t1, c.choice(row, "sensor", f"{key}.sensor", "", VALID.fields)))
+        glitches = []
+        for i, row in enumerate(c.rows(table, "sensor_glitch")):
+            key = f"sensor_glitch[{i}]"
+            c.keys(row, key, ("t_s", "sensor", "axis", "value"), ("t_s", "sensor", "value"))
+            glitches.append((c.num(row, "t_s", f"{key}.t_s", lo=0.0),
+                             c.choice(row, "sensor", f"{key}.sensor", "", GLITCH_SENSORS),
+                             c.choice(row, "axis", f"{key}.axis", "x", GLITCH_AXES),
+                             c.num(row, "value", f"{key}.value")))
         return cls(_changes_from_file(c, table, SENSOR_CHANGES), seed,
                    c.boolean(table, "noise", "noise", True), tuple(drops),
-                   c.boolean(table, "heading_sensor", "heading_sensor", False))
+                   c.boolean(table, "heading_sensor", "heading_sensor", False), tuple(glitches))
 
     def to_file(self) -> dict[str, Any]:
         out = _changes_to_file(SENSOR_CHANGES, self.sensor_changes)
@@ -513,6 +547,9 @@ class SensorsSection:
                                      for t0, t1, s in self.sensor_dropouts]
         if self.heading_sensor:
             out["heading_sensor"] = True
+        if self.sensor_glitches:
+            out["sensor_glitch"] = [{"t_s": t, "sensor": s, "axis": a, "value": v}
+                                    for t, s, a, v in self.sensor_glitches]
         return out
 
 
