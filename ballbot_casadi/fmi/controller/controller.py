@@ -94,7 +94,6 @@ from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.sim.embedded import (
     GATE_GROUPS,
-    MEAS,
     MEAS_HEADING,
     embedded_software,
     initial_controller_state_function,
