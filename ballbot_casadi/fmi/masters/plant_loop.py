@@ -17,6 +17,7 @@ from ballbot_casadi.control import BALANCE_CONTROLLERS, make_velocity_controller
 from ballbot_casadi.core.layout import DISTURBANCE, STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.fmi.archive import verify_fmu
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.masters.adapter import FmuSlave
 from ballbot_casadi.fmi.plant.plant import X0_PREFIX
@@ -33,8 +34,14 @@ def cosim_open_loop(fmu: str | Path, tau: np.ndarray, stop_time: float, step: fl
     """One fmpy co-simulation of the plant with constant wheel torques.
 
     Returns the fmpy result record array (time, states, outputs).
+
+    Raises
+    ------
+    FileFormatError
+        ``fmu`` is not a complete FMU archive (:func:`~ballbot_casadi.fmi.archive.verify_fmu`).
     """
 
+    verify_fmu(fmu, f"plant FMU {fmu}")  # before fmpy extracts it or loads its binary
     sv = {f"tau{i}": float(t) for i, t in enumerate(tau)}
     sv.update(start_values or {})
     return simulate_fmu(str(fmu), fmi_type="CoSimulation", stop_time=stop_time,
@@ -72,6 +79,13 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
     dict
         ``time`` (N+1), ``state`` (N+1, 12; row k the state at ``t_k``), ``z``
         (N+1, NZ), ``tau_cmd`` (N, 3) and ``tau`` (N, 3, the torque acting on the plant).
+
+    Raises
+    ------
+    ScenarioError
+        The scenario has attitude pushes.
+    FileFormatError
+        ``fmu`` is not a complete FMU archive, checked before it is extracted.
     """
     n_sub = scenario.n_sub if n_sub is None else int(n_sub)
     if controllers is None:
@@ -83,6 +97,8 @@ def closed_loop_cosim(scenario: Scenario, fmu: str | Path | None = None, n_sub: 
     if np.any(w[:, DISTURBANCE["push"]] != 0.0):
         raise ScenarioError("closed_loop_cosim: attitude pushes cannot be applied through the "
                             "FMU's inputs; use a scenario without pushes")
+    if fmu is not None:  # a user's FMU is checked before it is extracted or loaded
+        verify_fmu(fmu, f"plant FMU {fmu}")
     unzipped = build_fmu().unzipped if fmu is None else Path(extract(str(fmu)))
     torques = [f"tau{i}" for i in range(3)]
     dists = [f"tau_dist{i}" for i in range(3)]
