@@ -47,6 +47,7 @@ from ballbot_casadi.core.params import Params
 from ballbot_casadi.core.specs import run_failure
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.guided import run_path_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
 from ballbot_casadi.sim.scenario.file import MAX_PERIODS
@@ -282,8 +283,13 @@ def run_file(
     sc = source.scenario
     if params is not None:
         sc = rebase_on_params(sc, params)
-    sim = ClosedLoop() if sim is None else sim
-    log = run_scenario(sc, sim, log_every=log_every)
+    if sc.path:  # the guidance block in the period: its own compiled mission
+        if log_every != 1:
+            raise ScenarioError("a scenario with a [path] keeps every period (log_every 1)")
+        log = run_path_scenario(sc)
+    else:
+        sim = ClosedLoop() if sim is None else sim
+        log = run_scenario(sc, sim, log_every=log_every)
     metrics = run_metrics(log)
     if any(sig.get("type") == "chirp" for sig in sc.attitude.values()):
         cm = chirp_metrics(log)

@@ -421,6 +421,9 @@ def run_scenario(scenario: Any, sim: ClosedLoop | None = None, log_every: int = 
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"run_scenario needs a Scenario, got {type(scenario).__name__}")
+    if scenario.path:
+        raise ScenarioError(f"scenario {scenario.name!r} follows a [path]: run it with "
+                            "ballbot_casadi.sim.guided.run_path_scenario", key="path")
     for name, v in (("log_every", log_every), ("segment_periods", segment_periods)):
         if v is not None and (not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1):
             raise ScenarioError(f"{name} must be an int >= 1, got {v!r}")

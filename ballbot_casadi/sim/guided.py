@@ -29,7 +29,7 @@ import numpy as np
 
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import Layout
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import BuildError, ScenarioError, SolverError
 from ballbot_casadi.guidance.blocks import (
     make_mpc_sample,
     make_pursuit_sample,
@@ -46,11 +46,14 @@ from ballbot_casadi.guidance.prediction import NXL
 from ballbot_casadi.model.dynamics import NP, make_ode, make_wheel_speeds
 from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs
 from ballbot_casadi.sim.embedded import software_blocks
+from ballbot_casadi.sim.log import SimulationLog
 from ballbot_casadi.sim.path_following import make_loop_state, path_scenario, velocity_loop_model
+from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
 
 __all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "mpc_law", "pursuit_law",
-           "guided_simulator", "run_guided", "predictions", "GUIDANCE_EVERY"]
+           "guided_simulator", "run_guided", "run_path_scenario", "scenario_law", "predictions",
+           "GUIDANCE_EVERY"]
 
 #: The guidance laws of the slot.
 GUIDANCE_LAWS = ("mpc", "pursuit")
@@ -187,21 +190,56 @@ def guided_simulator(law: GuidanceLaw, estimator: str = "true") -> ClosedLoop:
 
 
 def run_guided(path: Path, law: GuidanceLaw, duration: float, estimator: str = "true",
-               seed: int = 0, sim: ClosedLoop | None = None) -> dict[str, np.ndarray]:
-    """Follow ``path`` for ``duration`` s in one compiled mission (standing at its start).
+               seed: int = 0, sim: ClosedLoop | None = None,
+               scenario: Scenario | None = None) -> dict[str, np.ndarray]:
+    """Follow ``path`` for ``duration`` s in one compiled mission (standing at its start,
+    or as ``scenario`` says: its initial state, disturbances, estimator, seed, ...).
 
     Returns the log of :meth:`ClosedLoop.simulate` (``state``, ``v_ref_used``, ``guide``,
     with an estimator ``x_hat``, ...).
+
+    Raises
+    ------
+    SolverError
+        The guidance's QP failed in the generated C (the mission stops there).
     """
-    sc = path_scenario(path, duration)
-    if estimator != "true":
+    sc = path_scenario(path, duration) if scenario is None else scenario
+    if scenario is None and estimator != "true":
         sc = sc.replace(estimator=estimator, seed=seed)
+    if sc.controller != "flc" or not sc.cascade:
+        raise ScenarioError("path following runs the FLC cascade (controller 'flc', cascade = "
+                            f"true), got controller {sc.controller!r}, cascade = {sc.cascade}")
     inp = sc.inputs()
-    if estimator != "true":
-        inp = power_on_inputs(estimator, inp)
-    sim = guided_simulator(law, estimator) if sim is None else sim
+    if sc.estimator != "true":
+        inp = power_on_inputs(sc.estimator, inp)
+    sim = guided_simulator(law, sc.estimator) if sim is None else sim
     g0 = law.initial_state(path, inp["x0"], inp["z0"])
-    return sim.simulate("flc", **inp, k_guid=law.parameters(path), g0=g0)
+    try:
+        return sim.simulate("flc", **inp, n_sub=sc.n_sub, k_guid=law.parameters(path), g0=g0)
+    except BuildError as exc:
+        raise SolverError(f"path following stopped: a {law.name} guidance sample failed in "
+                          f"the generated C (a QP that did not converge): {exc}") from None
+
+
+def scenario_law(scenario: Scenario) -> GuidanceLaw:
+    """The guidance law a scenario with a path asks for (its own controller model)."""
+    if scenario.guidance == "pursuit":
+        return pursuit_law()
+    inp = scenario.inputs(periods=(0, 1))
+    return mpc_law(inp["p_ctrl"], inp["k_vel"])
+
+
+def run_path_scenario(scenario: Scenario, sim: ClosedLoop | None = None) -> SimulationLog:
+    """Run a scenario with a ``[path]`` (:mod:`~ballbot_casadi.sim.scenario.path_section`)
+    as a :class:`~ballbot_casadi.sim.log.SimulationLog` (arrays of :func:`run_guided`)."""
+    path = scenario.route.build()
+    if path is None:
+        raise ScenarioError(f"scenario {scenario.name!r} has no [path] to follow", key="path")
+    log = run_guided(path, scenario_law(scenario), scenario.duration, sim=sim, scenario=scenario)
+    log.pop("xz_final", None)
+    return SimulationLog(arrays=log, scenario=scenario.to_dict(), params=scenario.plant_params(),
+                         ctrl_params=scenario.controller_params(),
+                         diag_names=scenario.diag_names(), extra={})
 
 
 def predictions(law: GuidanceLaw, log: dict[str, np.ndarray], every: int = GUIDANCE_EVERY

@@ -50,6 +50,7 @@ from ballbot_casadi.sim.embedded import (
     VALID,
     initial_estimator_state,
 )
+from ballbot_casadi.sim.scenario.path_section import PathSection
 from ballbot_casadi.sim.scenario.sections import (
     CONTROLLER_CHANGES,
     ESTIMATOR_CHANGES,
@@ -93,7 +94,8 @@ SCENARIO_FIELDS = (
     "name", "controller", "duration", "x0", "cascade", "attitude", "velocity_keyframes", "pushes",
     "torque_disturbances", "plant_changes", "ctrl_changes", "k_bal", "k_vel", "Ts", "n_sub",
     "feedforward", "torque_limit", "estimator", "seed", "noise", "sensor_changes", "est_changes", "estimator_tuning",
-    "sensor_dropouts", "com_observer", "k_obs", "study", "description",
+    "sensor_dropouts", "com_observer", "k_obs", "study", "description", "path", "obstacles",
+    "guidance",
 )
 #: Attribute -> the section holding it.
 #: Position of the torque limit in the parameter vector.
@@ -202,6 +204,7 @@ class Scenario:
     estimation: EstimationSection
     observer: ObserverSection
     gains: GainsSection
+    route: PathSection
 
     def __init__(self, *args: Any, **fields: Any) -> None:
         if len(args) > len(SCENARIO_FIELDS):

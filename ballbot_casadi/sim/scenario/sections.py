@@ -46,6 +46,7 @@ from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES
 from ballbot_casadi.sim.ports import GAIN_CONSTANTS
 from ballbot_casadi.sim.scenario.changes import ParamChanges
 from ballbot_casadi.sim.scenario.checker import FileChecker
+from ballbot_casadi.sim.scenario.path_section import PathSection
 from ballbot_casadi.sim.scenario.signals import (
     attitude_reference,
     check_attitude,
@@ -623,6 +624,7 @@ SCENARIO_SECTIONS: tuple[tuple[str, type], ...] = (
     ("run", RunSection), ("initial", InitialSection), ("references", ReferencesSection),
     ("disturbances", DisturbancesSection), ("models", ModelSection), ("sensors", SensorsSection),
     ("estimation", EstimationSection), ("observer", ObserverSection), ("gains", GainsSection),
+    ("route", PathSection),
 )
 
 
