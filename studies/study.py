@@ -215,7 +215,7 @@ def run_study(
     if params is not None:
         scenarios = tuple(rebase_on_params(s, params) for s in scenarios)
     sim = ClosedLoop() if sim is None else sim
-    logs = [run_scenario(s, sim) for s in scenarios]
+    logs = [run_path_scenario(s) if s.path else run_scenario(s, sim) for s in scenarios]
     metrics = study.compute_metrics(logs)
     spec = study.check(metrics)
     result = _result("study", name, controller, metrics, spec, logs, [s.description for s in scenarios])
