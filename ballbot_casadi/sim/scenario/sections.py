@@ -86,7 +86,8 @@ SENSOR_CHANGES = ParamChanges("sensors", sensors=True)
 _INITIAL = ("roll_deg", "pitch_deg", "yaw_deg", "x_m", "y_m", "vx_mps", "vy_mps", "on_reference")
 _SPEC_KEYS = ("metric", "op", "threshold", "source", "thesis")
 #: Initial-state quantities a Monte Carlo dispersion may target (besides ``plant.<name>``).
-DISPERSION_TARGETS = ("initial.roll_deg", "initial.pitch_deg", "initial.yaw_deg")
+DISPERSION_TARGETS = ("initial.roll_deg", "initial.pitch_deg", "initial.yaw_deg", "initial.x_m",
+                      "initial.y_m", "path.waypoint_y_m", "obstacle.x_m", "obstacle.y_m")
 _DISTS = ("normal", "uniform")
 
 
