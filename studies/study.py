@@ -45,7 +45,7 @@ from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
 from ballbot_casadi.core.specs import run_failure
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import ScenarioError, SolverError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.guided import run_path_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
@@ -335,11 +335,18 @@ def run_all(out: Path | None = None, plot: bool = True) -> dict[str, Any]:
     out = Path(out) if out is not None else DEFAULT_OUT
     sim = ClosedLoop()
     table: dict[str, Any] = {}
+    stopped: dict[str, str] = {}
     for name in STUDY_NAMES:
-        table[name] = {c: run_study(name, c, out / name / c, sim, plot) for c in get_study(name).controllers}
+        try:
+            table[name] = {c: run_study(name, c, out / name / c, sim, plot)
+                           for c in get_study(name).controllers}
+        except SolverError as exc:  # a generated solver inside a run did not converge
+            stopped[name] = str(exc)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").write_text(json.dumps(table, indent=2) + "\n")
+    (out / "summary.json").write_text(json.dumps({**table, **({"stopped": stopped} if stopped else {})},
+                                                 indent=2) + "\n")
     md = ["| study | metric | spec | thesis | flc | smc |", "| --- | --- | --- | --- | --- | --- |"]
+    md += [f"| {name} | run stopped: {why} | | | ✗ | |" for name, why in stopped.items()]
     for name, res in table.items():
         for i, row in enumerate(res["flc"]["spec"]):
             cells = []
