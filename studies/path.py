@@ -2,13 +2,13 @@
 
 Runs (the guidance block in the control period, :mod:`ballbot_casadi.sim.guided`): the
 Monte Carlo base course (``path_mc``, undispersed; ``ballbot montecarlo path_mc`` draws
-random courses from it), the figure-eight 4 m x 2 m at 0.5 m/s with the true state and with noise + QUKF/VUKF, and an
-obstacle course (a 6 m line past three obstacles), each with pure pursuit and with the
-MPC.  Metrics per run (:mod:`ballbot_casadi.analysis.path_metrics`) are named
-``<law>_<course>[_ukf]_<metric>``; the specs: lateral RMS <= 2 cm (true state),
-<= 5 cm (noise + UKFs), clearance >= 0.10 m and completion on the obstacle course (the
-MPC's; the baseline's are reported beside).  The report sets the peers' published
-figures beside ours.
+random courses from it), the figure-eight 4 m x 2 m at 0.5 m/s with the true state and
+with noise + QUKF/VUKF, and an obstacle course (a 6 m line past three obstacles), each
+with pure pursuit and with the MPC.  Metrics per run
+(:mod:`ballbot_casadi.analysis.path_metrics`) are named ``<course>_<law>[_ukf]_<metric>``;
+the specs: lateral RMS <= 2 cm (true state), <= 5 cm (noise + UKFs), clearance
+>= 0.10 m and completion on the obstacle course (the MPC's; the baseline's are reported
+beside).  The report sets the peers' published figures beside ours.
 """
 
 from __future__ import annotations

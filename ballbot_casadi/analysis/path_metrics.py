@@ -64,11 +64,12 @@ def path_metrics(log: Any) -> dict[str, Any]:
     clear = path.clearance(x[:, STATE_XY])
     progress = s[-1] - s[0]
     target = path.length if not path.closed else min(path.length, path.speed * ts[-1])
+    end = np.inf if path.closed else path.length
     return {
         "path_lateral_rms_m": float(np.sqrt(np.mean(lat ** 2))),
         "path_lateral_rms_settled_m": float(np.sqrt(np.mean(settled ** 2))) if settled.size else math.nan,
         "path_lateral_max_m": float(np.max(lat)),
-        "path_longitudinal_lag_max_m": float(np.max(np.minimum(path.speed * ts, path.length if not path.closed else np.inf) - (s - s[0]))),
+        "path_longitudinal_lag_max_m": float(np.max(np.minimum(path.speed * ts, end) - (s - s[0]))),
         "path_min_clearance_m": float(np.min(clear)),
         "path_collision": float(np.min(clear) <= 0.0),
         "path_completed": float(progress >= target - 0.1),

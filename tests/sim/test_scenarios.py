@@ -79,7 +79,8 @@ def test_dict_round_trip_and_json():
 
 
 def test_study_scenarios_definitions():
-    assert STUDY_NAMES == ("zero", "sine", "sine_asym", "robustness", "com", "lag", "push", "velocity",
+    assert STUDY_NAMES == ("zero", "sine", "sine_asym", "robustness", "com", "lag", "push", "path",
+                           "velocity",
                            "chirp", "estimators", "full", "full_cascade", "thesis_tuning", "yaw_seeds")
     with pytest.raises(ScenarioError, match="allowed: zero"):
         study_scenarios("nosuchstudy")
