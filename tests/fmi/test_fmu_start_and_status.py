@@ -94,6 +94,14 @@ def test_the_step_tolerance_scales_with_the_period():
         assert fmu.raw_step(h) == FMI2_OK, (Ts, h)
         assert fmu.fmu.getInteger(fmu.vr("period")) == [2]
         fmu.free()
+    # the tolerance itself: tight enough that 10 ns off a 5 ms period is refused, loose
+    # enough for a clock summed in doubles (0.1 ns off: 2e-8 Ts)
+    assert 1e-12 <= STEP_TOL <= 1e-6
+    fmu = Controller(name="abs")
+    fmu.init()
+    assert fmu.raw_step(TS + 1e-8) == FMI2_ERROR
+    assert fmu.raw_step(TS + 1e-10) == FMI2_OK
+    fmu.free()
 
 
 def _status(p, kind: int, fname: str = "fmi2GetStatus", ctype=c_int):
