@@ -44,14 +44,14 @@ def make_admm(n: int, A_c: np.ndarray, G: np.ndarray, N_sp: ca.Sparsity, penalty
     qm, lm, hm = ca.MX.sym("q", n), ca.MX.sym("l", m), ca.MX.sym("u", m)
     nm = ca.MX.sym("nobs", N_sp.nnz())
     u0, z0, y0 = ca.MX.sym("u0", n), ca.MX.sym("z0", m), ca.MX.sym("y0", m)
-    out = admm_graph(n, A_c, G, N_sp, penalty, rho, sigma, alpha, iterations,
+    out = admm_graph(n, (np.eye(m - N_sp.size1()), A_c), G, N_sp, penalty, rho, sigma, alpha, iterations,
                      Pm, qm, lm, hm, nm, u0, z0, y0)
     return ca.Function("ballbot_mpc_admm", [Pm, qm, lm, hm, nm, u0, z0, y0], list(out),
                        ["P", "q", "l", "h", "nobs", "u0", "z0", "y0"],
                        ["u_opt", "z", "y", "r_prim"])
 
 
-def admm_graph(n: int, A_c: np.ndarray, G: np.ndarray, N_sp: ca.Sparsity, penalty: np.ndarray,
+def admm_graph(n: int, A_c: tuple[np.ndarray, np.ndarray], G: np.ndarray, N_sp: ca.Sparsity, penalty: np.ndarray,
                rho: float, sigma: float, alpha: float, iterations: int, Pm: ca.MX, qm: ca.MX,
                lm: ca.MX, hm: ca.MX, nm: ca.MX, u0: ca.MX, z0: ca.MX, y0: ca.MX
                ) -> tuple[ca.MX, ca.MX, ca.MX, ca.MX]:
@@ -63,7 +63,8 @@ def admm_graph(n: int, A_c: np.ndarray, G: np.ndarray, N_sp: ca.Sparsity, penalt
     n
         Unknowns.
     A_c
-        Constant rows (m_c, n).
+        Constant rows as a product ``(D, Y)``, ``A_c = D Y`` (m_c x k, k x n): a thin ``Y``
+        and a sparse ``D`` take fewer operations than their product.
     G
         Constant map to the quantities the parametric rows act on (m_g, n).
     N_sp
@@ -75,14 +76,15 @@ def admm_graph(n: int, A_c: np.ndarray, G: np.ndarray, N_sp: ca.Sparsity, penalt
     iterations
         Fixed number of ADMM iterations.
     """
-    A_c, G = np.asarray(A_c, float), np.asarray(G, float)
+    Dn, Yn = (np.asarray(M, float) for M in A_c)
+    A_c, G = Dn @ Yn, np.asarray(G, float)
     m_c, m_o = A_c.shape[0], N_sp.size1()
     m = m_c + m_o
     penalty = np.asarray(penalty, float).reshape(-1)
     if A_c.shape[1] != n or G.shape[1] != n or N_sp.size2() != G.shape[0] or penalty.size != m:
         raise ShapeError(f"ADMM: A_c {A_c.shape}, G {G.shape}, N {N_sp.shape}, penalty "
                          f"{penalty.shape} do not fit n = {n}")
-    Ac = ca.sparsify(ca.DM(A_c))
+    Dd, Yd = ca.sparsify(ca.DM(Dn)), ca.sparsify(ca.DM(Yn))
     Gd = ca.sparsify(ca.DM(G))
     cr = ca.DM(np.where(np.isfinite(penalty), penalty / rho, _HARD))
 
@@ -95,14 +97,15 @@ def admm_graph(n: int, A_c: np.ndarray, G: np.ndarray, N_sp: ca.Sparsity, penalt
     Kinv = ca.SX.sym("Kinv", ca.Sparsity.dense(n, n))
 
     def A_mul(v: ca.SX) -> ca.SX:
-        return ca.vertcat(ca.mtimes(Ac, v), ca.mtimes(Nm, ca.mtimes(Gd, v)))
+        return ca.vertcat(ca.mtimes(Dd, ca.mtimes(Yd, v)), ca.mtimes(Nm, ca.mtimes(Gd, v)))
 
     def At_mul(w: ca.SX) -> ca.SX:
-        return ca.mtimes(Ac.T, w[:m_c]) + ca.mtimes(Gd.T, ca.mtimes(Nm.T, w[m_c:]))
+        return (ca.mtimes(Yd.T, ca.mtimes(Dd.T, w[:m_c]))
+                + ca.mtimes(Gd.T, ca.mtimes(Nm.T, w[m_c:])))
 
     # factorisation, once per call
     NG = ca.mtimes(Nm, Gd)
-    K = P + sigma * ca.SX.eye(n) + rho * (ca.DM(ca.mtimes(Ac.T, Ac)) + ca.mtimes(NG.T, NG))
+    K = P + sigma * ca.SX.eye(n) + rho * (ca.DM(A_c.T @ A_c) + ca.mtimes(NG.T, NG))
     K = ca.densify(0.5 * (K + K.T))
     kkt = ca.Function("ballbot_mpc_admm_kkt", [P, nobs], [K], ["P", "nobs"], ["K"])
 
