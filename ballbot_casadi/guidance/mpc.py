@@ -34,13 +34,18 @@ penalty ``soft_penalty`` (no slack variables, see :mod:`ballbot_casadi.guidance.
 ``ds >= 0`` (progress never decreases) and ``s <= s_max`` (end of an open path) are hard.
 Circular obstacles: soft half-planes ``n_jk . p_k >= b_jk`` parallel to the path where
 the guessed position is beside the inflated circle (radius + ``clearance``), on the side
-of the path away from the centre (:meth:`PathMPC.parameters`); the lateral-error weight is relaxed near an obstacle
-(``obstacle_relax``) so the cost does not pull the robot back into it.
+of the path away from the centre (:meth:`PathMPC.parameters`); the lateral-error weight
+is relaxed near an obstacle (``obstacle_relax``) so the cost does not pull the robot
+back into it.
 
 Solver: ``admm`` (default), a fixed-iteration ADMM written as CasADi expressions and
-generated into the same C function (deterministic operation count, static workspace,
-no malloc, self-contained C99).  Any CasADi ``conic`` plugin (``qrqp``, ``osqp``, ...)
-solves the same condensed QP with one slack per soft row instead, for reference.
+generated into the same C function (:mod:`ballbot_casadi.guidance.qp_admm`:
+deterministic operation count, static workspace, no malloc, self-contained C99).  Why
+not ``qrqp``: its KKT system carries every row, and the condensed rows are dense, so
+each active-set iteration refactorises a large matrix; ``hpipm``/``daqp`` generate code
+that links their shared libraries (host only, not embeddable).  Any CasADi ``conic``
+plugin (``qrqp``, ``osqp``, ...) solves the same condensed QP with one slack per soft
+row instead (``solver``), as the independent reference of the tests.
 
 Real-time iteration: one QP per sample, warm-started with the previous solution
 shifted by one step (primal ``u`` and the ADMM's ``z, y``), whose predicted progress
