@@ -420,6 +420,9 @@ class PathMPC:
         self.failures = 0
         #: wall-clock seconds of each call of ``function`` (the QP solve; for benchmarks)
         self.solve_s: list[float] = []
+        #: CPU seconds of the calling thread in each call (excludes preemption by other
+        #: processes on a loaded machine; for benchmarks)
+        self.solve_cpu_s: list[float] = []
         #: primal residual of each solve
         self.residuals: list[float] = []
         # warm start of the multipliers: new node i takes the old node nearest to k_i + 1
@@ -503,9 +506,10 @@ class PathMPC:
         for _ in range(5 if first else 1):
             p = self.parameters(x0, guess)
             z0 = self.rows(guess, p)
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.thread_time()
             out = self.function(x0, p, guess, z0, y0)
             self.solve_s.append(time.perf_counter() - t0)
+            self.solve_cpu_s.append(time.thread_time() - c0)
             u = np.asarray(out[1], float).reshape(-1)
             ok = bool(np.all(np.isfinite(u)))
             if ok:
