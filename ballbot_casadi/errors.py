@@ -30,6 +30,8 @@ __all__ = [
     "BallbotTypeError",
     "BuildError",
     "CosimError",
+    "SolverError",
+    "SolverError",
     "ClusterError",
     "PathError",
     "FileFormatError",
@@ -93,6 +95,12 @@ class BallbotTypeError(BallbotError, TypeError):
 
 class BuildError(BallbotError, RuntimeError):
     """Generating, compiling or loading C code failed (the toolchain, not the user)."""
+
+    exit_code = EXIT_INTERNAL_ERROR
+
+
+class SolverError(BallbotError, RuntimeError):
+    """A generated solver inside a run did not converge (e.g. the guidance's QP)."""
 
     exit_code = EXIT_INTERNAL_ERROR
 

@@ -22,6 +22,7 @@ from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.core.specs import run_failure, spec_ok, specs_or_default
 from ballbot_casadi.errors import BallbotError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.guided import run_path_scenario
 from ballbot_casadi.sim.scenario import ScenarioFile, parse_scenario
 from ballbot_casadi.studies.dask_cluster import wait_all
 
@@ -45,7 +46,7 @@ def evaluate_run(table: Mapping[str, Any], specs: Sequence[Mapping[str, Any]],
         sim = _worker_sim()
     try:
         sc = parse_scenario(table, f"run {table.get('name')}").scenario
-        log = run_scenario(sc, sim)
+        log = run_path_scenario(sc) if sc.path else run_scenario(sc, sim)
     except BallbotError as exc:
         return {"ok": False, "spec_ok": [False] * len(specs), "metrics": {}, "error": str(exc),
                 "failure": None}

@@ -27,6 +27,7 @@ never decide pass/fail.
 ``full_cascade``   the complete system's sine through the velocity controller (§9.3.1)
 ``thesis_tuning``  the complete system with the thesis's QUKF tuning (1e-5): failure, diagnosis
 ``yaw_seeds``      mean yaw error of the velocity profile over noise seeds (§9.3.2)
+``path``           path following: figure-eight and obstacle course, MPC beside pure pursuit
 ================== ==========================================================================
 """
 
@@ -59,6 +60,7 @@ from ballbot_casadi.studies import chirp as CH
 from ballbot_casadi.studies import com as COM
 from ballbot_casadi.studies import estimators as E
 from ballbot_casadi.studies import lag as LAG
+from ballbot_casadi.studies import path as PATH
 from ballbot_casadi.studies import predecessor as PRE
 from ballbot_casadi.studies import robustness as ROB
 from ballbot_casadi.studies import velocity as VEL
@@ -346,6 +348,17 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                       "< 1 s")),
           report=LAG.lag_report_lines, controllers=("flc",)),
     Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", ("push",)),
+    Study("path", "path following: figure-eight 4 m x 2 m at 0.5 m/s (true state, noise + UKFs) "
+          "and an obstacle course, MPC beside pure pursuit (issue 18)",
+          ("path_mc", "path_fig8_pursuit", "path_fig8_pursuit_ukf", "path_obstacles_pursuit",
+           "path_fig8_mpc_ukf", "path_obstacles_mpc", "path_fig8_mpc"),
+          PATH.path_study_metrics,
+          (Spec("fig8_mpc_ukf_path_lateral_rms_settled_m", "<=", 0.05,
+                "lateral error RMS (true position) <= 5 cm with noise and the UKFs (issue 18)", ""),
+           Spec("obstacles_mpc_path_min_clearance_m", ">=", 0.10,
+                "minimum clearance >= 0.10 m on the obstacle course (issue 18)", ""),
+           Spec("obstacles_mpc_path_completed", "==", 1.0, "the obstacle course is completed", "")),
+          plot=PATH.path_plots, report=PATH.path_report_lines, controllers=("flc",)),
     Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2), also at the thesis's 1 m/s² "
           "acceleration limit (§7.1)", ("velocity",), VEL.velocity_study_metrics, expand=VEL.accel_limit_expand),
     Study("chirp", "roll chirp 3 deg, 0.05 -> 5 Hz over 100 s: bandwidth, saturation, fall "

@@ -45,8 +45,9 @@ from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
 from ballbot_casadi.core.specs import run_failure
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import ScenarioError, SolverError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.guided import run_path_scenario
 from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
 from ballbot_casadi.sim.scenario.file import MAX_PERIODS
@@ -214,7 +215,7 @@ def run_study(
     if params is not None:
         scenarios = tuple(rebase_on_params(s, params) for s in scenarios)
     sim = ClosedLoop() if sim is None else sim
-    logs = [run_scenario(s, sim) for s in scenarios]
+    logs = [run_path_scenario(s) if s.path else run_scenario(s, sim) for s in scenarios]
     metrics = study.compute_metrics(logs)
     spec = study.check(metrics)
     result = _result("study", name, controller, metrics, spec, logs, [s.description for s in scenarios])
@@ -282,8 +283,13 @@ def run_file(
     sc = source.scenario
     if params is not None:
         sc = rebase_on_params(sc, params)
-    sim = ClosedLoop() if sim is None else sim
-    log = run_scenario(sc, sim, log_every=log_every)
+    if sc.path:  # the guidance block in the period: its own compiled mission
+        if log_every != 1:
+            raise ScenarioError("a scenario with a [path] keeps every period (log_every 1)")
+        log = run_path_scenario(sc)
+    else:
+        sim = ClosedLoop() if sim is None else sim
+        log = run_scenario(sc, sim, log_every=log_every)
     metrics = run_metrics(log)
     if any(sig.get("type") == "chirp" for sig in sc.attitude.values()):
         cm = chirp_metrics(log)
@@ -329,11 +335,18 @@ def run_all(out: Path | None = None, plot: bool = True) -> dict[str, Any]:
     out = Path(out) if out is not None else DEFAULT_OUT
     sim = ClosedLoop()
     table: dict[str, Any] = {}
+    stopped: dict[str, str] = {}
     for name in STUDY_NAMES:
-        table[name] = {c: run_study(name, c, out / name / c, sim, plot) for c in get_study(name).controllers}
+        try:
+            table[name] = {c: run_study(name, c, out / name / c, sim, plot)
+                           for c in get_study(name).controllers}
+        except SolverError as exc:  # a generated solver inside a run did not converge
+            stopped[name] = str(exc)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").write_text(json.dumps(table, indent=2) + "\n")
+    (out / "summary.json").write_text(json.dumps({**table, **({"stopped": stopped} if stopped else {})},
+                                                 indent=2) + "\n")
     md = ["| study | metric | spec | thesis | flc | smc |", "| --- | --- | --- | --- | --- | --- |"]
+    md += [f"| {name} | run stopped: {why} | | | ✗ | |" for name, why in stopped.items()]
     for name, res in table.items():
         for i, row in enumerate(res["flc"]["spec"]):
             cells = []

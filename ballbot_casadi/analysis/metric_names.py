@@ -42,6 +42,8 @@ standstill_start_s steady_state_error_deg tau_max_nm tilt_error_max_deg tilt_err
 torque_saturated_fraction torque_total_variation torque_tv_ratio velocity_error_max_delayed_mps
 velocity_error_max_mps velocity_error_rms_delayed_mps velocity_error_rms_mps velocity_lag_s
 yaw_error_max_deg yaw_rate_error_max_rps
+path_lateral_rms_m path_lateral_rms_settled_m path_lateral_max_m path_longitudinal_lag_max_m
+path_min_clearance_m path_collision path_completed path_progress_fraction
 """.split())
 
 

@@ -22,6 +22,7 @@ import numpy as np
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.analysis.com_observer import com_observer_metrics
 from ballbot_casadi.analysis.estimates import estimation_metrics, tracking_metrics
+from ballbot_casadi.analysis.path_metrics import path_metrics
 from ballbot_casadi.core import quaternion as Q
 
 __all__ = [
@@ -452,7 +453,8 @@ def run_metrics(log: Any) -> dict[str, Any]:
     run gets the tilt/heading tracking errors and, with estimators in the loop, the
     estimation errors (:mod:`ballbot_casadi.analysis.estimates`); a run with the COM
     observer on, its estimate and position-hold metrics
-    (:mod:`ballbot_casadi.analysis.com_observer`).
+    (:mod:`ballbot_casadi.analysis.com_observer`); a run that follows a path, its
+    path-following metrics (:mod:`ballbot_casadi.analysis.path_metrics`).
     ``log`` is a :class:`~ballbot_casadi.sim.log.SimulationLog` (its scenario and plant
     parameters are used).  Chirp runs get their bandwidth metrics from
     :func:`ballbot_casadi.analysis.bandwidth.chirp_metrics`.
@@ -478,4 +480,6 @@ def run_metrics(log: Any) -> dict[str, Any]:
             out.update(estimation_metrics(log))
         if sc.get("com_observer") and "com_hat" in log.arrays and finite:
             out.update(com_observer_metrics(log))
+        if sc.get("path"):
+            out.update(path_metrics(log))
     return out

@@ -1,49 +1,55 @@
-"""Path-following MPC above the velocity LQR: real-time iteration, one QP per sample.
+"""Path-following MPC above the velocity LQR: real-time iteration, one condensed QP per sample.
 
-``ballbot_mpc(x0, p, w0, lam_x0, lam_a0) -> (v_ref, w, lam_x, lam_a, cost)``
+``ballbot_mpc(x0, p, u0, z0, y0) -> (v_ref, u, z, y, r_prim)``
 
 Decision
 --------
 The MPC gives *velocity references* ``v_ref = (vx, vy)`` (heading rate 0) to the
 existing velocity LQR (:mod:`ballbot_casadi.control.velocity`), and predicts with the
 linear model of that closed loop (:mod:`ballbot_casadi.guidance.prediction`): the loop's
-tilt, tilt rate and tilt-reference acceleration are states/outputs of the model, so the
-§7.1 limits are linear constraints, and the balance and velocity loops below stay exactly
-as validated.
+tilt, tilt rate and accelerations are outputs of the model, so the §7.1 limits are
+linear rows, and the balance and velocity loops below stay exactly as validated.
 
-Problem (multiple shooting, ``N`` steps of ``dt``; default N = 20, dt = 0.1 s: 2 s)
--------------------------------------------------------------------------------
-State ``x = [loop state (14), s, ds]`` with the progress ``s`` along the path, input
-``u = [v_ref (2), dds]``; ``s`` is a double integrator of ``dds``, ``ds >= 0`` (progress
-never decreases) and ``s <= s_max`` (end of an open path).  Least squares on
+Problem (``N`` steps of ``dt``; default N = 20, dt = 0.1 s: a 2 s horizon)
+---------------------------------------------------------------------------
+State ``[loop state (14), s, ds]`` with the progress ``s`` along the path, input
+``[v_ref (2), dds]`` per step, held over the move blocks ``blocks``.  The model is LTI,
+so the states are eliminated (:mod:`ballbot_casadi.guidance.condensed`): the unknowns are
+the ``3 * len(blocks)`` blocked inputs only.  Least squares on
 
 * lateral and longitudinal errors ``e = p - P(s)`` in the path frame, with the path
   linearised at the guessed progress ``s_k`` (the path window of parameters:
   ``P(s) ~ P_k + T_k (s - s_k)``, i.e. one Gauss-Newton step of the nonlinear problem);
-* the progress-speed error ``ds - v_s(s_k)`` (so the robot slows where the limits need it,
-  instead of cutting the corner), ``dds`` and the change of ``v_ref``;
-* a quadratic penalty (``slack_l2``) on the free slacks of the soft rows.
+* the progress-speed error ``ds - v_s(s_k)`` (so the robot slows where the limits need
+  it, instead of cutting the corner), ``dds`` and the change of ``v_ref``.
 
-Constraints at every node (inner polygons of the norm balls, so each norm bound holds):
-inclination ``|theta| <= tilt_max``, inclination rate ``<= tilt_rate_max`` (thesis §7.1;
-the acceleration ``a_max`` is *not* a row: as an octagon or a square its rows made qrqp
-cycle, nearly dependent on the tilt and tilt-acceleration rows), tilt-reference
-acceleration ``|a| <= tilt_acc_max`` per axis (the
-torque budget of the balance loop, the velocity LQR's limit), all scaled by
-``margin``; a soft speed limit ``|v| <= v_max`` and soft circular obstacle constraints
-``n_jk . (p_k - c_j) >= r_j + clearance`` linearised at the guessed positions (normals
-``n_jk`` are parameters), with slacks.  The heading rate reference is 0 (within its limit).
+Rows at the constraint nodes ``nodes`` (inner octagons of the norm balls, so each norm
+bound holds; each row normalised by its bound and scaled by ``margin``, the acceleration
+by ``acc_margin``: it is sampled at the steps' starts and peaks between them): inclination
+``|theta| <= tilt_max``, inclination rate, speed ``|v| <= v_max`` at node k; the ball
+acceleration ``|a| <= a_max`` (thesis §7.1) and the tilt-reference acceleration
+``|a_r| <= tilt_acc_max`` per axis (the torque budget of the balance loop, standing in
+for the torque limit) at the start of step k - 1.  All are soft with an exact L1
+penalty ``soft_penalty`` (no slack variables, see :mod:`ballbot_casadi.guidance.qp_admm`);
+``ds >= 0`` (progress never decreases) and ``s <= s_max`` (end of an open path) are hard.
+Circular obstacles: soft half-planes ``n_jk . p_k >= b_jk`` parallel to the path where
+the guessed position is beside the inflated circle (radius + ``clearance``), on the side
+of the path away from the centre (:meth:`PathMPC.parameters`); the lateral-error weight
+is relaxed near an obstacle (``obstacle_relax``) so the cost does not pull the robot
+back into it.
 
-Real-time iteration: the QP is solved once per sample, warm-started with the previous
-solution shifted by one step (primal and dual, :meth:`PathMPC.shift`), whose predicted
-progress and positions also give the path window and the obstacle normals.
+Solver: ``admm`` (default), a fixed-iteration ADMM written as CasADi expressions and
+generated into the same C function (:mod:`ballbot_casadi.guidance.qp_admm`:
+deterministic operation count, static workspace, no malloc, self-contained C99).  Why
+not ``qrqp``: its KKT system carries every row, and the condensed rows are dense, so
+each active-set iteration refactorises a large matrix; ``hpipm``/``daqp`` generate code
+that links their shared libraries (host only, not embeddable).  Any CasADi ``conic``
+plugin (``qrqp``, ``osqp``, ...) solves the same condensed QP with one slack per soft
+row instead (``solver``), as the independent reference of the tests.
 
-A sample whose QP does not converge within ``max_iter`` (the generated solver then
-returns an error) keeps the shifted previous plan, with cold duals
-(:attr:`PathMPC.failures` counts them).
-
-QP solver: ``qrqp`` (CasADi's sparse active-set QP, code-generated into plain C with a
-static work vector; no malloc in the solve).
+Real-time iteration: one QP per sample, warm-started with the previous solution
+shifted by one step (primal ``u`` and the ADMM's ``z, y``), whose predicted progress
+and positions also give the path window and the obstacle normals.
 """
 
 from __future__ import annotations
@@ -59,22 +65,24 @@ import numpy as np
 from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.toolchain import Library, build_library, load_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
+from ballbot_casadi.guidance.condensed import NU_MPC, NX_MPC, Condensed, condense
 from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL, LoopModel
+from ballbot_casadi.guidance.qp_admm import admm_graph
 
 __all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "mpc_library", "workspace_bytes",
            "NX_MPC", "NU_MPC", "polygon"]
 
-#: MPC state: loop model (14), progress s and its rate.
-NX_MPC = NXL + 2
-#: MPC input: velocity reference (2), progress acceleration.
-NU_MPC = 3
-_NS_LIMITS = 14  # soft rows per node: tilt acc 2, tilt/tilt rate/speed octagons 4 each
+#: Rows per node k = 1..N: speed octagon (4, soft), ds >= 0 and s <= s_max (hard).
+_N_STEP_ROWS = 6
+#: Soft rows per constraint node: tilt, tilt rate, acceleration octagons (4 each) and
+#: the tilt-reference acceleration per axis (2).
+_N_NODE_ROWS = 14
 
 
 @dataclass(frozen=True)
 class MpcConfig:
-    """Horizon, weights and limits of the MPC (defaults: N = 20, dt = 0.1 s, thesis §7.1)."""
+    """Horizon, weights, limits and solver of the MPC (defaults: N = 20, dt = 0.1 s, §7.1)."""
 
     N: int = 20
     dt: float = 0.1
@@ -85,13 +93,21 @@ class MpcConfig:
     w_dds: float = 1.0
     w_dv: float = 20.0
     w_terminal: float = 2.0
-    slack_l2: float = 1e5
     clearance: float = 0.15
     margin: float = 0.9
+    acc_margin: float = 0.8
     tilt_acc_max: float = 2.0
     limits: dict = field(default_factory=lambda: dict(THESIS_LIMITS))
-    warm_dual: bool = False
-    solver: str = "qrqp"
+    blocks: tuple = (1, 1, 1, 1, 2, 2, 2, 2, 4, 4)
+    nodes: tuple = (1, 2, 3, 4, 6, 8, 10, 12, 16, 20)
+    soft_penalty: float = 30.0
+    obstacle_scale: float = 10.0
+    obstacle_relax: float = 0.1
+    solver: str = "admm"
+    iterations: int = 60
+    rho: float = 0.1
+    sigma: float = 1e-6
+    alpha: float = 1.6
     solver_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -99,8 +115,18 @@ class MpcConfig:
             raise ScenarioError(f"N must be an int >= 2, got {self.N!r}")
         if not (math.isfinite(self.dt) and self.dt > 0):
             raise ScenarioError(f"dt must be > 0 s, got {self.dt!r}")
-        if not (0 < self.margin <= 1):
-            raise ScenarioError(f"margin must be in (0, 1], got {self.margin!r}")
+        for key in ("margin", "acc_margin"):
+            if not (0 < getattr(self, key) <= 1):
+                raise ScenarioError(f"{key} must be in (0, 1], got {getattr(self, key)!r}")
+        if sum(self.blocks) != self.N or min(self.blocks) < 1:
+            raise ScenarioError(f"blocks must be positive and sum to N = {self.N}, got "
+                                f"{tuple(self.blocks)!r}")
+        if not self.nodes or sorted(set(self.nodes)) != list(self.nodes) or \
+                self.nodes[0] < 1 or self.nodes[-1] > self.N:
+            raise ScenarioError(f"nodes must be increasing node numbers in 1..{self.N}, got "
+                                f"{tuple(self.nodes)!r}")
+        if not (isinstance(self.iterations, int) and self.iterations >= 1):
+            raise ScenarioError(f"iterations must be an int >= 1, got {self.iterations!r}")
 
 
 def polygon(n: int) -> tuple[np.ndarray, float]:
@@ -111,39 +137,30 @@ def polygon(n: int) -> tuple[np.ndarray, float]:
 
 @dataclass(frozen=True)
 class MpcLayout:
-    """Index layout of the decision vector ``w`` and the parameter vector ``p``."""
+    """Sizes of the QP and the layout of the parameter vector ``p``."""
 
     N: int
     M: int
+    n_u: int
+    nodes: tuple
 
     @property
-    def n_w(self) -> int:
-        return (self.N + 1) * NX_MPC + self.N * NU_MPC + self.N * self.n_slack
-
-    def x(self, k: int) -> slice:
-        o = k * (NX_MPC + NU_MPC)
-        return slice(o, o + NX_MPC)
-
-    def u(self, k: int) -> slice:
-        o = k * (NX_MPC + NU_MPC) + NX_MPC
-        return slice(o, o + NU_MPC)
-
-    def slack(self, k: int) -> slice:
-        """Slacks of node k = 1..N."""
-        o = (self.N + 1) * NX_MPC + self.N * NU_MPC + (k - 1) * self.n_slack
-        return slice(o, o + self.n_slack)
+    def n_c(self) -> int:
+        """Constant rows: speed and hard rows node by node, then the limits at ``nodes``."""
+        return self.N * _N_STEP_ROWS + len(self.nodes) * _N_NODE_ROWS
 
     @property
-    def n_slack(self) -> int:
-        """Slacks per node: one per soft row (limits, then obstacles)."""
-        return _NS_LIMITS + self.M
+    def n_rows(self) -> int:
+        """All rows: constant rows, then obstacle rows (obstacle-major, node-minor)."""
+        return self.n_c + self.M * len(self.nodes)
 
     @property
     def params(self) -> dict[str, tuple[int, ...]]:
         """Parameter blocks in order with their shapes (row-major)."""
         n1 = self.N + 1
         return {"v_prev": (2,), "path_p": (n1, 2), "path_t": (n1, 2), "s_bar": (n1,),
-                "v_s": (n1,), "obs_n": (self.M, n1, 2), "obs_b": (self.M, n1), "s_max": (1,)}
+                "v_s": (n1,), "w_lat": (n1,), "obs_n": (self.M, n1, 2), "obs_b": (self.M, n1),
+                "s_max": (1,)}
 
     @property
     def n_p(self) -> int:
@@ -158,7 +175,7 @@ class MpcLayout:
             out.append(arr.reshape(-1))
         return np.concatenate(out)
 
-    def unpack_sym(self, p: ca.SX) -> dict[str, Any]:
+    def unpack(self, p: Any) -> dict[str, Any]:
         out, o = {}, 0
         for name, shape in self.params.items():
             n = int(np.prod(shape))
@@ -167,116 +184,189 @@ class MpcLayout:
         return out
 
 
-def _sparse(M: np.ndarray, rtol: float = 1e-12) -> ca.DM:
-    """``M`` with entries below ``rtol * max|M|`` dropped (rounding noise of the matrix
-    exponential, e.g. the x-y cross terms of the decoupled loop): a sparser QP, smaller
-    KKT factors, a smaller solver workspace."""
-    M = np.asarray(M, float)
-    scale = float(np.abs(M).max()) if M.size else 0.0
-    return ca.sparsify(ca.DM(M), rtol * scale) if scale > 0 else ca.DM(M.shape[0], M.shape[1])
+def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> dict[str, Any]:
+    """The condensed QP in symbols ``x0, p``: cost, constant rows, obstacle rows."""
+    N, M, nodes = config.N, config.n_obstacles, config.nodes
+    lim, mg = config.limits, config.margin
+    x0 = ca.SX.sym("x0", NX_MPC)
+    p = ca.SX.sym("p", L.n_p)
+    ub = ca.SX.sym("ub", L.n_u)
+    P = L.unpack(p)
+    X = [ca.mtimes(ca.DM(cond.Phi[k]), x0) + ca.mtimes(ca.DM(cond.Gamma[k]), ub)
+         for k in range(N + 1)]
+    U = [ca.mtimes(ca.DM(cond.T[k]), ub) for k in range(N)]
+    model_C, model_D = _outputs(model)
+    J = 0
+    v_before = P["v_prev"]
+    for k in range(N):
+        vr, dds = U[k][0:2], U[k][2]
+        J += config.w_dv * ca.sumsqr(vr - v_before) + config.w_dds * dds**2
+        v_before = vr
+        k1 = k + 1
+        xn = X[k1]
+        pos, s1, ds1 = xn[12:14], xn[NXL], xn[NXL + 1]
+        pk, tk = P["path_p"][2 * k1:2 * k1 + 2], P["path_t"][2 * k1:2 * k1 + 2]
+        nk = ca.vertcat(-tk[1], tk[0])
+        e = pos - pk - tk * (s1 - P["s_bar"][k1])
+        wt = config.w_terminal if k1 == N else 1.0
+        J += wt * (P["w_lat"][k1] * config.w_lat * ca.dot(nk, e) ** 2
+                   + config.w_lon * ca.dot(tk, e) ** 2)
+        J += config.w_speed * (ds1 - P["v_s"][k1]) ** 2
+    dirs, f8 = polygon(8)
+    D8 = ca.DM(dirs)
+    # rows = D y(ub): the distinct outputs y (tilt, rates, speeds, ... linear in ub) and the
+    # octagon directions D, so the solver multiplies by the thin Y = dy/dub, then by D
+    outs, Ds, lo, hi = [], [], [], []
+    oct_rows = {}
+    for name, bound in (("v", lim["v_max"] * mg), ("tilt", lim["tilt_max"] * mg),
+                        ("tilt_rate", lim["tilt_rate_max"] * mg),
+                        ("acc", lim["a_max"] * config.acc_margin)):
+        oct_rows[name] = D8 / (bound * f8)
+    # every node: speed (the limit active whenever the path speed is v_max) and hard rows
+    for k in range(1, N + 1):
+        xk = X[k]
+        outs += [ca.mtimes(model_C["v"], xk), xk[NXL + 1], xk[NXL] - P["s_max"]]
+        Ds += [oct_rows["v"], ca.DM(1), ca.DM(1)]
+        lo += [-1.0] * 4 + [0.0, -ca.inf]
+        hi += [1.0] * 4 + [ca.inf, 0.0]
+    # the constraint nodes: tilt, tilt rate at node k, accelerations at the start of step k-1
+    for k in nodes:
+        xk, xp, up = X[k], X[k - 1], U[k - 1][0:2]
+        outs += [ca.mtimes(model_C["tilt"], xk), ca.mtimes(model_C["tilt_rate"], xk),
+                 ca.mtimes(model_C["acc"], xp) + ca.mtimes(model_D["acc"], up),
+                 ca.mtimes(model_C["tilt_acc"], xp) + ca.mtimes(model_D["tilt_acc"], up)]
+        Ds += [oct_rows["tilt"], oct_rows["tilt_rate"], oct_rows["acc"],
+               ca.DM.eye(2) / (config.tilt_acc_max * mg)]
+        lo += [-1.0] * _N_NODE_ROWS
+        hi += [1.0] * _N_NODE_ROWS
+    y_out = ca.vertcat(*outs)
+    D = ca.diagcat(*Ds)
+    g = ca.mtimes(D, y_out)
+    # obstacle rows: s_o n_jk . (G_k ub + pos0_k) >= s_o b_jk
+    so = config.obstacle_scale
+    G = np.vstack([cond.Gamma[k][12:14] for k in nodes])
+    Nm = ca.SX(M * len(nodes), 2 * len(nodes))
+    ob_lo = []
+    for j in range(M):
+        for i, k in enumerate(nodes):
+            o = (j * (N + 1) + k) * 2
+            n_ob = P["obs_n"][o:o + 2]
+            Nm[j * len(nodes) + i, 2 * i] = so * n_ob[0]
+            Nm[j * len(nodes) + i, 2 * i + 1] = so * n_ob[1]
+            pos0 = ca.mtimes(ca.DM(cond.Phi[k][12:14]), x0)
+            ob_lo.append(so * (P["obs_b"][j * (N + 1) + k] - ca.dot(n_ob, pos0)))
+    zero = ca.DM.zeros(L.n_u)
+    Hs = ca.hessian(J, ub)[0]
+    grad = ca.substitute(ca.gradient(J, ub), ub, zero)
+    Y = ca.jacobian(y_out, ub)
+    if ca.depends_on(Y, ca.vertcat(x0, p)):
+        raise ShapeError("MPC: the constant rows depend on the parameters")  # pragma: no cover
+    Y, D = np.array(ca.evalf(Y)), np.array(D)
+    A_c = D @ Y
+    g0 = ca.substitute(g, ub, zero)
+    return {"x0": x0, "p": p, "ub": ub, "J": J, "P": Hs, "q": grad, "A_c": A_c, "D": D, "Y": Y,
+            "G": G,
+            "N": Nm, "l": ca.vertcat(ca.DM(lo) - g0, *ob_lo),
+            "u": ca.vertcat(ca.DM(hi) - g0, ca.DM.inf(len(ob_lo))),
+            "penalty": np.concatenate([np.tile([config.soft_penalty] * 4 + [np.inf] * 2, N),
+                                       np.full(_N_NODE_ROWS * len(nodes) + len(ob_lo),
+                                               config.soft_penalty)])}
+
+
+def _outputs(model: LoopModel) -> tuple[dict, dict]:
+    """Output maps of the loop model on the 16-state MPC state (C) and on v_ref (D)."""
+    out_C, out_D = {}, {}
+    for name in ("v", "tilt", "tilt_rate", "acc", "tilt_acc"):
+        Cp = np.zeros((2, NX_MPC))
+        Cp[:, :NXL] = model.C[name]
+        out_C[name], out_D[name] = ca.DM(Cp), ca.DM(model.D[name])
+    return out_C, out_D
 
 
 def make_mpc(model: LoopModel, config: MpcConfig = MpcConfig()) -> tuple[ca.Function, MpcLayout]:
     """Build ``ballbot_mpc`` (see the module docstring) and the layout of its vectors."""
     if abs(model.dt - config.dt) > 1e-12:
         raise ScenarioError(f"prediction model step {model.dt} s differs from the MPC dt {config.dt} s")
-    N, M, dt = config.N, config.n_obstacles, config.dt
-    L = MpcLayout(N, M)
-    lim = config.limits
-    x0 = ca.SX.sym("x0", NX_MPC)
-    p = ca.SX.sym("p", L.n_p)
-    w = ca.SX.sym("w", L.n_w)
-    P = L.unpack_sym(p)
-    A, B = _sparse(model.A), _sparse(model.B)
-    Cs = {k: _sparse(v) for k, v in model.C.items()}
-    Ds = {k: _sparse(v) for k, v in model.D.items()}
-    dirs, f8 = polygon(8)
-    D8 = ca.DM(dirs)
-    J = 0
-    g, lbg, ubg = [], [], []
+    cond = condense(model, config.blocks)
+    return _make(model, cond, config)[:2]
 
-    def row(expr: Any, lo: Any, hi: Any) -> None:
-        g.append(expr)
-        lbg.append(lo)
-        ubg.append(hi)
 
-    def soft(y: Any, bound: float, sl: Any) -> None:
-        """``|d_i . y| <= bound`` on the inner octagon, normalised, one free slack per row."""
-        row(ca.mtimes(D8, y) / (bound * f8) - sl, -ca.DM.ones(4), ca.DM.ones(4))
+def _make(model: LoopModel, cond: Condensed, config: MpcConfig
+          ) -> tuple[ca.Function, MpcLayout, dict[str, Any]]:
+    """``ballbot_mpc``, its layout and the numbers :class:`PathMPC` needs (A_c, G, scales)."""
+    L = MpcLayout(config.N, config.n_obstacles, cond.n_u, tuple(config.nodes))
+    Q = _qp(model, cond, config, L)
+    x0, p = Q["x0"], Q["p"]
+    # cost scale: the Hessian's mean diagonal at a nominal window (tangent +x) -> 1
+    nominal = L.pack(v_prev=np.zeros(2), path_p=np.zeros((L.N + 1, 2)),
+                     path_t=np.tile([1.0, 0.0], (L.N + 1, 1)), s_bar=np.zeros(L.N + 1),
+                     v_s=np.zeros(L.N + 1), w_lat=np.ones(L.N + 1),
+                     obs_n=np.zeros((L.M, L.N + 1, 2)), obs_b=np.zeros((L.M, L.N + 1)),
+                     s_max=[1.0])
+    P_nom = np.array(ca.Function("P", [p], [Q["P"]])(nominal))
+    scale = float(np.mean(np.diag(P_nom)))
+    Nm = Q["N"]
+    nobs = ca.vertcat(*Nm.nonzeros()) if Nm.nnz() else ca.SX(0, 1)
+    setup = ca.Function("ballbot_mpc_setup", [x0, p],
+                        [ca.densify(Q["P"] / scale), Q["q"] / scale, Q["l"], Q["u"], nobs],
+                        ["x0", "p"], ["P", "q", "l", "u", "nobs"])
+    n, m = L.n_u, L.n_rows
+    X0 = ca.MX.sym("x0", NX_MPC)
+    Pm = ca.MX.sym("p", L.n_p)
+    u0, z0, y0 = ca.MX.sym("u0", n), ca.MX.sym("z0", m), ca.MX.sym("y0", m)
+    Ph, qh, lh, hh, nh = setup(X0, Pm)
+    if config.solver == "admm":
+        uo, zo, yo, rp = admm_graph(n, (Q["D"], Q["Y"]), Q["G"], Nm.sparsity(), Q["penalty"],
+                                    config.rho, config.sigma, config.alpha, config.iterations,
+                                    Ph, qh, lh, hh, nh, u0, z0, y0)
+    else:
+        uo, zo, yo = _conic(Q, Nm.sparsity(), config, Ph, qh, lh, hh, nh, u0, y0)
+        rp = ca.MX(0)
+    v_ref = ca.mtimes(ca.DM(cond.T[0][0:2]), uo)
+    f = ca.Function("ballbot_mpc", [X0, Pm, u0, z0, y0], [v_ref, uo, zo, yo, rp],
+                    ["x0", "p", "u0", "z0", "y0"], ["v_ref", "u", "z", "y", "r_prim"])
+    cost = ca.Function("ballbot_mpc_cost", [Q["ub"], x0, p], [Q["J"]], ["u", "x0", "p"], ["J"])
+    return f, L, {"A_c": Q["A_c"], "G": Q["G"], "scale": scale, "cond": cond, "cost": cost}
 
-    v_before = P["v_prev"]
-    for k in range(N):
-        xk, uk, xn = w[L.x(k)], w[L.u(k)], w[L.x(k + 1)]
-        vr = uk[0:2]
-        xl, s, ds = xk[:NXL], xk[NXL], xk[NXL + 1]
-        dds = uk[2]
-        pred = ca.vertcat(ca.mtimes(A, xl) + ca.mtimes(B, vr), s + dt * ds + 0.5 * dt**2 * dds,
-                          ds + dt * dds)
-        row(xn - pred, ca.DM.zeros(NX_MPC), ca.DM.zeros(NX_MPC))
-        J += config.w_dv * ca.sumsqr(vr - v_before) + config.w_dds * dds**2
-        v_before = vr
-        # node k + 1
-        k1 = k + 1
-        xl1, s1, ds1 = xn[:NXL], xn[NXL], xn[NXL + 1]
-        pos = xl1[12:14]
-        pk, tk = P["path_p"][2 * k1:2 * k1 + 2], P["path_t"][2 * k1:2 * k1 + 2]
-        nk = ca.vertcat(-tk[1], tk[0])
-        e = pos - pk - tk * (s1 - P["s_bar"][k1])
-        wt = config.w_terminal if k1 == N else 1.0
-        J += wt * (config.w_lat * ca.dot(nk, e) ** 2 + config.w_lon * ca.dot(tk, e) ** 2)
-        J += config.w_speed * (ds1 - P["v_s"][k1]) ** 2
-        sl = w[L.slack(k1)]
-        J += config.slack_l2 * ca.sumsqr(sl)
-        m = config.margin
-        ta = ca.mtimes(Cs["tilt_acc"], xl) + ca.mtimes(Ds["tilt_acc"], vr)
-        b = config.tilt_acc_max * m
-        row(ta / b - sl[0:2], -ca.DM.ones(2), ca.DM.ones(2))
-        soft(ca.mtimes(Cs["tilt"], xl1), lim["tilt_max"] * m, sl[2:6])
-        soft(ca.mtimes(Cs["tilt_rate"], xl1), lim["tilt_rate_max"] * m, sl[6:10])
-        # no acceleration rows (a_max): as an octagon or a square they made qrqp cycle
-        # between the bounds of one row (nearly dependent on the tilt and tilt-acceleration
-        # rows) on most samples in curves; measured instead (see the report)
-        soft(ca.mtimes(Cs["v"], xl1), lim["v_max"] * m, sl[10:14])
-        for j in range(M):
-            o = (j * (N + 1) + k1) * 2
-            n_ob = P["obs_n"][o:o + 2]
-            row(ca.dot(n_ob, pos) + sl[_NS_LIMITS + j], P["obs_b"][j * (N + 1) + k1], ca.inf)
-    g_all = ca.vertcat(*g)
-    lbg_all, ubg_all = ca.vertcat(*lbg), ca.vertcat(*ubg)
-    # variable bounds: x_0 fixed, ds >= 0, s <= s_max; slacks free (quadratic penalty)
-    lbx = -ca.inf * ca.DM.ones(L.n_w)
-    ubx = ca.inf * ca.DM.ones(L.n_w)
-    lbx, ubx = ca.SX(lbx), ca.SX(ubx)
-    lbx[L.x(0)] = x0
-    ubx[L.x(0)] = x0
-    for k in range(1, N + 1):
-        lbx[L.x(k).start + NXL + 1] = 0.0
-        ubx[L.x(k).start + NXL] = P["s_max"]
-    H = ca.hessian(J, w)[0]
-    grad = ca.substitute(ca.gradient(J, w), w, ca.DM.zeros(L.n_w))
-    Amat = ca.jacobian(g_all, w)
-    g0 = ca.substitute(g_all, w, ca.DM.zeros(L.n_w))
-    H = ca.substitute(H, w, ca.DM.zeros(L.n_w))
-    Amat = ca.substitute(Amat, w, ca.DM.zeros(L.n_w))
+
+def _conic(Q: dict, N_sp: ca.Sparsity, config: MpcConfig, Ph: ca.MX, qh: ca.MX, lh: ca.MX,
+           hh: ca.MX, nh: ca.MX, u0: ca.MX, y0: ca.MX) -> tuple[ca.MX, ca.MX, ca.MX]:
+    """The same QP through a CasADi ``conic`` plugin, one slack ``e_i >= 0`` per soft row
+    (``a_i u - e_i <= u_i``, ``a_i u + e_i >= l_i``, cost ``c_i e_i``): an independent
+    formulation of the L1 penalty."""
+    n, A_c, G = Q["ub"].numel(), Q["A_c"], Q["G"]
+    pen = Q["penalty"]
+    soft = np.flatnonzero(np.isfinite(pen))
+    ns, m = soft.size, pen.size
+    nobs = ca.SX.sym("nobs", N_sp.nnz())
+    A = ca.vertcat(ca.DM(A_c), ca.mtimes(ca.SX(N_sp, nobs), ca.DM(G)))
+    E = np.zeros((m, ns))
+    E[soft, np.arange(ns)] = 1.0
+    Afull = ca.vertcat(ca.horzcat(A, -ca.DM(E)), ca.horzcat(A[soft.tolist(), :], ca.DM(E[soft])))
+    Afun = ca.Function("A", [nobs], [Afull])
+    H = ca.diagcat(ca.MX(Ph), ca.MX(ns, ns))
+    g = ca.vertcat(qh, ca.DM(pen[soft]))
+    inf = ca.DM.inf(ns)
+    hard = np.flatnonzero(~np.isfinite(pen))
+    lba1 = ca.MX(ca.DM.inf(m) * -1.0)
+    lba1[hard.tolist()] = lh[hard.tolist()]
+    lba = ca.vertcat(lba1, lh[soft.tolist()])
+    uba = ca.vertcat(hh, inf)
     opts = {"error_on_fail": False}
     if config.solver == "qrqp":
         opts.update({"print_iter": False, "print_header": False, "print_info": False,
-                     "max_iter": 200})
+                     "max_iter": 1000})
     opts.update(config.solver_options)
-    qp = ca.conic("ballbot_mpc_qp", config.solver, {"h": H.sparsity(), "a": Amat.sparsity()}, opts)
-    w0 = ca.SX.sym("w0", L.n_w)
-    lam_x0 = ca.SX.sym("lam_x0", L.n_w)
-    lam_a0 = ca.SX.sym("lam_a0", g_all.numel())
-    # lower bounds -inf stay -inf after the shift by g0 (g0 is finite)
-    sol = qp(h=H, g=grad, a=Amat, lba=lbg_all - g0, uba=ubg_all - g0, lbx=lbx, ubx=ubx,
-             x0=w0, lam_x0=lam_x0, lam_a0=lam_a0)
-    wopt = sol["x"]
-    v_ref = wopt[L.u(0)][0:2]
-    f = ca.Function("ballbot_mpc", [x0, p, w0, lam_x0, lam_a0],
-                    [v_ref, wopt, sol["lam_x"], sol["lam_a"], sol["cost"]],
-                    ["x0", "p", "w0", "lam_x0", "lam_a0"],
-                    ["v_ref", "w", "lam_x", "lam_a", "cost"])
-    return f, L
+    Hs = ca.Sparsity.dense(n + ns, n + ns)
+    qp = ca.conic("ballbot_mpc_qp", config.solver, {"h": Hs, "a": Afull.sparsity()}, opts)
+    lbx = ca.vertcat(-ca.DM.inf(n), ca.DM.zeros(ns))
+    sol = qp(h=ca.densify(H), g=g, a=Afun(nh), lba=lba, uba=uba, lbx=lbx, ubx=ca.DM.inf(n + ns),
+             x0=ca.vertcat(u0, ca.DM.zeros(ns)))
+    uo = sol["x"][:n]
+    lam = sol["lam_a"]
+    y = lam[:m] + ca.mtimes(ca.DM(E), lam[m:])
+    A_u = ca.Function("Au", [nobs], [A])(nh)
+    return uo, ca.mtimes(A_u, uo), y
 
 
 def workspace_bytes(f: ca.Function) -> int:
@@ -301,74 +391,95 @@ class PathMPC:
     the generated C library); :meth:`step` only calls it.
     """
 
+    #: a solution whose primal residual ``||A u - z||_inf`` exceeds this (rows are
+    #: normalised by their bounds: 5 % of a limit) counts as a failed QP
+    residual_tol = 0.05
+
     def __init__(self, model: LoopModel, path: Path, config: MpcConfig = MpcConfig()) -> None:
         if len(path.obstacles) > config.n_obstacles:
             raise ScenarioError(f"obstacles: at most {config.n_obstacles} allowed by this MPC, "
                                 f"got {len(path.obstacles)}")
+        if abs(model.dt - config.dt) > 1e-12:
+            raise ScenarioError(f"prediction model step {model.dt} s differs from the MPC dt "
+                                f"{config.dt} s")
         self.config, self.path, self.model = config, path, model
-        self.function, self.layout = make_mpc(model, config)
-        self.n_g = self.function.size1_in(4)
-        self.w: np.ndarray | None = None
-        self.lam_x = np.zeros(self.layout.n_w)
-        self.lam_a = np.zeros(self.n_g)
+        self.function, self.layout, info = _make(model, condense(model, config.blocks), config)
+        self.cond: Condensed = info["cond"]
+        self._A_c, self._G = info["A_c"], info["G"]
+        #: ``ballbot_mpc_cost(u, x0, p) -> J``: the QP's objective (up to a constant)
+        self.cost = info["cost"]
+        L = self.layout
+        self.u = np.zeros(L.n_u)
+        self.z = np.zeros(L.n_rows)
+        self.y = np.zeros(L.n_rows)
+        self.x0: np.ndarray | None = None
         self.v_prev = np.zeros(2)
-        self.last: dict[str, np.ndarray] = {}
-        #: samples whose QP failed (the generated solver returns an error at ``max_iter``);
-        #: the robot then follows the shifted previous plan (its first input)
+        self.last: dict[str, Any] = {}
+        #: samples whose QP failed: non-finite result (the shifted previous plan is kept)
+        #: or a primal residual above :attr:`residual_tol`
         self.failures = 0
         #: wall-clock seconds of each call of ``function`` (the QP solve; for benchmarks)
         self.solve_s: list[float] = []
+        #: CPU seconds of the calling thread in each call (excludes preemption by other
+        #: processes on a loaded machine; for benchmarks)
+        self.solve_cpu_s: list[float] = []
+        #: primal residual of each solve
+        self.residuals: list[float] = []
+        # warm start of the multipliers: new node i takes the old node nearest to k_i + 1
+        nodes = np.asarray(L.nodes)
+        src = np.array([int(np.argmin(np.abs(nodes - min(k + 1, L.N)))) for k in nodes])
+        rs, rn = _N_STEP_ROWS, _N_NODE_ROWS
+        idx = [min(k + 1, L.N - 1) * rs + r for k in range(L.N) for r in range(rs)]
+        idx += [L.N * rs + src[i] * rn + r for i in range(len(nodes)) for r in range(rn)]
+        idx += [L.n_c + j * len(nodes) + src[i] for j in range(L.M) for i in range(len(nodes))]
+        self._y_shift = np.array(idx, int)
 
-    def _guess(self, x_loop: np.ndarray, s: float, ds: float) -> np.ndarray:
-        """Initial guess when there is no previous solution: progress at the reference speed."""
-        L, N, dt = self.layout, self.config.N, self.config.dt
-        w = np.zeros(L.n_w)
-        for k in range(N + 1):
-            xk = np.zeros(NX_MPC)
-            xk[:NXL] = x_loop
-            xk[NXL] = s + k * dt * max(ds, 0.0)
-            xk[NXL + 1] = max(ds, 0.0)
-            w[L.x(k)] = xk
-        return w
+    def shift(self, u: np.ndarray) -> np.ndarray:
+        """Warm start: the blocked inputs moved one step ahead, the last step repeated."""
+        steps = self.cond.inputs(u)
+        return self.cond.block(np.vstack([steps[1:], steps[-1:]]))
 
-    def shift(self, w: np.ndarray) -> np.ndarray:
-        """Warm start: the solution moved one step ahead, its last step repeated."""
-        L, N = self.layout, self.config.N
-        out = self._shift_stages(w)
-        xl = w[L.x(N)]
-        xn = xl.copy()
-        xn[:NXL] = self.model.A @ xl[:NXL] + self.model.B @ w[L.u(N - 1)][:2]
-        xn[NXL] = xl[NXL] + self.config.dt * xl[NXL + 1]
-        out[L.x(N)] = xn
-        return out
-
-    def parameters(self, w_guess: np.ndarray) -> np.ndarray:
+    def parameters(self, x0: np.ndarray, u_guess: np.ndarray) -> np.ndarray:
         """Parameter vector from the guessed trajectory: path window, speeds, obstacle normals."""
         L, N, M = self.layout, self.config.N, self.config.n_obstacles
-        s_bar = np.array([w_guess[L.x(k)][NXL] for k in range(N + 1)])
-        pos = np.array([w_guess[L.x(k)][12:14] for k in range(N + 1)])
+        X = self.cond.states(x0, u_guess)
+        s_bar, pos = X[:, NXL], X[:, 12:14]
         pp, pt = self.path.window(s_bar)
         obs_n = np.zeros((M, N + 1, 2))
         obs_b = -1.0 * np.ones((M, N + 1))
+        w_lat = np.ones(N + 1)
         lat = np.column_stack([-pt[:, 1], pt[:, 0]])
         for j, ob in enumerate(self.path.obstacles):
             c = np.asarray(ob.center)
-            d = pos - c
-            # pass on the side of the path away from the centre: the guessed point is moved
-            # sideways to at least the inflated radius, so a head-on guess gives a tilted
-            # half-plane (a funnel around the circle) instead of a wall across the path
+            r_safe = ob.radius + self.config.clearance
+            # pass on the side of the path away from the centre (left if on the path);
+            # where the guessed position is beside the circle (|along| < r_safe, along the
+            # path tangent), keep it at least sqrt(r_safe^2 - along^2) to that side of the
+            # centre: a half-plane parallel to the path, so it bounds the lateral offset
+            # and never blocks the progress (the circle's boundary at that abscissa)
             side = -np.sign(np.sum(lat * (c - pp), axis=1))
             side[side == 0] = 1.0
-            along = np.sum(pt * d, axis=1)
-            off = np.maximum(side * np.sum(lat * d, axis=1), ob.radius + self.config.clearance)
-            d = pt * along[:, None] + lat * (side * off)[:, None]
-            n = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
-            obs_n[j] = n
-            obs_b[j] = ob.radius + self.config.clearance + n @ c
+            along = np.sum(pt * (pos - c), axis=1)
+            beside = np.abs(along) < r_safe
+            n = lat * side[:, None]
+            obs_n[j, beside] = n[beside]
+            obs_b[j, beside] = (np.sum(n * c, axis=1)
+                                + np.sqrt(np.maximum(r_safe**2 - along**2, 0.0)))[beside]
+            # relax the lateral weight where the path point is near the obstacle
+            near = np.linalg.norm(pp - c, axis=1) < r_safe + 0.3
+            w_lat[near] = np.minimum(w_lat[near], self.config.obstacle_relax)
         s_max = np.inf if self.path.closed else self.path.length
         return L.pack(v_prev=self.v_prev, path_p=pp, path_t=pt, s_bar=s_bar,
-                      v_s=self.path.reference_speed(s_bar), obs_n=obs_n, obs_b=obs_b,
-                      s_max=[min(s_max, 1e9)])
+                      v_s=self.path.reference_speed(s_bar), w_lat=w_lat, obs_n=obs_n,
+                      obs_b=obs_b, s_max=[min(s_max, 1e9)])
+
+    def rows(self, u: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """``A u`` of the QP with parameters ``p`` (the ADMM's ``z`` of a warm start)."""
+        L, so = self.layout, self.config.obstacle_scale
+        P = L.unpack(p)
+        n = P["obs_n"].reshape(L.M, L.N + 1, 2)[:, list(L.nodes)]
+        pos = (self._G @ u).reshape(len(L.nodes), 2)
+        return np.concatenate([self._A_c @ u, (so * np.sum(n * pos[None], axis=2)).ravel()])
 
     def step(self, x_loop: np.ndarray, s: float | None = None) -> np.ndarray:
         """One real-time iteration from the loop-model state ``x_loop`` (14); returns ``v_ref``.
@@ -377,54 +488,50 @@ class PathMPC:
         first call, default: the projection of the position onto the path).
         """
         x_loop = np.asarray(x_loop, float).reshape(NXL)
-        L = self.layout
-        if self.w is None:
+        first = self.x0 is None
+        if first:
             s0 = self.path.project(x_loop[12:14]) if s is None else float(s)
-            guess = self._guess(x_loop, s0, 0.0)
+            x0 = np.concatenate([x_loop, [s0, 0.0]])
+            guess = np.zeros(self.layout.n_u)
+            y0 = np.zeros(self.layout.n_rows)
         else:
-            guess = self.shift(self.w)
-            self.lam_x = self._shift_stages(self.lam_x)
-            rows = self.n_g // self.config.N  # every stage adds the same constraint rows
-            self.lam_a = np.concatenate([self.lam_a[rows:], self.lam_a[-rows:]])
-            if not self.config.warm_dual:
-                self.lam_x[:], self.lam_a[:] = 0.0, 0.0
-        x0 = guess[L.x(0)].copy()
-        x0[:NXL] = x_loop
-        guess[L.x(0)] = x0
-        p = self.parameters(guess)
-        t0 = time.perf_counter()
-        try:
-            v_ref, w, lam_x, lam_a, cost = self.function(x0, p, guess, self.lam_x, self.lam_a)
-        except RuntimeError:
-            # failed QP (compiled solver at max_iter): keep the shifted plan, cold duals
+            x1 = self.cond.states(self.x0, self.u)[1]
+            x0 = np.concatenate([x_loop, x1[NXL:]])
+            # ds >= 0 holds to the ADMM's residual: clip, so that s never decreases
+            x0[NXL] = max(x0[NXL], self.x0[NXL])
+            x0[NXL + 1] = max(x0[NXL + 1], 0.0)
+            guess = self.shift(self.u)
+            y0 = self.y[self._y_shift]
+        # the first sample re-linearises the path a few times (RTI starts cold)
+        for _ in range(5 if first else 1):
+            p = self.parameters(x0, guess)
+            z0 = self.rows(guess, p)
+            t0, c0 = time.perf_counter(), time.thread_time()
+            out = self.function(x0, p, guess, z0, y0)
+            self.solve_s.append(time.perf_counter() - t0)
+            self.solve_cpu_s.append(time.thread_time() - c0)
+            u = np.asarray(out[1], float).reshape(-1)
+            ok = bool(np.all(np.isfinite(u)))
+            if ok:
+                guess, y0 = u, np.asarray(out[3], float).reshape(-1)
+        r_prim = float(out[4])
+        self.residuals.append(r_prim)
+        if not ok or not r_prim <= self.residual_tol:
             self.failures += 1
-            v_ref, w, cost = guess[L.u(0)][:2], guess, math.nan
-            lam_x, lam_a = np.zeros(L.n_w), np.zeros(self.n_g)
-        self.solve_s.append(time.perf_counter() - t0)
-        self.w = np.asarray(w, float).reshape(-1)
-        self.lam_x = np.asarray(lam_x, float).reshape(-1)
-        self.lam_a = np.asarray(lam_a, float).reshape(-1)
-        v = np.asarray(v_ref, float).reshape(2)
+        if ok:
+            self.u, self.z, self.y = u, np.asarray(out[2], float).reshape(-1), y0
+        else:  # keep the shifted plan, cold multipliers
+            self.u, self.z, self.y = guess, z0, np.zeros(self.layout.n_rows)
+        self.x0 = x0
+        v = self.cond.inputs(self.u)[0, 0:2].copy()
         self.v_prev = v
-        self.last = {"x0": x0, "p": p, "w0": guess, "cost": float(cost)}
+        self.last = {"x0": x0, "p": p, "u0": guess, "r_prim": r_prim}
         return v
-
-    def _shift_stages(self, v: np.ndarray) -> np.ndarray:
-        """A vector laid out like ``w`` moved one stage ahead, its last stage repeated."""
-        L, N = self.layout, self.config.N
-        out = v.copy()
-        for k in range(N):
-            out[L.x(k)] = v[L.x(k + 1)]
-            if k < N - 1:
-                out[L.u(k)] = v[L.u(k + 1)]
-                out[L.slack(k + 1)] = v[L.slack(k + 2)]
-        return out
 
     def prediction(self) -> np.ndarray:
         """Predicted positions (N+1, 2) of the last solution."""
-        L = self.layout
-        return np.array([self.w[L.x(k)][12:14] for k in range(self.config.N + 1)])
+        return self.cond.states(self.x0, self.u)[:, 12:14]
 
     def progress(self) -> float:
         """Progress ``s`` at the current sample of the last solution."""
-        return float(self.w[self.layout.x(0)][NXL])
+        return float(self.x0[NXL])

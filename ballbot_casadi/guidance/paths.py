@@ -44,6 +44,8 @@ __all__ = [
     "line_path",
     "arc_path",
     "figure_eight",
+    "path_from_spec",
+    "PATH_TYPES",
     "DEFAULT_SPEED",
 ]
 
@@ -296,3 +298,72 @@ def figure_eight(length: float = 4.0, width: float = 2.0, center: Any = (0.0, 0.
     xy = c + np.column_stack([0.5 * length * np.sin(t), 0.5 * width * np.sin(2 * t)])
     xy[-1] = xy[0]
     return _build(xy, t, True, speed, obstacles, xy[:1])
+
+
+#: Path types of a scenario file's ``[path]`` table and their keys (besides ``type`` and
+#: ``speed``): required, then optional.
+PATH_TYPES = {
+    "waypoints": (("waypoints",), ("closed",)),
+    "line": (("start", "end"), ()),
+    "arc": (("center", "radius", "sweep_deg"), ("start_angle_deg",)),
+    "figure_eight": ((), ("length", "width", "center")),
+}
+
+
+_KEY_OF = {"sweep": "sweep_deg", "start_angle": "start_angle_deg"}
+
+
+def _keyed(build: Any, *args: Any, **kwargs: Any) -> Path:
+    """``build(...)`` with its :class:`ScenarioError` keyed ``path.<key>`` or
+    ``obstacle[j]`` (the key a message starts with)."""
+    try:
+        return build(*args, **kwargs)
+    except ScenarioError as exc:
+        if exc.key is not None:
+            raise
+        head = str(exc).split(" ", 1)[0]
+        key = (head.replace("obstacles[", "obstacle[").split(".")[0] if head.startswith("obstacles[")
+               else f"path.{_KEY_OF.get(head, head)}")
+        raise ScenarioError(str(exc), key=key) from None
+
+
+def path_from_spec(spec: Any, obstacles: Sequence[Any] = ()) -> Path:
+    """The :class:`Path` of a scenario file's ``[path]`` table (``type`` one of
+    :data:`PATH_TYPES`, ``speed`` in m/s, angles in degrees) and ``[[obstacle]]`` rows
+    ``(x, y, r)``; a bad table is refused with one line naming the key (``path.<key>``,
+    ``obstacle[j]``)."""
+    if not isinstance(spec, dict):
+        raise ScenarioError(f"path must be a table, got {type(spec).__name__}", key="path")
+    kind = spec.get("type")
+    if kind not in PATH_TYPES:
+        raise ScenarioError(f"path.type must be one of {', '.join(PATH_TYPES)}, got {kind!r}",
+                            key="path.type")
+    required, optional = PATH_TYPES[kind]
+    for k in spec:
+        if k not in ("type", "speed", *required, *optional):
+            raise ScenarioError(f"path.{k}: unknown key for a {kind} path; allowed: "
+                                f"{', '.join(('type', 'speed', *required, *optional))}",
+                                key=f"path.{k}")
+    for k in required:
+        if k not in spec:
+            raise ScenarioError(f"path.{k}: missing (required for a {kind} path)", key=f"path.{k}")
+    speed = spec.get("speed", DEFAULT_SPEED)
+    obs = [tuple(o) for o in obstacles]
+    for k in ("radius", "sweep_deg", "start_angle_deg", "length", "width"):
+        if k in spec and (isinstance(spec[k], bool) or not isinstance(spec[k], (int, float))
+                          or not math.isfinite(spec[k])):
+            raise ScenarioError(f"path.{k} must be a finite number, got {spec[k]!r}",
+                                key=f"path.{k}")
+    if kind == "waypoints":
+        return _keyed(waypoint_path, spec["waypoints"], speed, bool(spec.get("closed", False)), obs)
+    if kind == "line":
+        for k in ("start", "end"):
+            _keyed(_finite_points, [spec[k], spec[k]], k)
+        return _keyed(line_path, spec["start"], spec["end"], speed, obs)
+    if kind == "arc":
+        _keyed(_finite_points, [spec["center"], spec["center"]], "center")
+        return _keyed(arc_path, spec["center"], spec["radius"],
+                      math.radians(spec.get("start_angle_deg", 0.0)),
+                      math.radians(spec["sweep_deg"]), speed, obs)
+    return _keyed(figure_eight, spec.get("length", 4.0), spec.get("width", 2.0),
+                  spec.get("center", (0.0, 0.0)), speed, obs)

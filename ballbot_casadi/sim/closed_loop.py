@@ -49,6 +49,8 @@ from ballbot_casadi.sim.mission import make_chunk
 from ballbot_casadi.sim.ports import (
     ESTIMATION_OUTPUTS,
     FILTER_CONSTANTS,
+    GUIDANCE_CONSTANTS,
+    GUIDANCE_OUTPUTS,
     N_WHEEL,
     OBSERVER_CONSTANTS,
     OBSERVER_OUTPUTS,
@@ -79,14 +81,20 @@ class ClosedLoop:
         (:meth:`simulate`), whose library is then built (cached by hash) on first use.
     steps
         Optional ``{controller name: step Function}`` to use instead of the package's
-        controllers (e.g. a stand-in in tests); with ``compiled`` those are compiled
-        (library ``ballbot_closed_loop_custom``).  Such steps have a fixed ``n_sub``.
+        controllers (e.g. a stand-in in tests, or steps with a guidance block); with
+        ``compiled`` those are compiled (library ``ballbot_closed_loop_custom``, or
+        ``library`` if given).  Such steps have a fixed ``n_sub`` and ``estimator``.
     root
         Build root (default :func:`~ballbot_casadi.core.toolchain.build_root`).
     use_driver
         With ``compiled``: run missions through the zero-copy C entry point of
         :mod:`~ballbot_casadi.sim.driver` (same generated chunk and step code, no
         numpy <-> DM conversion); otherwise call the CasADi mission Function.
+    estimator
+        What custom ``steps`` read: ``"true"`` (default) or the estimator their embedded
+        software runs (``"ukf"``, ``"ekf"``).
+    library
+        Name of the compiled library of custom ``steps``.
 
     Notes
     -----
@@ -101,6 +109,8 @@ class ClosedLoop:
         steps: Mapping[str, ca.Function] | None = None,
         root: Path | None = None,
         use_driver: bool = True,
+        estimator: str = "true",
+        library: str = "ballbot_closed_loop_custom",
     ) -> None:
         if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
             raise ScenarioError(f"n_sub must be an int >= 1, got {n_sub!r}")
@@ -114,8 +124,9 @@ class ClosedLoop:
             lib = None
             if compiled:
                 funcs = [g for f in steps.values() for g in (f, make_chunk(f))]
-                lib = build_library("ballbot_closed_loop_custom", funcs, root)
-            self._variants[(self.n_sub, "true", False)] = MissionVariant(steps, lib, self.use_driver)
+                lib = build_library(library, funcs, root)
+            self._variants[(self.n_sub, estimator, False)] = MissionVariant(steps, lib,
+                                                                            self.use_driver)
         else:
             self._variant(self.n_sub)
 
@@ -124,9 +135,11 @@ class ClosedLoop:
         key = (int(n_sub), estimator, bool(actuation_delay))
         if key not in self._variants:
             if self._custom:
+                have = next(iter(self._variants))
                 raise ScenarioError(
-                    f"these custom steps integrate with n_sub = {self.n_sub} and the true state; "
-                    f"n_sub = {n_sub}, estimator = {estimator!r} needs steps built for it"
+                    f"these custom steps integrate with n_sub = {have[0]} and estimator "
+                    f"{have[1]!r}; n_sub = {n_sub}, estimator = {estimator!r} needs steps built "
+                    "for it"
                 )
             if estimator not in ("true", *ESTIMATOR_FILTERS):
                 raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, "
@@ -203,6 +216,8 @@ class ClosedLoop:
         k_obs: np.ndarray | None = None,
         o0: np.ndarray | None = None,
         actuation_delay: bool = False,
+        k_guid: np.ndarray | None = None,
+        g0: np.ndarray | None = None,
     ) -> dict[str, np.ndarray]:
         """Run one mission in a single Function call.
 
@@ -226,7 +241,9 @@ class ClosedLoop:
         observer's state is the last part of the controller state.  With
         ``actuation_delay`` (an estimator only) the torque of period ``k`` acts on
         ``[t_k+1, t_k+2)`` (zero in period 0): the loop of a Jacobi co-simulation master
-        (:mod:`ballbot_casadi.sim.steps`).
+        (:mod:`ballbot_casadi.sim.steps`).  Steps with a guidance block
+        (:mod:`ballbot_casadi.sim.guided`) take its parameters ``k_guid`` and its
+        initial state ``g0`` (the controller state's field ``guide``).
 
         Returns the named arrays of the log: ``time`` (N+1), ``state`` (N+1, 12; row
         k < N is the plant state at ``t_k`` after a push, the last row the final
@@ -238,7 +255,9 @@ class ClosedLoop:
         rejections per :data:`~ballbot_casadi.sim.embedded.GATE_GROUPS`), ``noise``,
         ``valid``, ``phi`` (N+1, 3, wheel
         angles) and ``c_final`` (the embedded software's final state); with the
-        observer ``com_hat`` (N, 2: the estimate after each period's update).
+        observer ``com_hat`` (N, 2: the estimate after each period's update); with
+        guidance ``v_ref_used`` (N, 3: the reference the velocity controller followed)
+        and ``guide`` (N+1, NG: the guidance block's state).
         """
         n_sub = self.n_sub if n_sub is None else n_sub
         if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
@@ -280,11 +299,18 @@ class ClosedLoop:
             else:
                 parts["c.obs"] = com_observer_initial_state(x0, p_ctrl)
         n_obs = np.size(parts["c.obs"]) if with_obs else 0
+        with_guide = GUIDANCE_CONSTANTS[0] in step.name_in()
+        if with_guide and (g0 is None or k_guid is None):
+            raise ScenarioError("steps with a guidance block need its parameters k_guid and "
+                                "initial state g0")
+        n_guide = np.size(g0) if with_guide else 0
+        if with_guide:
+            parts["c.guide"] = np.asarray(g0, float).reshape(-1)
         n_bal = 0 if self._custom else balance_state_size(controller)
         if n_bal:
             parts["c.bal"] = np.zeros(n_bal)  # the balance controller's own state starts at rest
         if est:
-            X = mission_state(controller_layout(estimator, z0.size, n_obs, n_bal=n_bal),
+            X = mission_state(controller_layout(estimator, z0.size, n_obs, n_guide, n_bal=n_bal),
                               SENSOR_STATE, actuation_delay)
             E = estimator_layout(estimator)
             e0 = np.asarray(extra["e0"], float).reshape(-1)
@@ -295,7 +321,7 @@ class ClosedLoop:
             if actuation_delay:
                 parts["u"] = np.zeros(X.size_of("u"))
         else:
-            X = mission_state(controller_state_of(z0.size, n_obs, n_bal=n_bal), None,
+            X = mission_state(controller_state_of(z0.size, n_obs, n_guide, n_bal=n_bal), None,
                               actuation_delay)
         variant = self._variant(int(n_sub), estimator, actuation_delay)
         ports_state_size = step.size1_in(0)
@@ -310,7 +336,8 @@ class ClosedLoop:
         const = {"p_plant": p_plant, "p_ctrl": p_ctrl, "k_bal": k_bal, "k_vel": k_vel, "Ts": Ts,
                  "cascade": 1.0 if cascade else 0.0, "feedforward": 1.0 if feedforward else 0.0,
                  **{k: extra[k] for k in ((*SENSOR_CONSTANTS, *FILTER_CONSTANTS) if est else ())},
-                 **({"com_observer": 1.0 if com_observer else 0.0, "k_obs": k_obs} if with_obs else {})}
+                 **({"com_observer": 1.0 if com_observer else 0.0, "k_obs": k_obs} if with_obs else {}),
+                 **({"k_guid": k_guid} if with_guide else {})}
         args = [xz0]
         for i in range(1, step.n_in()):
             name = step.name_in(i)
@@ -345,6 +372,9 @@ class ClosedLoop:
         }
         if with_obs:
             log.update({k: out[k] for k in OBSERVER_OUTPUTS})
+        if with_guide:
+            log.update({k: out[k] for k in GUIDANCE_OUTPUTS})
+            log["guide"] = np.vstack([xz0[None, X["c.guide"]], xz_next[:, X["c.guide"]]])
         if est:
             log.update({k: out[k] for k in ESTIMATION_OUTPUTS})
             log.update({k: seqs[k] for k in SENSOR_SEQUENCES})
@@ -393,6 +423,9 @@ def run_scenario(scenario: Any, sim: ClosedLoop | None = None, log_every: int = 
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"run_scenario needs a Scenario, got {type(scenario).__name__}")
+    if scenario.path:
+        raise ScenarioError(f"scenario {scenario.name!r} follows a [path]: run it with "
+                            "ballbot_casadi.sim.guided.run_path_scenario", key="path")
     for name, v in (("log_every", log_every), ("segment_periods", segment_periods)):
         if v is not None and (not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1):
             raise ScenarioError(f"{name} must be an int >= 1, got {v!r}")

@@ -290,10 +290,11 @@ def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0,
         *((("bal", n_bal),) if n_bal else ())])
 
 
-def software_layout(embedded: ca.Function, estimator: str) -> Layout:
+def software_layout(embedded: ca.Function, estimator: str, n_guide: int = 0) -> Layout:
     """The controller-state layout of an embedded-software Function (with the COM
-    observer's state ``obs`` when the Function has the observer's inputs, and the balance
-    controller's own state ``bal`` last: the rest of the state).
+    observer's state ``obs`` when the Function has the observer's inputs, the guidance
+    block's state ``guide`` of ``n_guide`` entries, and the balance controller's own state
+    ``bal`` last: the rest of the state).
 
     Raises
     ------
@@ -303,11 +304,11 @@ def software_layout(embedded: ca.Function, estimator: str) -> Layout:
     has_obs = OBSERVER_CONSTANTS[0] in embedded.name_in()
     base = controller_layout(estimator, VELOCITY_NZ)
     n_obs = COM_OBSERVER_STATE.size if has_obs else 0
-    n_bal = embedded.size1_in(0) - base.size - n_obs
+    n_bal = embedded.size1_in(0) - base.size - n_obs - n_guide
     if n_bal < 0:
         raise BuildError(f"{embedded.name()}: state of {embedded.size1_in(0)} entries does not "
                          f"match the layout {base}")
-    return controller_layout(estimator, VELOCITY_NZ, n_obs, n_bal=n_bal)
+    return controller_layout(estimator, VELOCITY_NZ, n_obs, n_guide, n_bal=n_bal)
 
 
 def _drop(y: Any, ok: Any) -> Any:
@@ -339,7 +340,8 @@ def sense(blocks: EstimatorBlocks, xk: ca.MX, s_state: ca.MX, noise: ca.MX, vali
 
 
 def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: EstimatorBlocks,
-                       observer: ca.Function | None = None) -> ca.Function:
+                       observer: ca.Function | None = None,
+                       guidance: ca.Function | None = None) -> ca.Function:
     """The embedded software's period ``ballbot_embedded_<ctrl>_<est>`` (module docstring, 2.).
 
     Inputs :data:`~ballbot_casadi.sim.ports.EMBEDDED_INPUTS`: the controller state ``c``
@@ -360,8 +362,13 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     ``k_obs`` gains) and the outputs with :data:`~ballbot_casadi.sim.ports.OBSERVER_OUTPUTS`
     (``com_hat``, the estimate); the observer reads ``x_hat``
     (:func:`~ballbot_casadi.sim.period.controller_part`).
+
+    With ``guidance`` (the period's guidance slot, e.g. the path-following MPC of
+    :mod:`ballbot_casadi.sim.guided`) ``c`` carries its state ``guide`` after the
+    observer's, the inputs end with ``k_guid`` and the outputs with ``v_ref_used``; it
+    reads ``x_hat``.
     """
-    blocks = PeriodBlocks(balance, velocity, observer)
+    blocks = PeriodBlocks(balance, velocity, observer, guidance)
     NP = len(PARAM_NAMES)
     Z = controller_state(blocks, NP)
     C = controller_layout(est.name, Z.size_of("z"), *(Z.size_of(f) if Z.has(f) else 0

@@ -1,4 +1,9 @@
-"""Guidance above the compiled mission, driven from Python (until the period has a guidance slot).
+"""Guidance above the compiled mission, driven from Python: the reference driver.
+
+The product runs the guidance *inside* the control period (the guidance slot,
+:mod:`ballbot_casadi.sim.guided`, one compiled mission); this driver is kept as its
+independent reference (the tests compare the two, equal to ~1e-7 m) and for the MPC
+benchmark, which times the solver's calls from Python.
 
 A guidance law (the MPC of :mod:`ballbot_casadi.guidance.mpc` or the pure-pursuit
 baseline) runs every ``guidance_period`` (default 0.1 s = 20 control periods, 10 Hz): it

@@ -146,7 +146,8 @@ def controller_part(
 
     With ``blocks.guidance`` (``const`` holds ``k_guid``) the guidance block turns the
     period's ``v_ref`` into the velocity reference the velocity controller and the
-    observer follow (output ``v_ref_used``).
+    observer follow (output ``v_ref_used``); it reads ``x_seen`` and the velocity
+    controller's state ``z`` at the start of the period.
     """
     Z = controller_state(blocks, len(PARAM_NAMES))
     p_ctrl = const["p_ctrl"]
@@ -154,8 +155,8 @@ def controller_part(
     v_ref, extra = seq["v_ref"], {}
     z_vel = z if len(Z.fields) == 1 else z[Z["z"]]
     if guidance is not None:
-        v_ref, g_next = (_value(v) for v in guidance(x_seen, v_ref, z[Z["guide"]], p_ctrl,
-                                                     const["k_guid"], const["Ts"]))
+        v_ref, g_next = (_value(v) for v in guidance(x_seen, v_ref, z[Z["guide"]], z_vel,
+                                                     p_ctrl, const["k_guid"], const["Ts"]))
         extra["v_ref_used"] = v_ref
     if observer is not None:
         o_next, p_hat, com_hat, com_meas = (_value(v) for v in observer(

@@ -24,8 +24,8 @@ The blocks of a period, top to bottom (thesis Fig. 7.1): an optional **guidance*
 the velocity controller follows; the **velocity** controller; the optional **COM
 observer**; the **balance** controller.  Adding a block above the velocity controller:
 
-1. give :class:`PeriodBlocks` the Function (``guidance`` is the slot: ``(x, v_ref, g, p,
-   k_guid, Ts) -> (v_ref_out, g_next)``);
+1. give :class:`PeriodBlocks` the Function (``guidance`` is the slot: ``(x, v_ref, g, z, p,
+   k_guid, Ts) -> (v_ref_out, g_next)``, ``z`` the velocity controller's state);
 2. its state becomes a field of the controller-state layout
    (:func:`controller_state`, field ``guide``), its gains a constant port
    (:data:`GUIDANCE_CONSTANTS`), its output a period output (:data:`GUIDANCE_OUTPUTS`);
@@ -162,8 +162,9 @@ class PeriodBlocks:
         Optional COM observer ``(x, v_ref, o, p, k_obs, Ts) -> (o_next, p_hat, com_hat,
         com_meas)`` (:mod:`ballbot_casadi.estimation.com_observer`).
     guidance
-        Optional block above the velocity controller ``(x, v_ref, g, p, k_guid, Ts) ->
-        (v_ref_out, g_next)`` (the slot of a path-following MPC).
+        Optional block above the velocity controller ``(x, v_ref, g, z, p, k_guid, Ts) ->
+        (v_ref_out, g_next)`` (the slot of a path-following MPC; ``z`` is the velocity
+        controller's state at the start of the period, read only).
     """
 
     balance: ca.Function
@@ -219,12 +220,12 @@ def check_blocks(blocks: PeriodBlocks, n_p: int) -> dict[str, int]:
         sizes.update(n_obs=blocks.observer.numel_in(2), nko=blocks.observer.numel_in(4))
     g = blocks.guidance
     if g is not None:
-        if not isinstance(g, ca.Function) or g.n_in() != 6 or g.n_out() != 2 or \
-                [g.numel_in(i) for i in (0, 1, 3)] != [STATE.size, 3, n_p] or \
+        if not isinstance(g, ca.Function) or g.n_in() != 7 or g.n_out() != 2 or \
+                [g.numel_in(i) for i in (0, 1, 3, 4)] != [STATE.size, 3, nz, n_p] or \
                 g.numel_out(0) != 3 or g.numel_out(1) != g.numel_in(2):
-            raise ScenarioError("guidance must be a CasADi Function (x, v_ref, g, p, k_guid, Ts) "
-                                "-> (v_ref_out (3), g_next)")
-        sizes.update(ng=g.numel_in(2), nkg=g.numel_in(4))
+            raise ScenarioError("guidance must be a CasADi Function (x, v_ref, g, z, p, k_guid, "
+                                "Ts) -> (v_ref_out (3), g_next)")
+        sizes.update(ng=g.numel_in(2), nkg=g.numel_in(5))
     return sizes
 
 

@@ -113,10 +113,11 @@ def make_closed_loop_step(
 
 
 def estimating_ports(blocks: PeriodBlocks, estimator: EstimatorBlocks, embedded: ca.Function,
-                     actuation_delay: bool = False) -> PeriodPorts:
-    """The ports of the period with sensors and the embedded software ``embedded``."""
+                     actuation_delay: bool = False, n_guide: int = 0) -> PeriodPorts:
+    """The ports of the period with sensors and the embedded software ``embedded`` (whose
+    guidance block, if any, has a state of ``n_guide`` entries)."""
     return period_ports(blocks, NP, {
-        "embedded": embedded, "c": software_layout(embedded, estimator.name),
+        "embedded": embedded, "c": software_layout(embedded, estimator.name, n_guide),
         "s": estimator.imu.size1_in(3), "sensor_state": SENSOR_STATE, "noise": NOISE,
         "valid": VALID, "name": estimator.name}, actuation_delay)
 
@@ -131,6 +132,7 @@ def make_estimating_step(
     embedded: ca.Function | None = None,
     observer: ca.Function | None = None,
     actuation_delay: bool = False,
+    guidance: ca.Function | None = None,
 ) -> ca.Function:
     """One control period with sensors and the embedded software, ``ballbot_cl_step_<ctrl>_<est>``.
 
@@ -162,11 +164,14 @@ def make_estimating_step(
         ``rejections``.  With the
         COM observer (inside the embedded software, its state last in ``c``) the
         constants end with ``com_observer, k_obs`` and the outputs with ``com_hat``.
+        With ``guidance`` (inside the embedded software, built here when ``embedded`` is
+        not given) the constants end with ``k_guid`` and the outputs with ``v_ref_used``.
     """
     if embedded is None:
-        embedded = make_embedded_step(balance, velocity, estimator, observer)
+        embedded = make_embedded_step(balance, velocity, estimator, observer, guidance)
     blocks = PeriodBlocks(balance, velocity)
-    ports = estimating_ports(blocks, estimator, embedded, actuation_delay)
+    n_guide = guidance.numel_in(2) if guidance is not None else 0
+    ports = estimating_ports(blocks, estimator, embedded, actuation_delay, n_guide)
     X, C = ports.state, ports.state.part("c")
     sym = ports.symbols()
     seq = {k: sym[k] for k in ports.sequences}

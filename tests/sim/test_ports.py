@@ -45,10 +45,10 @@ def test_the_library_steps_have_the_ports_inputs_and_outputs():
 
 def _guidance(gain_rows: int = 1) -> ca.Function:
     """A stand-in guidance block: v_ref_out = k_guid[0] * v_ref, a period counter as state."""
-    x, v, g, p, k, Ts = (ca.MX.sym(n, m) for n, m in (("x", 12), ("v_ref", 3), ("g", 1),
-                                                       ("p", NP), ("k_guid", gain_rows), ("Ts", 1)))
-    return ca.Function("ballbot_guidance_test", [x, v, g, p, k, Ts], [k[0] * v, g + 1],
-                       ["x", "v_ref", "g", "p", "k_guid", "Ts"], ["v_ref_out", "g_next"])
+    x, v, g, z, p, k, Ts = (ca.MX.sym(n, m) for n, m in (
+        ("x", 12), ("v_ref", 3), ("g", 1), ("z", 8), ("p", NP), ("k_guid", gain_rows), ("Ts", 1)))
+    return ca.Function("ballbot_guidance_test", [x, v, g, z, p, k, Ts], [k[0] * v, g + 1],
+                       ["x", "v_ref", "g", "z", "p", "k_guid", "Ts"], ["v_ref_out", "g_next"])
 
 
 def test_a_guidance_block_slots_in_above_the_velocity_controller():

@@ -79,8 +79,9 @@ def test_dict_round_trip_and_json():
 
 
 def test_study_scenarios_definitions():
-    assert STUDY_NAMES == ("zero", "sine", "sine_asym", "robustness", "com", "lag", "push", "velocity",
-                           "chirp", "estimators", "predecessor", "full", "full_cascade", "thesis_tuning", "yaw_seeds")
+    assert STUDY_NAMES == ("zero", "sine", "sine_asym", "robustness", "com", "lag", "push", "path",
+                           "velocity", "chirp", "estimators", "predecessor", "full", "full_cascade",
+                           "thesis_tuning", "yaw_seeds")
     with pytest.raises(ScenarioError, match="allowed: zero"):
         study_scenarios("nosuchstudy")
     with pytest.raises(ScenarioError, match="allowed"):

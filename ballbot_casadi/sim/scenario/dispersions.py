@@ -56,6 +56,49 @@ def _draw(rng: np.random.Generator, d: Mapping[str, Any]) -> float:
     return float(rng.uniform(d["low"], d["high"]))
 
 
+def _draw_course(rng: np.random.Generator, d: Mapping[str, Any], table: dict[str, Any],
+                 group: str, key: str) -> dict[str, float]:
+    """Random courses: ``path.waypoint_y_m`` moves every interior waypoint of a
+    ``waypoints`` path sideways by its own draw; ``obstacle.x_m`` / ``obstacle.y_m`` move
+    every ``[[obstacle]]`` row by its own draw (in the order of the rows)."""
+    out: dict[str, float] = {}
+    if group == "path":
+        path = table.get("path", {})
+        if path.get("type") != "waypoints":
+            raise ScenarioError(f"{d['param']} disperses the waypoints of a [path] of type "
+                                "'waypoints'", key="montecarlo.dispersion")
+        pts = [list(map(float, p)) for p in path["waypoints"]]
+        for j in range(1, len(pts) - 1):
+            pts[j][1] += _draw(rng, d)
+            out[f"path.waypoints[{j}].y_m"] = pts[j][1]
+        path["waypoints"] = pts
+        return out
+    axis = {"x_m": "x", "y_m": "y"}[key]
+    for j, row in enumerate(table.get("obstacle", [])):
+        row[axis] = float(row[axis]) + _draw(rng, d)
+        out[f"obstacle[{j}].{key}"] = row[axis]
+    return out
+
+
+def _clear_waypoints(table: dict[str, Any], margin: float = 0.05) -> None:
+    """Move a drawn obstacle that covers a waypoint (or the start) away from it, radially
+    to ``r + margin``: a random course must stay followable (deterministic, no draws)."""
+    path = table.get("path", {})
+    if path.get("type") != "waypoints":
+        return
+    init = table.get("initial", {})
+    pts = [np.asarray(p, float) for p in path["waypoints"]]
+    pts.append(np.array([init.get("x_m", 0.0), init.get("y_m", 0.0)]))
+    for row in table.get("obstacle", []):
+        c = np.array([row["x"], row["y"]], float)
+        for p in pts:
+            d = c - p
+            n = float(np.linalg.norm(d))
+            if n < row["r"] + margin:
+                c = p + (d / n if n > 1e-9 else np.array([0.0, 1.0])) * (row["r"] + margin)
+        row["x"], row["y"] = (float(v) for v in c)
+
+
 def draw_runs(source: ScenarioFile, n: int, seed: int | None = None) -> list[dict[str, Any]]:
     """The ``n`` runs of a Monte Carlo set: ``index``, ``seed`` (sensor noise), ``values``
     (``{param: value}``) and ``table`` (the run's complete scenario table)."""
@@ -80,6 +123,9 @@ def draw_runs(source: ScenarioFile, n: int, seed: int | None = None) -> list[dic
         for d in dispersions:
             draw = _draw(rng, d)
             group, key = d["param"].split(".", 1)
+            if group in ("path", "obstacle"):
+                values.update(_draw_course(rng, d, table, group, key))
+                continue
             if group == "plant":
                 nominal = float(getattr(plant, key))
                 v = nominal * (1 + draw) if d["relative"] else nominal + draw
@@ -89,5 +135,6 @@ def draw_runs(source: ScenarioFile, n: int, seed: int | None = None) -> list[dic
                 v = nominal * (1 + draw) if d["relative"] else nominal + draw
                 table.setdefault("initial", {})[key] = v
             values[d["param"]] = v
+        _clear_waypoints(table)
         runs.append({"index": i, "seed": noise_seed, "values": values, "table": table})
     return runs

@@ -132,6 +132,7 @@ from ballbot_casadi.sim.scenario.sections import (
     DISPERSION_TARGETS,
     MAX_PERIODS,
     SCENARIO_SECTIONS,
+    PathSection,
     TORQUE_DISTURBANCE_MAX_NM,
     DispersionsSection,
     DisturbancesSection,
@@ -207,6 +208,7 @@ def parse_scenario(table: Mapping[str, Any], where: str = "<text>", default_name
         observer=ObserverSection.from_file(c, table),
         estimation=EstimationSection.from_file(c, table),
         sensors=SensorsSection.from_file(c, table),
+        route=PathSection.from_file(c, table),
     )
     scenario = _scenario(c, sections)
     specs = SpecsSection.from_file(c, table).rows

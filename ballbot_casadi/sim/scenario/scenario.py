@@ -50,6 +50,7 @@ from ballbot_casadi.sim.embedded import (
     VALID,
     initial_estimator_state,
 )
+from ballbot_casadi.sim.scenario.path_section import PathSection
 from ballbot_casadi.sim.scenario.sections import (
     CONTROLLER_CHANGES,
     ESTIMATOR_CHANGES,
@@ -95,7 +96,7 @@ SCENARIO_FIELDS = (
     "torque_disturbances", "plant_changes", "ctrl_changes", "k_bal", "k_vel", "Ts", "n_sub",
     "feedforward", "torque_limit", "estimator", "seed", "noise", "sensor_changes", "est_changes", "estimator_tuning",
     "sensor_dropouts", "sensor_glitches", "com_observer", "k_obs", "study", "description",
-    "heading_sensor",
+    "heading_sensor", "path", "obstacles", "guidance",
 )
 #: Attribute -> the section holding it.
 #: Position of the torque limit in the parameter vector.
@@ -218,6 +219,7 @@ class Scenario:
     estimation: EstimationSection
     observer: ObserverSection
     gains: GainsSection
+    route: PathSection
 
     def __init__(self, *args: Any, **fields: Any) -> None:
         if len(args) > len(SCENARIO_FIELDS):

@@ -46,6 +46,7 @@ from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES
 from ballbot_casadi.sim.ports import GAIN_CONSTANTS
 from ballbot_casadi.sim.scenario.changes import ParamChanges
 from ballbot_casadi.sim.scenario.checker import FileChecker
+from ballbot_casadi.sim.scenario.path_section import PathSection
 from ballbot_casadi.sim.scenario.signals import (
     attitude_reference,
     check_attitude,
@@ -85,7 +86,8 @@ SENSOR_CHANGES = ParamChanges("sensors", sensors=True)
 _INITIAL = ("roll_deg", "pitch_deg", "yaw_deg", "x_m", "y_m", "vx_mps", "vy_mps", "on_reference")
 _SPEC_KEYS = ("metric", "op", "threshold", "source", "thesis")
 #: Initial-state quantities a Monte Carlo dispersion may target (besides ``plant.<name>``).
-DISPERSION_TARGETS = ("initial.roll_deg", "initial.pitch_deg", "initial.yaw_deg")
+DISPERSION_TARGETS = ("initial.roll_deg", "initial.pitch_deg", "initial.yaw_deg", "initial.x_m",
+                      "initial.y_m", "path.waypoint_y_m", "obstacle.x_m", "obstacle.y_m")
 _DISTS = ("normal", "uniform")
 
 
@@ -672,6 +674,7 @@ SCENARIO_SECTIONS: tuple[tuple[str, type], ...] = (
     ("run", RunSection), ("initial", InitialSection), ("references", ReferencesSection),
     ("disturbances", DisturbancesSection), ("models", ModelSection), ("sensors", SensorsSection),
     ("estimation", EstimationSection), ("observer", ObserverSection), ("gains", GainsSection),
+    ("route", PathSection),
 )
 
 

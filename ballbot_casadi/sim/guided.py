@@ -1,0 +1,262 @@
+"""Path following inside the compiled mission: the guidance laws in the period's guidance slot.
+
+The guidance law runs in the control period itself (the slot of
+:class:`~ballbot_casadi.sim.ports.PeriodBlocks`), on what the controllers read (the true
+state, or the estimate of the UKFs with noisy sensors), every ``m``-th period (default
+``m = 20``: 10 Hz at 200 Hz): ``ballbot_guidance_<law>(x, v_ref, g, z, p, k_guid, Ts) ->
+(v_ref_out, g_next)``.  Its state ``g = [count, sample state]`` counts the periods since
+the last sample; a ``Function.conditional`` on ``count`` calls the law's sample
+(:mod:`ballbot_casadi.guidance.blocks`; the MPC's real-time iteration or pure pursuit) at
+``count = 0`` and otherwise only holds the last velocity reference, so the other
+``m - 1`` periods do not pay for it (the generated C evaluates one branch).  The sample
+reads the loop-model state from the plant state and the velocity controller's state
+(:func:`~ballbot_casadi.sim.path_following.make_loop_state`); the period's own
+``v_ref`` input gives the yaw-rate reference (its third entry) and is otherwise unused.
+
+The path and its obstacles are the parameter ``k_guid`` (the table of
+:mod:`ballbot_casadi.guidance.path_table`), so one compiled mission follows any path.
+:func:`run_guided` runs a path with true state or with noise and the UKFs and returns
+the log (``v_ref_used``: the references, ``guide``: the laws' state, from which
+:func:`predictions` reads the MPC's predicted horizons).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+import casadi as ca
+import numpy as np
+
+from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
+from ballbot_casadi.core.layout import Layout
+from ballbot_casadi.errors import BuildError, ScenarioError, SolverError
+from ballbot_casadi.guidance.blocks import (
+    make_mpc_sample,
+    make_pursuit_sample,
+    mpc_initial_state,
+    mpc_state_layout,
+    pursuit_initial_state,
+    pursuit_parameters,
+    pursuit_state_layout,
+)
+from ballbot_casadi.guidance.mpc import MpcConfig, MpcLayout, make_mpc
+from ballbot_casadi.guidance.path_table import PATH_SAMPLES, pack_path
+from ballbot_casadi.guidance.paths import Path
+from ballbot_casadi.guidance.prediction import NXL
+from ballbot_casadi.model.dynamics import NP, make_ode, make_wheel_speeds
+from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs
+from ballbot_casadi.sim.embedded import software_blocks
+from ballbot_casadi.sim.log import SimulationLog
+from ballbot_casadi.sim.path_following import make_loop_state, path_scenario, velocity_loop_model
+from ballbot_casadi.sim.scenario import Scenario
+from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
+
+__all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "mpc_law", "pursuit_law",
+           "guided_simulator", "run_guided", "run_path_scenario", "scenario_law", "predictions",
+           "GUIDANCE_EVERY", "PURSUIT_GAINS"]
+
+#: The guidance laws of the slot.
+GUIDANCE_LAWS = ("mpc", "pursuit")
+#: Control periods per guidance sample (0.1 s at 200 Hz: 10 Hz).
+GUIDANCE_EVERY = 20
+
+
+def make_guidance(name: str, sample: ca.Function, every: int = GUIDANCE_EVERY) -> ca.Function:
+    """The period's guidance block ``ballbot_guidance_<name>`` around a sample Function
+    ``(X, g, k) -> (v, g_next)`` (module docstring); the sample's state must start with
+    the held velocity reference ``v`` (2)."""
+    if not (isinstance(every, int) and every >= 1):
+        raise ScenarioError(f"guidance every must be an int >= 1 periods, got {every!r}")
+    ns = sample.numel_in(1)
+    X, gs, k = (ca.MX.sym(n, sample.numel_in(i)) for i, n in enumerate(("X", "gs", "k")))
+    hold = ca.Function(f"ballbot_guidance_{name}_hold", [X, gs, k], [gs[0:2], gs],
+                       ["X", "g", "k"], ["v", "g_next"])
+    branch = ca.Function.conditional(f"ballbot_guidance_{name}_branch", [sample], hold)
+    loop_state = make_loop_state()
+    x, v_ref, g, z = (ca.MX.sym(n, m) for n, m in (("x", 12), ("v_ref", 3), ("g", ns + 1),
+                                                    ("z", loop_state.numel_in(1))))
+    p, kg, Ts = ca.MX.sym("p", NP), ca.MX.sym("k_guid", k.numel()), ca.MX.sym("Ts")
+    count = g[0]
+    v, g_next = branch(count, loop_state(x, z), g[1:], kg)
+    count_next = ca.if_else(count + 1 >= every, 0.0, count + 1)
+    return ca.Function(f"ballbot_guidance_{name}", [x, v_ref, g, z, p, kg, Ts],
+                       [ca.vertcat(v, v_ref[2]), ca.vertcat(count_next, g_next)],
+                       ["x", "v_ref", "g", "z", "p", "k_guid", "Ts"], ["v_ref_out", "g_next"])
+
+
+@dataclass(frozen=True)
+class GuidanceLaw:
+    """A guidance block for the slot and how to start it on a path.
+
+    Attributes
+    ----------
+    name
+        ``mpc`` or ``pursuit``.
+    function
+        The period's block (:func:`make_guidance`).
+    state
+        Layout of the sample's state (after the period counter).
+    mpc_layout
+        The MPC's decision-vector layout (MPC only).
+    config
+        The MPC configuration (MPC only).
+    """
+
+    name: str
+    function: ca.Function
+    state: Layout
+    mpc_layout: MpcLayout | None = None
+    config: MpcConfig | None = None
+    options: tuple = ()
+
+    def parameters(self, path: Path) -> np.ndarray:
+        """``k_guid`` of ``path``."""
+        if self.name == "mpc":
+            return pack_path(path, self.config.n_obstacles)
+        return pursuit_parameters(path, **dict(self.options))
+
+    def initial_state(self, path: Path, x0: np.ndarray, z0: np.ndarray) -> np.ndarray:
+        """``g0``: period counter 0 and the sample's initial state at ``x0``, ``z0``."""
+        X0 = np.asarray(make_loop_state()(x0, z0), float).reshape(NXL)
+        if self.name == "mpc":
+            n_g = self.state.size_of("lam_a") if self.state.has("lam_a") else 0
+            g = mpc_initial_state(self.mpc_layout, n_g, self.config, path, X0)
+        else:
+            g = pursuit_initial_state(path, X0)
+        return np.r_[0.0, g]
+
+
+class _Key:
+    """An MPC configuration as a cache key (by its repr: it holds dicts)."""
+
+    def __init__(self, config: MpcConfig) -> None:
+        self.config, self.text = config, repr(config)
+
+    def __hash__(self) -> int:
+        return hash(self.text)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Key) and other.text == self.text
+
+
+@lru_cache(maxsize=None)
+def _mpc_law(p_ctrl: tuple, k_vel: tuple, key: _Key) -> GuidanceLaw:
+    config = key.config
+    model = velocity_loop_model(np.array(p_ctrl), np.array(k_vel), config.dt)
+    f, L = make_mpc(model, config)
+    sample = make_mpc_sample(f, L, model, config, PATH_SAMPLES)
+    every = int(round(config.dt / TS_CONTROL))
+    return GuidanceLaw("mpc", make_guidance("mpc", sample, every),
+                       mpc_state_layout(L, f.size1_in(4), config.warm_dual), L, config)
+
+
+def mpc_law(p_ctrl: np.ndarray, k_vel: np.ndarray, config: MpcConfig = MpcConfig()) -> GuidanceLaw:
+    """The path-following MPC in the slot, predicting the velocity loop of ``p_ctrl``,
+    ``k_vel`` (built once per process and arguments)."""
+    if abs(round(config.dt / TS_CONTROL) * TS_CONTROL - config.dt) > 1e-9:
+        raise ScenarioError(f"MPC dt must be a multiple of {TS_CONTROL} s, got {config.dt!r}")
+    return _mpc_law(tuple(np.asarray(p_ctrl, float).ravel()),
+                    tuple(np.asarray(k_vel, float).ravel()), _Key(config))
+
+
+#: Look-ahead (m) and lateral gain (1/s) of the pure-pursuit baseline in the slot: the
+#: best of a 3 x 3 sweep (0.3 / 0.6 / 1.0 m x 0, 0.5, 1 1/s) on the figure-eight at
+#: 0.5 m/s (the study's report); the class's own default 0.3 m lags the velocity loop.
+PURSUIT_GAINS = (0.6, 1.0)
+
+
+@lru_cache(maxsize=None)
+def pursuit_law(lookahead: float = PURSUIT_GAINS[0], k_lat: float = PURSUIT_GAINS[1]) -> GuidanceLaw:
+    """Pure pursuit in the slot (10 Hz)."""
+    return GuidanceLaw("pursuit", make_guidance("pursuit", make_pursuit_sample()),
+                       pursuit_state_layout(), options=(("lookahead", lookahead), ("k_lat", k_lat)))
+
+
+@lru_cache(maxsize=None)
+def _simulator(function: ca.Function, estimator: str) -> ClosedLoop:
+    blocks, est = (software_blocks("flc", estimator) if estimator != "true"
+                   else software_blocks("flc", "ukf"))
+    if estimator == "true":
+        step = make_closed_loop_step(blocks.balance, blocks.velocity, make_ode(), N_SUB,
+                                     blocks.observer, function)
+    else:
+        step = make_estimating_step(blocks.balance, blocks.velocity, est.ode, make_wheel_speeds(),
+                                    est, N_SUB, observer=blocks.observer, guidance=function)
+    return ClosedLoop(steps={"flc": step}, estimator=estimator,
+                      library=f"{function.name()}_{estimator}")
+
+
+def guided_simulator(law: GuidanceLaw, estimator: str = "true") -> ClosedLoop:
+    """The compiled closed loop (FLC cascade, the guidance block in the period) reading
+    the true state or, with ``estimator`` ``ukf`` / ``ekf``, the embedded software's
+    estimate (built and compiled once per process, cached by hash on disk)."""
+    if estimator not in ("true", "ukf", "ekf"):
+        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, ukf, ekf")
+    return _simulator(law.function, estimator)
+
+
+def run_guided(path: Path, law: GuidanceLaw, duration: float, estimator: str = "true",
+               seed: int = 0, sim: ClosedLoop | None = None,
+               scenario: Scenario | None = None) -> dict[str, np.ndarray]:
+    """Follow ``path`` for ``duration`` s in one compiled mission (standing at its start,
+    or as ``scenario`` says: its initial state, disturbances, estimator, seed, ...).
+
+    Returns the log of :meth:`ClosedLoop.simulate` (``state``, ``v_ref_used``, ``guide``,
+    with an estimator ``x_hat``, ...).
+
+    Raises
+    ------
+    SolverError
+        The guidance's QP failed in the generated C (the mission stops there).
+    """
+    sc = path_scenario(path, duration) if scenario is None else scenario
+    if scenario is None and estimator != "true":
+        sc = sc.replace(estimator=estimator, seed=seed)
+    if sc.controller != "flc" or not sc.cascade:
+        raise ScenarioError("path following runs the FLC cascade (controller 'flc', cascade = "
+                            f"true), got controller {sc.controller!r}, cascade = {sc.cascade}")
+    inp = sc.inputs()
+    if sc.estimator != "true":
+        inp = power_on_inputs(sc.estimator, inp)
+    sim = guided_simulator(law, sc.estimator) if sim is None else sim
+    g0 = law.initial_state(path, inp["x0"], inp["z0"])
+    try:
+        return sim.simulate("flc", **inp, n_sub=sc.n_sub, k_guid=law.parameters(path), g0=g0)
+    except BuildError as exc:
+        raise SolverError(f"path following stopped: a {law.name} guidance sample failed in "
+                          f"the generated C (a QP that did not converge): {exc}") from None
+
+
+def scenario_law(scenario: Scenario) -> GuidanceLaw:
+    """The guidance law a scenario with a path asks for (its own controller model)."""
+    if scenario.guidance == "pursuit":
+        return pursuit_law()
+    inp = scenario.inputs(periods=(0, 1))
+    return mpc_law(inp["p_ctrl"], inp["k_vel"])
+
+
+def run_path_scenario(scenario: Scenario, sim: ClosedLoop | None = None) -> SimulationLog:
+    """Run a scenario with a ``[path]`` (:mod:`~ballbot_casadi.sim.scenario.path_section`)
+    as a :class:`~ballbot_casadi.sim.log.SimulationLog` (arrays of :func:`run_guided`)."""
+    path = scenario.route.build()
+    if path is None:
+        raise ScenarioError(f"scenario {scenario.name!r} has no [path] to follow", key="path")
+    log = run_guided(path, scenario_law(scenario), scenario.duration, sim=sim, scenario=scenario)
+    log.pop("xz_final", None)
+    return SimulationLog(arrays=log, scenario=scenario.to_dict(), params=scenario.plant_params(),
+                         ctrl_params=scenario.controller_params(),
+                         diag_names=scenario.diag_names(), extra={})
+
+
+def predictions(law: GuidanceLaw, log: dict[str, np.ndarray], every: int = GUIDANCE_EVERY
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The MPC's predicted positions at each guidance sample: sample indices (periods)
+    and positions (n_samples, N+1, 2), from the logged guidance state."""
+    if law.mpc_layout is None:
+        raise ScenarioError("predictions: only the MPC predicts")
+    L = law.mpc_layout
+    g = log["guide"][1::every]  # the state after each sample's period
+    w = g[:, 1 + law.state.offset("w"):1 + law.state.offset("w") + L.n_w]
+    pos = np.stack([w[:, L.x(k).start + 12:L.x(k).start + 14] for k in range(L.N + 1)], axis=1)
+    return np.arange(0, g.shape[0] * every, every), pos
+

@@ -1,0 +1,128 @@
+"""Every benchmark group's code path with tiny sizes: the keys it documents are there and
+every value is a finite number.  No timing is asserted (timing goals live in
+``make bench`` only); this catches a refactor that breaks a group (issue 23: a reshape
+error in bench/estimation.py went unnoticed until ``make bench``).
+
+The sizes are made tiny by the groups' own arguments where they have them, otherwise by
+patching the group's private size constants/helpers (a rename there fails here loudly,
+which is the point)."""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+
+import pytest
+
+import ballbot_casadi.bench as bench
+from ballbot_casadi.bench import BENCHMARKS
+from ballbot_casadi.bench import control as bench_control_mod
+from ballbot_casadi.bench import estimation as bench_estimation_mod
+from ballbot_casadi.bench import fmu as bench_fmu_mod
+from ballbot_casadi.bench import fmu3 as bench_fmu3_mod
+from ballbot_casadi.firmware.toolchain import missing_tools
+
+pytestmark = pytest.mark.needs_cc
+
+
+def _check(data: dict, keys: set[str]) -> None:
+    assert keys <= set(data), sorted(keys - set(data))
+    for k, v in data.items():
+        assert isinstance(v, (int, float)) and not isinstance(v, bool), (k, v)
+        assert math.isfinite(v), (k, v)
+    json.dumps(data)
+
+
+def test_every_group_is_covered_here():
+    assert set(BENCHMARKS) == {"model", "fmu", "control", "estimation", "montecarlo", "firmware", "mpc"}
+
+
+def test_model_group(monkeypatch):
+    monkeypatch.setattr(bench, "_python_call_ns", functools.partial(bench._python_call_ns, 200))
+    _check(bench.bench_model(n_calls=1000),
+           {"ode_ns", "jac_ns", "python_call_ns", "python_over_c_ratio", "ode_target_ns", "jac_target_ns"})
+
+
+def test_control_group(monkeypatch):
+    # the Python-loop comparison walks 3 x 400 periods of the mission's inputs: 6.5 s
+    orig = bench_control_mod.mission_inputs
+    monkeypatch.setattr(bench_control_mod, "mission_inputs", lambda duration=100.0: orig(6.5))
+    _check(bench_control_mod.bench_control(n_calls=200, repeats=1),
+           {"control_step_us", "control_step_smc_us", "cl_period_us", "mission_100s_s",
+            "mission_build_s", "mission_100s_casadi_call_s", "mission_driver_vs_casadi_max_abs_diff",
+            "python_loop_period_us", "mission_period_us", "python_loop_ratio",
+            "control_step_target_us", "mission_100s_target_s"})
+
+
+def test_estimation_group(monkeypatch):
+    orig = bench_estimation_mod._full_scenario
+    monkeypatch.setattr(bench_estimation_mod, "_full_scenario", lambda: orig().replace(duration=0.5))
+    _check(bench_estimation_mod.bench_estimation(n_calls=50, repeats=1),
+           {"mission_full_100s_s", "mission_full_100s_with_inputs_s", "mission_full_100s_target_s",
+            "qukf_step_us", "vukf_step_us", "tilt_correction_step_us", "com_observer_step_us",
+            "estimator_step_us", "embedded_step_us", "estimator_step_target_us"})
+
+
+@pytest.mark.slow  # two Dask clusters: ~13 s even in-process
+def test_montecarlo_group(monkeypatch):
+    import distributed
+
+    real = distributed.LocalCluster
+    # in-process workers: the group's code path without spawning processes
+    monkeypatch.setattr(distributed, "LocalCluster", lambda **kw: real(**{**kw, "processes": False}))
+    data = BENCHMARKS["montecarlo"](n_runs=2, duration=0.1)
+    _check(data, {"montecarlo_runs_per_s_1w", "montecarlo_runs_per_s_2w", "montecarlo_parallel_efficiency",
+                  "montecarlo_serial_runs_per_s", "montecarlo_dask_equals_serial", "montecarlo_runs",
+                  "montecarlo_run_duration_s"})
+    assert data["montecarlo_dask_equals_serial"] == 1.0
+
+
+def test_mpc_group():
+    _check(BENCHMARKS["mpc"](duration=0.5, mission=0.5),
+           {"mpc_solve_us_median", "mpc_solve_us_p99", "mpc_solve_us_max", "mpc_failures",
+            "mpc_workspace_bytes", "mpc_mission_s", "mpc_mission_ratio"})
+
+
+class _ShortScenario:
+    """A scenario whose ``replace(duration=...)`` keeps a tiny duration (the SIL bench asks
+    for 100 s)."""
+
+    def __init__(self, sc, duration: float):
+        self._sc, self._d = sc, duration
+
+    def replace(self, **kw):
+        return self._sc.replace(**{**kw, "duration": min(kw.get("duration", self._d), self._d)})
+
+
+@pytest.mark.slow  # PythonFMU build, libcosim and CasADi's FMU export: ~15 s with cached builds
+@pytest.mark.fmi_extra
+def test_fmu_group(monkeypatch):
+    pytest.importorskip("libcosimpy")
+    pytest.importorskip("pythonfmu")
+    load = bench_fmu_mod.load_scenario_file
+
+    def short(path):
+        sf = load(path)
+        return type("SF", (), {"scenario": _ShortScenario(sf.scenario, 0.1)})()
+    monkeypatch.setattr(bench_fmu_mod, "load_scenario_file", short)
+    monkeypatch.setattr(bench_fmu_mod, "_STOP", 0.05)
+    monkeypatch.setattr(bench_fmu3_mod, "_STOP", 0.02)
+    data = BENCHMARKS["fmu"]()
+    _check(data, {"fmu_plant_step_us", "fmu_native_cosim_s", "fmu_pythonfmu_cosim_s", "fmu_vs_pythonfmu_ratio",
+                  "fmu_vs_pythonfmu_ratio_target", "fmu_vs_pythonfmu_state_diff", "fmu_controller_step_us",
+                  "fmu_controller_step_target_us", "sil_100s_s", "sil_mission_100s_s", "sil_vs_mission_ratio",
+                  "fmu3_vs_casadi_export_ratio", "fmu3_vs_casadi_export_ratio_sampled",
+                  "fmu3_vs_casadi_export_state_diff"})
+    # the two plant FMUs integrate the same model: the states agree
+    assert data["fmu_vs_pythonfmu_state_diff"] < 1e-9
+
+
+@pytest.mark.firmware
+def test_firmware_group():
+    if missing_tools():
+        assert BENCHMARKS["firmware"](n_periods=4) == {"firmware_available": 0.0}
+        pytest.skip(f"firmware toolchain missing: {missing_tools()}")
+    _check(BENCHMARKS["firmware"](n_periods=4),
+           {"firmware_available", "firmware_step_instructions", "firmware_single_step_instructions",
+            "firmware_ram_bytes", "firmware_flash_bytes", "firmware_step_instructions_target"})

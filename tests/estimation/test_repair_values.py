@@ -1,0 +1,30 @@
+"""The covariance repair against the ladder's hand-computed first rung: the smallest
+shift ``-min pivot + jitter`` on an indefinite matrix (not merely *some* PD result)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.estimation.linalg import JITTER, make_spd_repair
+
+
+@pytest.mark.parametrize("A,shift", [
+    # pivots 1, 1 - 4 = -3, 1; mean diagonal 1
+    (np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), 3.0 + JITTER),
+    # pivots -1, -1, -1; |trace| / 3 = 1
+    (-np.eye(3), 1.0 + JITTER),
+    # one negative variance among positive ones: pivots 2, -0.5, 4; mean diagonal 5.5 / 3
+    (np.diag([2.0, -0.5, 4.0]), 0.5 + JITTER * 5.5 / 3),
+])
+def test_an_indefinite_covariance_gets_the_smallest_pivot_shift(A, shift):
+    out, flag = make_spd_repair(3)(A)
+    assert float(flag) == 1
+    np.testing.assert_allclose(np.array(out), A + shift * np.eye(3), rtol=0, atol=1e-15)
+
+
+def test_an_asymmetric_pd_matrix_is_only_symmetrised():
+    A = np.array([[2.0, 0.3, 0.0], [0.1, 1.0, 0.2], [0.0, 0.0, 3.0]])
+    out, flag = make_spd_repair(3)(A)
+    assert float(flag) == 0
+    np.testing.assert_allclose(np.array(out), 0.5 * (A + A.T), rtol=0, atol=0)

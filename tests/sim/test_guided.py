@@ -1,0 +1,116 @@
+"""Path following inside the compiled period: the guidance slot with the real MPC and pure
+pursuit equals the Python driver above the compiled cascade; the slot runs every 20th
+period; the path table reproduces the spline; noise + UKFs in the loop."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from ballbot_casadi.guidance.mpc import PathMPC
+from ballbot_casadi.guidance.path_table import PathSymbols, pack_path, path_eval
+from ballbot_casadi.guidance.paths import figure_eight, line_path, waypoint_path
+from ballbot_casadi.guidance.pure_pursuit import PurePursuit
+from ballbot_casadi.sim.guided import (
+    GUIDANCE_EVERY,
+    PURSUIT_GAINS,
+    mpc_law,
+    predictions,
+    pursuit_law,
+    run_guided,
+)
+from ballbot_casadi.sim.path_following import path_scenario, run_path, velocity_loop_model
+
+DURATION = 3.0
+
+
+@pytest.fixture(scope="module")
+def path():
+    return waypoint_path([[0.0, 0.0], [1.0, 0.3], [2.0, 0.0]])
+
+
+@pytest.fixture(scope="module")
+def inputs(path):
+    return path_scenario(path, 1.0).inputs()
+
+
+@pytest.fixture(scope="module")
+def law(inputs):
+    return mpc_law(inputs["p_ctrl"], inputs["k_vel"])
+
+
+@pytest.fixture(scope="module")
+def mpc_runs(path, inputs, law):
+    mission = run_guided(path, law, DURATION)
+    mpc = PathMPC(velocity_loop_model(inputs["p_ctrl"], inputs["k_vel"], 0.1), path)
+    return mission, run_path(path, mpc, DURATION)
+
+
+def test_mpc_in_the_compiled_period_equals_the_python_driver(mpc_runs, law):
+    """The compiled mission with the MPC in the guidance slot == the Python driver calling
+    PathMPC every 0.1 s above the compiled cascade (path table vs spline: ~1e-7 m)."""
+    mission, ref = mpc_runs
+    assert mission["state"].shape == ref.log["state"].shape
+    np.testing.assert_allclose(mission["state"], ref.log["state"], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(mission["v_ref_used"][::GUIDANCE_EVERY, :2], ref.v_ref,
+                               rtol=0, atol=1e-6)
+    _, pos = predictions(law, mission)
+    np.testing.assert_allclose(pos, np.array(ref.predictions), rtol=0, atol=1e-6)
+    # and it went somewhere: 3 s along the path at up to 0.5 m/s
+    assert np.linalg.norm(mission["state"][-1, :2] - mission["state"][0, :2]) > 0.8
+
+
+def test_the_guidance_runs_every_20th_period_and_holds_between(mpc_runs, law):
+    mission, _ = mpc_runs
+    v = mission["v_ref_used"]
+    held = np.repeat(v[::GUIDANCE_EVERY], GUIDANCE_EVERY, axis=0)[:v.shape[0]]
+    np.testing.assert_array_equal(v, held)
+    assert np.any(np.abs(np.diff(v[::GUIDANCE_EVERY, 0])) > 1e-3)  # it does change at samples
+    g = mission["guide"]
+    count = g[:, 0]
+    np.testing.assert_array_equal(count[:41], np.r_[np.arange(20), np.arange(20), 0.0])
+    # the plan changes only in the sample's period
+    w = g[:, 1 + law.state.offset("w"):]
+    changed = np.flatnonzero(np.any(w[1:] != w[:-1], axis=1))
+    assert set(changed % GUIDANCE_EVERY) == {0}
+
+
+def test_pure_pursuit_in_the_period_equals_the_python_driver(path):
+    mission = run_guided(path, pursuit_law(), DURATION)
+    ref = run_path(path, PurePursuit(path, *PURSUIT_GAINS), DURATION)
+    # projection: Gauss-Newton on the table vs the class's dense search
+    np.testing.assert_allclose(mission["state"], ref.log["state"], rtol=0, atol=1e-5)
+    np.testing.assert_allclose(mission["v_ref_used"][::GUIDANCE_EVERY, :2], ref.v_ref,
+                               rtol=0, atol=1e-5)
+
+
+@pytest.mark.parametrize("make", [lambda: figure_eight(), lambda: line_path((0, 0), (2.0, 1.0)),
+                                  lambda: waypoint_path([[0, 0], [1, 1], [2, 0], [3, 1]])])
+def test_the_path_table_reproduces_the_path(make):
+    """Points, tangents and the reference speed from the table == the spline's, also past the
+    ends of an open path and modulo the length of a closed one."""
+    p = make()
+    k = ca.MX.sym("k", pack_path(p, 1).size)
+    s = np.linspace(-0.5, p.length + 0.5, 301)
+    ev = path_eval(PathSymbols(k, 1), ca.DM(s))
+    f = ca.Function("f", [k], [ev["point"], ev["tangent"], ev["speed"], ev["s_max"]])
+    pt, tg, sp, smax = (np.asarray(v) for v in f(pack_path(p, 1)))
+    np.testing.assert_allclose(pt.T, p.point(s), rtol=0, atol=1e-4)
+    np.testing.assert_allclose(tg.T, p.tangent(s), rtol=0, atol=2e-3)
+    np.testing.assert_allclose(sp.ravel(), p.reference_speed(s), rtol=0, atol=1e-9)
+    assert smax.item() == (1e9 if p.closed else p.length)
+
+
+def test_pure_pursuit_with_noise_and_the_ukfs_follows_the_figure_eight():
+    """Noise + QUKF/VUKF: the guidance reads the estimate; the true position stays near the
+    path (the estimate's position integrates the velocity estimate: no position sensor)."""
+    p = figure_eight()
+    log = run_guided(p, pursuit_law(), 4.0, estimator="ukf", seed=3)
+    assert "x_hat" in log and log["v_ref_used"].shape == (800, 3)
+    s, lat = 0.0, []
+    for q in log["state"][::20, :2]:
+        s = p.project(q, s)
+        lat.append(np.linalg.norm(p.point(s) - q))
+    assert max(lat) < 0.10
+    assert np.linalg.norm(log["state"][-1, :2] - log["state"][0, :2]) > 1.0
