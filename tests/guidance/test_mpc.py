@@ -3,7 +3,6 @@ independent solves, limits on every sample, progress, corners, obstacles, genera
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
