@@ -156,6 +156,8 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     z_att = np.r_[acc, gyro, meas[M["heading"]] if M.has("heading") else []]
     XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
     q_in = [xa, Pa, z_att, est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
+    if "n_rej" in att_f.name_in():  # a gated filter: no consecutive rejections so far
+        q_in.append(np.zeros(att_f.size1_in(att_f.index_in("n_rej"))))
     out = {"attitude": c_function_us(lib, att_f, q_in, n_calls)}
     out[att_f.name().removeprefix("ballbot_")] = out["attitude"]
     if not with_rest:
@@ -164,6 +166,8 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
             est["Rv"], inputs["Ts"], p]
     if "P_rate" in vel_f.name_in():  # the matched filter's gyro-rate covariance (Ra's gyro block)
         v_in.append(np.asarray(est["Ra"])[3:6, 3:6])
+    if "n_rej" in vel_f.name_in():
+        v_in.append(np.zeros(vel_f.size1_in(vel_f.index_in("n_rej"))))
     t_in = [xa[XA["q"]], xv[XV["a"]], xv[XV["b_acc"]], p]
     x_hat = log["x_hat"][k]
     o_in = [x_hat, np.zeros(3), obs, inputs["p_ctrl"], inputs["k_obs"], inputs["Ts"]]

@@ -10,7 +10,12 @@ import pytest
 
 from ballbot_casadi.control import BALANCE_DIAG_NAMES
 from ballbot_casadi.core.layout import STATE
-from ballbot_casadi.fmi.controller.controller import READING_NAMES, REFERENCE_NAMES, XHAT_NAMES
+from ballbot_casadi.fmi.controller.controller import (
+    READING_NAMES,
+    REFERENCE_NAMES,
+    REJECTION_NAMES,
+    XHAT_NAMES,
+)
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES
 from ballbot_casadi.fmi.system.sil import CONTROLLER, PLANT, TORQUES, SilRun
@@ -31,7 +36,8 @@ def _run() -> SilRun:
                         (CONTROLLER, (*XHAT_NAMES, *(f"tau_cmd{i}" for i in range(3)),
                                       *(f"{w}_ref_used{i}" for w in ("q", "dq", "ddq") for i in range(4)),
                                       *(f"diag_{m}" for m in BALANCE_DIAG_NAMES), "nis_attitude",
-                                      "nis_velocity", "repairs", *REFERENCE_NAMES))):
+                                      "nis_velocity", "repairs", *REJECTION_NAMES,
+                                      *REFERENCE_NAMES))):
         for n in names:
             s[f"{comp}.{n}"] = rng.standard_normal(N + 1)
     # plant torque inputs between the two limits, beyond both, and inside both
