@@ -70,11 +70,14 @@ from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL, LoopModel
 from ballbot_casadi.guidance.qp_admm import admm_graph
 
-__all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "mpc_library", "workspace_bytes",
-           "NX_MPC", "NU_MPC", "polygon"]
+__all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "make_mpc_parts", "mpc_library",
+           "workspace_bytes", "dual_shift_index", "FIRST_SAMPLE_QPS", "input_shift_matrix", "NX_MPC", "NU_MPC",
+           "polygon"]
 
 #: Rows per node k = 1..N: speed octagon (4, soft), ds >= 0 and s <= s_max (hard).
 _N_STEP_ROWS = 6
+#: QPs of the first sample (RTI starts cold: the path window is re-linearised this often).
+FIRST_SAMPLE_QPS = 5
 #: Soft rows per constraint node: tilt, tilt rate, acceleration octagons (4 each) and
 #: the tilt-reference acceleration per axis (2).
 _N_NODE_ROWS = 14
@@ -291,6 +294,38 @@ def make_mpc(model: LoopModel, config: MpcConfig = MpcConfig()) -> tuple[ca.Func
     return _make(model, cond, config)[:2]
 
 
+def make_mpc_parts(model: LoopModel, config: MpcConfig = MpcConfig()
+                   ) -> tuple[ca.Function, MpcLayout, dict[str, Any]]:
+    """``ballbot_mpc``, its layout and what a caller needs to warm-start and parametrise
+    it: ``cond`` (:class:`Condensed`), ``A_c`` (constant rows), ``G`` (node positions
+    from ``u``), ``cost`` (``ballbot_mpc_cost``), ``scale``."""
+    if abs(model.dt - config.dt) > 1e-12:
+        raise ScenarioError(f"prediction model step {model.dt} s differs from the MPC dt {config.dt} s")
+    return _make(model, condense(model, config.blocks), config)
+
+
+def dual_shift_index(L: MpcLayout) -> np.ndarray:
+    """Warm start of the row multipliers one sample on: the indices into the previous
+    ``y`` (speed/hard rows of node k from node k + 1, the last repeated; the constraint
+    nodes' rows from the old node nearest to k_i + 1)."""
+    nodes = np.asarray(L.nodes)
+    src = np.array([int(np.argmin(np.abs(nodes - min(k + 1, L.N)))) for k in nodes])
+    rs, rn = _N_STEP_ROWS, _N_NODE_ROWS
+    idx = [min(k + 1, L.N - 1) * rs + r for k in range(L.N) for r in range(rs)]
+    idx += [L.N * rs + src[i] * rn + r for i in range(len(nodes)) for r in range(rn)]
+    idx += [L.n_c + j * len(nodes) + src[i] for j in range(L.M) for i in range(len(nodes))]
+    return np.array(idx, int)
+
+
+def input_shift_matrix(cond: Condensed) -> np.ndarray:
+    """``S`` with ``S u`` = :meth:`PathMPC.shift` ``(u)`` (the map is linear)."""
+    n = cond.n_u
+    eye = np.eye(n)
+    return np.column_stack([cond.block(np.vstack([cond.inputs(eye[:, i])[1:],
+                                                  cond.inputs(eye[:, i])[-1:]]))
+                            for i in range(n)])
+
+
 def _make(model: LoopModel, cond: Condensed, config: MpcConfig
           ) -> tuple[ca.Function, MpcLayout, dict[str, Any]]:
     """``ballbot_mpc``, its layout and the numbers :class:`PathMPC` needs (A_c, G, scales)."""
@@ -426,13 +461,7 @@ class PathMPC:
         #: primal residual of each solve
         self.residuals: list[float] = []
         # warm start of the multipliers: new node i takes the old node nearest to k_i + 1
-        nodes = np.asarray(L.nodes)
-        src = np.array([int(np.argmin(np.abs(nodes - min(k + 1, L.N)))) for k in nodes])
-        rs, rn = _N_STEP_ROWS, _N_NODE_ROWS
-        idx = [min(k + 1, L.N - 1) * rs + r for k in range(L.N) for r in range(rs)]
-        idx += [L.N * rs + src[i] * rn + r for i in range(len(nodes)) for r in range(rn)]
-        idx += [L.n_c + j * len(nodes) + src[i] for j in range(L.M) for i in range(len(nodes))]
-        self._y_shift = np.array(idx, int)
+        self._y_shift = dual_shift_index(L)
 
     def shift(self, u: np.ndarray) -> np.ndarray:
         """Warm start: the blocked inputs moved one step ahead, the last step repeated."""
@@ -503,7 +532,7 @@ class PathMPC:
             guess = self.shift(self.u)
             y0 = self.y[self._y_shift]
         # the first sample re-linearises the path a few times (RTI starts cold)
-        for _ in range(5 if first else 1):
+        for _ in range(FIRST_SAMPLE_QPS if first else 1):
             p = self.parameters(x0, guess)
             z0 = self.rows(guess, p)
             t0, c0 = time.perf_counter(), time.thread_time()
