@@ -199,11 +199,13 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
          for k in range(N + 1)]
     U = [ca.mtimes(ca.DM(cond.T[k]), ub) for k in range(N)]
     model_C, model_D = _outputs(model)
-    J = 0
+    # J = sum_i w_i r_i^2 with residuals r linear in ub: P = 2 R'WR, q = 2 R'W r(0)
+    res, wts = [], []
     v_before = P["v_prev"]
     for k in range(N):
         vr, dds = U[k][0:2], U[k][2]
-        J += config.w_dv * ca.sumsqr(vr - v_before) + config.w_dds * dds**2
+        res += [vr - v_before, dds]
+        wts += [ca.DM([config.w_dv] * 2), config.w_dds]
         v_before = vr
         k1 = k + 1
         xn = X[k1]
@@ -212,9 +214,10 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
         nk = ca.vertcat(-tk[1], tk[0])
         e = pos - pk - tk * (s1 - P["s_bar"][k1])
         wt = config.w_terminal if k1 == N else 1.0
-        J += wt * (P["w_lat"][k1] * config.w_lat * ca.dot(nk, e) ** 2
-                   + config.w_lon * ca.dot(tk, e) ** 2)
-        J += config.w_speed * (ds1 - P["v_s"][k1]) ** 2
+        res += [ca.dot(nk, e), ca.dot(tk, e), ds1 - P["v_s"][k1]]
+        wts += [wt * P["w_lat"][k1] * config.w_lat, wt * config.w_lon, config.w_speed]
+    r, w = ca.vertcat(*res), ca.vertcat(*wts)
+    J = ca.dot(w, r ** 2)
     dirs, f8 = polygon(8)
     D8 = ca.DM(dirs)
     # rows = D y(ub): the distinct outputs y (tilt, rates, speeds, ... linear in ub) and the
@@ -261,13 +264,15 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
     zero = ca.DM.zeros(L.n_u)
     Hs = ca.hessian(J, ub)[0]
     grad = ca.substitute(ca.gradient(J, ub), ub, zero)
+    R = ca.jacobian(r, ub)
+    r0 = ca.substitute(r, ub, zero)
     Y = ca.jacobian(y_out, ub)
     if ca.depends_on(Y, ca.vertcat(x0, p)):
         raise ShapeError("MPC: the constant rows depend on the parameters")  # pragma: no cover
     Y, D = np.array(ca.evalf(Y)), np.array(D)
     A_c = D @ Y
     g0 = ca.substitute(g, ub, zero)
-    return {"x0": x0, "p": p, "ub": ub, "J": J, "P": Hs, "q": grad, "A_c": A_c, "D": D, "Y": Y,
+    return {"x0": x0, "p": p, "ub": ub, "J": J, "P": Hs, "q": grad, "R": R, "r0": r0, "w": w, "A_c": A_c, "D": D, "Y": Y,
             "G": G,
             "N": Nm, "l": ca.vertcat(ca.DM(lo) - g0, *ob_lo),
             "u": ca.vertcat(ca.DM(hi) - g0, ca.DM.inf(len(ob_lo))),
@@ -342,14 +347,19 @@ def _make(model: LoopModel, cond: Condensed, config: MpcConfig
     scale = float(np.mean(np.diag(P_nom)))
     Nm = Q["N"]
     nobs = ca.vertcat(*Nm.nonzeros()) if Nm.nnz() else ca.SX(0, 1)
+    # the residuals' Jacobian R, r(0) and the weights as scalar code (small), the products
+    # P = 2 R'WR / scale, q = 2 R'W r(0) / scale as matrix operations (loops in the C)
     setup = ca.Function("ballbot_mpc_setup", [x0, p],
-                        [ca.densify(Q["P"] / scale), Q["q"] / scale, Q["l"], Q["u"], nobs],
-                        ["x0", "p"], ["P", "q", "l", "u", "nobs"])
+                        [Q["R"], Q["r0"], Q["w"], Q["l"], Q["u"], nobs],
+                        ["x0", "p"], ["R", "r0", "w", "l", "u", "nobs"])
     n, m = L.n_u, L.n_rows
     X0 = ca.MX.sym("x0", NX_MPC)
     Pm = ca.MX.sym("p", L.n_p)
     u0, z0, y0 = ca.MX.sym("u0", n), ca.MX.sym("z0", m), ca.MX.sym("y0", m)
-    Ph, qh, lh, hh, nh = setup(X0, Pm)
+    Rh, r0h, wh, lh, hh, nh = setup(X0, Pm)
+    WR = ca.mtimes(ca.diag(wh), Rh)
+    Ph = ca.densify(ca.mtimes(Rh.T, WR) * (2.0 / scale))
+    qh = ca.mtimes(WR.T, r0h) * (2.0 / scale)
     if config.solver == "admm":
         uo, zo, yo, rp = admm_graph(n, (Q["D"], Q["Y"]), Q["G"], Nm.sparsity(), Q["penalty"],
                                     config.rho, config.sigma, config.alpha, config.iterations,
