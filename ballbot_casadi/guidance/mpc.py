@@ -71,7 +71,8 @@ from ballbot_casadi.guidance.prediction import NXL, LoopModel
 from ballbot_casadi.guidance.qp_admm import admm_graph
 
 __all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "make_mpc_parts", "mpc_library",
-           "workspace_bytes", "dual_shift_index", "FIRST_SAMPLE_QPS", "input_shift_matrix", "NX_MPC", "NU_MPC",
+           "workspace_bytes", "dual_shift_index", "FIRST_SAMPLE_QPS", "input_shift_matrix",
+           "NX_MPC", "NU_MPC",
            "polygon"]
 
 #: Rows per node k = 1..N: speed octagon (4, soft), ds >= 0 and s <= s_max (hard).
@@ -272,7 +273,8 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
     Y, D = np.array(ca.evalf(Y)), np.array(D)
     A_c = D @ Y
     g0 = ca.substitute(g, ub, zero)
-    return {"x0": x0, "p": p, "ub": ub, "J": J, "P": Hs, "q": grad, "R": R, "r0": r0, "w": w, "A_c": A_c, "D": D, "Y": Y,
+    return {"x0": x0, "p": p, "ub": ub, "J": J, "P": Hs, "q": grad, "R": R, "r0": r0, "w": w,
+            "A_c": A_c, "D": D, "Y": Y,
             "G": G,
             "N": Nm, "l": ca.vertcat(ca.DM(lo) - g0, *ob_lo),
             "u": ca.vertcat(ca.DM(hi) - g0, ca.DM.inf(len(ob_lo))),

@@ -18,6 +18,10 @@ rows).  ``K = P + sigma I + rho A'A`` is factorised once per call (sparse LDL', 
 ``ldl`` linear solver, which generates plain C; its inverse is formed by ``n`` solves),
 then ``iterations`` fixed steps follow: a deterministic operation count and a static
 workspace (no data-dependent branching, no allocation).  Warm start: ``u0, z0, y0``.
+Generated C: the iteration is one Function called ``iterations`` times, and it, the
+KKT matrix and the residual are MX matrix operations, so the C multiplies by the
+constant sparse factors and the dense ``K^-1`` in loops (an SX body wrote one scalar
+line per product: several times the C and the compile time).
 ``r_prim = ||A u - z||_inf`` tells how far from feasibility (of the rows' split) the
 fixed iteration count left the solution (the dual residual is not formed: it would keep
 ``P`` in the workspace).
