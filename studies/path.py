@@ -82,7 +82,8 @@ def path_report_lines(m: dict[str, Any]) -> list[str]:
         "N = 20 (2 s) | onboard PC; on the STM32H743 it did not fit the RAM by 488,144 B; no "
         "solve times published |",
         "| ETH ballbot (OCS2) | nonlinear MPC, 10-state model | 100 Hz | 2 s | desktop |",
-        "| ours | CasADi qrqp (generated C), RTI on the closed velocity loop's linear model | "
+        "| ours | condensed QP, fixed-iteration ADMM (generated C), RTI on the closed velocity "
+        "loop's linear model | "
         "10 Hz, inside the 200 Hz period | N = 20 (2 s) | this machine; solve times: "
         "`make bench` (mpc_solve_us) |", "",
     ]

@@ -70,11 +70,15 @@ from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL, LoopModel
 from ballbot_casadi.guidance.qp_admm import admm_graph
 
-__all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "mpc_library", "workspace_bytes",
-           "NX_MPC", "NU_MPC", "polygon"]
+__all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "make_mpc_parts", "mpc_library",
+           "workspace_bytes", "dual_shift_index", "FIRST_SAMPLE_QPS", "input_shift_matrix",
+           "NX_MPC", "NU_MPC",
+           "polygon"]
 
 #: Rows per node k = 1..N: speed octagon (4, soft), ds >= 0 and s <= s_max (hard).
 _N_STEP_ROWS = 6
+#: QPs of the first sample (RTI starts cold: the path window is re-linearised this often).
+FIRST_SAMPLE_QPS = 5
 #: Soft rows per constraint node: tilt, tilt rate, acceleration octagons (4 each) and
 #: the tilt-reference acceleration per axis (2).
 _N_NODE_ROWS = 14
@@ -196,11 +200,13 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
          for k in range(N + 1)]
     U = [ca.mtimes(ca.DM(cond.T[k]), ub) for k in range(N)]
     model_C, model_D = _outputs(model)
-    J = 0
+    # J = sum_i w_i r_i^2 with residuals r linear in ub: P = 2 R'WR, q = 2 R'W r(0)
+    res, wts = [], []
     v_before = P["v_prev"]
     for k in range(N):
         vr, dds = U[k][0:2], U[k][2]
-        J += config.w_dv * ca.sumsqr(vr - v_before) + config.w_dds * dds**2
+        res += [vr - v_before, dds]
+        wts += [ca.DM([config.w_dv] * 2), config.w_dds]
         v_before = vr
         k1 = k + 1
         xn = X[k1]
@@ -209,9 +215,10 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
         nk = ca.vertcat(-tk[1], tk[0])
         e = pos - pk - tk * (s1 - P["s_bar"][k1])
         wt = config.w_terminal if k1 == N else 1.0
-        J += wt * (P["w_lat"][k1] * config.w_lat * ca.dot(nk, e) ** 2
-                   + config.w_lon * ca.dot(tk, e) ** 2)
-        J += config.w_speed * (ds1 - P["v_s"][k1]) ** 2
+        res += [ca.dot(nk, e), ca.dot(tk, e), ds1 - P["v_s"][k1]]
+        wts += [wt * P["w_lat"][k1] * config.w_lat, wt * config.w_lon, config.w_speed]
+    r, w = ca.vertcat(*res), ca.vertcat(*wts)
+    J = ca.dot(w, r ** 2)
     dirs, f8 = polygon(8)
     D8 = ca.DM(dirs)
     # rows = D y(ub): the distinct outputs y (tilt, rates, speeds, ... linear in ub) and the
@@ -258,13 +265,16 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
     zero = ca.DM.zeros(L.n_u)
     Hs = ca.hessian(J, ub)[0]
     grad = ca.substitute(ca.gradient(J, ub), ub, zero)
+    R = ca.jacobian(r, ub)
+    r0 = ca.substitute(r, ub, zero)
     Y = ca.jacobian(y_out, ub)
     if ca.depends_on(Y, ca.vertcat(x0, p)):
         raise ShapeError("MPC: the constant rows depend on the parameters")  # pragma: no cover
     Y, D = np.array(ca.evalf(Y)), np.array(D)
     A_c = D @ Y
     g0 = ca.substitute(g, ub, zero)
-    return {"x0": x0, "p": p, "ub": ub, "J": J, "P": Hs, "q": grad, "A_c": A_c, "D": D, "Y": Y,
+    return {"x0": x0, "p": p, "ub": ub, "J": J, "P": Hs, "q": grad, "R": R, "r0": r0, "w": w,
+            "A_c": A_c, "D": D, "Y": Y,
             "G": G,
             "N": Nm, "l": ca.vertcat(ca.DM(lo) - g0, *ob_lo),
             "u": ca.vertcat(ca.DM(hi) - g0, ca.DM.inf(len(ob_lo))),
@@ -291,6 +301,38 @@ def make_mpc(model: LoopModel, config: MpcConfig = MpcConfig()) -> tuple[ca.Func
     return _make(model, cond, config)[:2]
 
 
+def make_mpc_parts(model: LoopModel, config: MpcConfig = MpcConfig()
+                   ) -> tuple[ca.Function, MpcLayout, dict[str, Any]]:
+    """``ballbot_mpc``, its layout and what a caller needs to warm-start and parametrise
+    it: ``cond`` (:class:`Condensed`), ``A_c`` (constant rows), ``G`` (node positions
+    from ``u``), ``cost`` (``ballbot_mpc_cost``), ``scale``."""
+    if abs(model.dt - config.dt) > 1e-12:
+        raise ScenarioError(f"prediction model step {model.dt} s differs from the MPC dt {config.dt} s")
+    return _make(model, condense(model, config.blocks), config)
+
+
+def dual_shift_index(L: MpcLayout) -> np.ndarray:
+    """Warm start of the row multipliers one sample on: the indices into the previous
+    ``y`` (speed/hard rows of node k from node k + 1, the last repeated; the constraint
+    nodes' rows from the old node nearest to k_i + 1)."""
+    nodes = np.asarray(L.nodes)
+    src = np.array([int(np.argmin(np.abs(nodes - min(k + 1, L.N)))) for k in nodes])
+    rs, rn = _N_STEP_ROWS, _N_NODE_ROWS
+    idx = [min(k + 1, L.N - 1) * rs + r for k in range(L.N) for r in range(rs)]
+    idx += [L.N * rs + src[i] * rn + r for i in range(len(nodes)) for r in range(rn)]
+    idx += [L.n_c + j * len(nodes) + src[i] for j in range(L.M) for i in range(len(nodes))]
+    return np.array(idx, int)
+
+
+def input_shift_matrix(cond: Condensed) -> np.ndarray:
+    """``S`` with ``S u`` = :meth:`PathMPC.shift` ``(u)`` (the map is linear)."""
+    n = cond.n_u
+    eye = np.eye(n)
+    return np.column_stack([cond.block(np.vstack([cond.inputs(eye[:, i])[1:],
+                                                  cond.inputs(eye[:, i])[-1:]]))
+                            for i in range(n)])
+
+
 def _make(model: LoopModel, cond: Condensed, config: MpcConfig
           ) -> tuple[ca.Function, MpcLayout, dict[str, Any]]:
     """``ballbot_mpc``, its layout and the numbers :class:`PathMPC` needs (A_c, G, scales)."""
@@ -307,14 +349,19 @@ def _make(model: LoopModel, cond: Condensed, config: MpcConfig
     scale = float(np.mean(np.diag(P_nom)))
     Nm = Q["N"]
     nobs = ca.vertcat(*Nm.nonzeros()) if Nm.nnz() else ca.SX(0, 1)
+    # the residuals' Jacobian R, r(0) and the weights as scalar code (small), the products
+    # P = 2 R'WR / scale, q = 2 R'W r(0) / scale as matrix operations (loops in the C)
     setup = ca.Function("ballbot_mpc_setup", [x0, p],
-                        [ca.densify(Q["P"] / scale), Q["q"] / scale, Q["l"], Q["u"], nobs],
-                        ["x0", "p"], ["P", "q", "l", "u", "nobs"])
+                        [Q["R"], Q["r0"], Q["w"], Q["l"], Q["u"], nobs],
+                        ["x0", "p"], ["R", "r0", "w", "l", "u", "nobs"])
     n, m = L.n_u, L.n_rows
     X0 = ca.MX.sym("x0", NX_MPC)
     Pm = ca.MX.sym("p", L.n_p)
     u0, z0, y0 = ca.MX.sym("u0", n), ca.MX.sym("z0", m), ca.MX.sym("y0", m)
-    Ph, qh, lh, hh, nh = setup(X0, Pm)
+    Rh, r0h, wh, lh, hh, nh = setup(X0, Pm)
+    WR = ca.mtimes(ca.diag(wh), Rh)
+    Ph = ca.densify(ca.mtimes(Rh.T, WR) * (2.0 / scale))
+    qh = ca.mtimes(WR.T, r0h) * (2.0 / scale)
     if config.solver == "admm":
         uo, zo, yo, rp = admm_graph(n, (Q["D"], Q["Y"]), Q["G"], Nm.sparsity(), Q["penalty"],
                                     config.rho, config.sigma, config.alpha, config.iterations,
@@ -426,13 +473,7 @@ class PathMPC:
         #: primal residual of each solve
         self.residuals: list[float] = []
         # warm start of the multipliers: new node i takes the old node nearest to k_i + 1
-        nodes = np.asarray(L.nodes)
-        src = np.array([int(np.argmin(np.abs(nodes - min(k + 1, L.N)))) for k in nodes])
-        rs, rn = _N_STEP_ROWS, _N_NODE_ROWS
-        idx = [min(k + 1, L.N - 1) * rs + r for k in range(L.N) for r in range(rs)]
-        idx += [L.N * rs + src[i] * rn + r for i in range(len(nodes)) for r in range(rn)]
-        idx += [L.n_c + j * len(nodes) + src[i] for j in range(L.M) for i in range(len(nodes))]
-        self._y_shift = np.array(idx, int)
+        self._y_shift = dual_shift_index(L)
 
     def shift(self, u: np.ndarray) -> np.ndarray:
         """Warm start: the blocked inputs moved one step ahead, the last step repeated."""
@@ -503,7 +544,7 @@ class PathMPC:
             guess = self.shift(self.u)
             y0 = self.y[self._y_shift]
         # the first sample re-linearises the path a few times (RTI starts cold)
-        for _ in range(5 if first else 1):
+        for _ in range(FIRST_SAMPLE_QPS if first else 1):
             p = self.parameters(x0, guess)
             z0 = self.rows(guess, p)
             t0, c0 = time.perf_counter(), time.thread_time()

@@ -18,6 +18,10 @@ rows).  ``K = P + sigma I + rho A'A`` is factorised once per call (sparse LDL', 
 ``ldl`` linear solver, which generates plain C; its inverse is formed by ``n`` solves),
 then ``iterations`` fixed steps follow: a deterministic operation count and a static
 workspace (no data-dependent branching, no allocation).  Warm start: ``u0, z0, y0``.
+Generated C: the iteration is one Function called ``iterations`` times, and it, the
+KKT matrix and the residual are MX matrix operations, so the C multiplies by the
+constant sparse factors and the dense ``K^-1`` in loops (an SX body wrote one scalar
+line per product: several times the C and the compile time).
 ``r_prim = ||A u - z||_inf`` tells how far from feasibility (of the rows' split) the
 fixed iteration count left the solution (the dual residual is not formed: it would keep
 ``P`` in the workspace).
@@ -88,29 +92,32 @@ def admm_graph(n: int, A_c: tuple[np.ndarray, np.ndarray], G: np.ndarray, N_sp: 
     Gd = ca.sparsify(ca.DM(G))
     cr = ca.DM(np.where(np.isfinite(penalty), penalty / rho, _HARD))
 
-    P = ca.SX.sym("P", ca.Sparsity.dense(n, n))
-    q = ca.SX.sym("q", n)
-    lo = ca.SX.sym("l", m)
-    hi = ca.SX.sym("u", m)
-    nobs = ca.SX.sym("nobs", N_sp.nnz())
-    Nm = ca.SX(N_sp, nobs)
-    Kinv = ca.SX.sym("Kinv", ca.Sparsity.dense(n, n))
+    # matrix operations on MX: the generated C multiplies by the constant sparse D, Y, G
+    # and the dense K^-1 in loops (casadi_mtimes) instead of one scalar line per product
+    # (the SX form took ~70k lines of C and minutes of -O3 per library)
+    P = ca.MX.sym("P", ca.Sparsity.dense(n, n))
+    q = ca.MX.sym("q", n)
+    lo = ca.MX.sym("l", m)
+    hi = ca.MX.sym("u", m)
+    nobs = ca.MX.sym("nobs", N_sp.nnz())
+    Nm = ca.MX(N_sp, nobs)
+    Kinv = ca.MX.sym("Kinv", ca.Sparsity.dense(n, n))
 
-    def A_mul(v: ca.SX) -> ca.SX:
+    def A_mul(v: ca.MX) -> ca.MX:
         return ca.vertcat(ca.mtimes(Dd, ca.mtimes(Yd, v)), ca.mtimes(Nm, ca.mtimes(Gd, v)))
 
-    def At_mul(w: ca.SX) -> ca.SX:
+    def At_mul(w: ca.MX) -> ca.MX:
         return (ca.mtimes(Yd.T, ca.mtimes(Dd.T, w[:m_c]))
                 + ca.mtimes(Gd.T, ca.mtimes(Nm.T, w[m_c:])))
 
     # factorisation, once per call
     NG = ca.mtimes(Nm, Gd)
-    K = P + sigma * ca.SX.eye(n) + rho * (ca.DM(A_c.T @ A_c) + ca.mtimes(NG.T, NG))
+    K = P + sigma * ca.DM.eye(n) + rho * (ca.DM(A_c.T @ A_c) + ca.mtimes(NG.T, NG))
     K = ca.densify(0.5 * (K + K.T))
     kkt = ca.Function("ballbot_mpc_admm_kkt", [P, nobs], [K], ["P", "nobs"], ["K"])
 
-    # one iteration
-    st = ca.SX.sym("st", n + 2 * m)
+    # one iteration: the state (u, z, y) is accumulated, the data are the same each time
+    st = ca.MX.sym("st", n + 2 * m)
     uk, zk, yk = st[:n], st[n:n + m], st[n + m:]
     ut = ca.mtimes(Kinv, sigma * uk - q + At_mul(rho * zk - yk))
     zt = A_mul(ut)
@@ -123,8 +130,8 @@ def admm_graph(n: int, A_c: tuple[np.ndarray, np.ndarray], G: np.ndarray, N_sp: 
                        [ca.vertcat(un, zn, yn)])
 
     # primal residual of the final iterate
-    ur = ca.SX.sym("u", n)
-    zr = ca.SX.sym("z", m)
+    ur = ca.MX.sym("u", n)
+    zr = ca.MX.sym("z", m)
     resid = ca.Function("ballbot_mpc_admm_residual", [ur, zr, nobs],
                         [ca.norm_inf(A_mul(ur) - zr)])
 

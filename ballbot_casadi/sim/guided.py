@@ -39,7 +39,8 @@ from ballbot_casadi.guidance.blocks import (
     pursuit_parameters,
     pursuit_state_layout,
 )
-from ballbot_casadi.guidance.mpc import MpcConfig, MpcLayout, make_mpc
+from ballbot_casadi.guidance.condensed import Condensed
+from ballbot_casadi.guidance.mpc import MpcConfig, MpcLayout, make_mpc_parts
 from ballbot_casadi.guidance.path_table import PATH_SAMPLES, pack_path
 from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL
@@ -100,6 +101,8 @@ class GuidanceLaw:
         The MPC's decision-vector layout (MPC only).
     config
         The MPC configuration (MPC only).
+    cond
+        The MPC's condensed prediction (MPC only: predicted positions from the state).
     """
 
     name: str
@@ -108,6 +111,7 @@ class GuidanceLaw:
     mpc_layout: MpcLayout | None = None
     config: MpcConfig | None = None
     options: tuple = ()
+    cond: Condensed | None = None
 
     def parameters(self, path: Path) -> np.ndarray:
         """``k_guid`` of ``path``."""
@@ -119,8 +123,7 @@ class GuidanceLaw:
         """``g0``: period counter 0 and the sample's initial state at ``x0``, ``z0``."""
         X0 = np.asarray(make_loop_state()(x0, z0), float).reshape(NXL)
         if self.name == "mpc":
-            n_g = self.state.size_of("lam_a") if self.state.has("lam_a") else 0
-            g = mpc_initial_state(self.mpc_layout, n_g, self.config, path, X0)
+            g = mpc_initial_state(self.mpc_layout, path, X0)
         else:
             g = pursuit_initial_state(path, X0)
         return np.r_[0.0, g]
@@ -143,11 +146,11 @@ class _Key:
 def _mpc_law(p_ctrl: tuple, k_vel: tuple, key: _Key) -> GuidanceLaw:
     config = key.config
     model = velocity_loop_model(np.array(p_ctrl), np.array(k_vel), config.dt)
-    f, L = make_mpc(model, config)
-    sample = make_mpc_sample(f, L, model, config, PATH_SAMPLES)
+    f, L, parts = make_mpc_parts(model, config)
+    sample = make_mpc_sample(f, L, parts, config, PATH_SAMPLES)
     every = int(round(config.dt / TS_CONTROL))
-    return GuidanceLaw("mpc", make_guidance("mpc", sample, every),
-                       mpc_state_layout(L, f.size1_in(4), config.warm_dual), L, config)
+    return GuidanceLaw("mpc", make_guidance("mpc", sample, every), mpc_state_layout(L), L,
+                       config, cond=parts["cond"])
 
 
 def mpc_law(p_ctrl: np.ndarray, k_vel: np.ndarray, config: MpcConfig = MpcConfig()) -> GuidanceLaw:
@@ -254,9 +257,8 @@ def predictions(law: GuidanceLaw, log: dict[str, np.ndarray], every: int = GUIDA
     and positions (n_samples, N+1, 2), from the logged guidance state."""
     if law.mpc_layout is None:
         raise ScenarioError("predictions: only the MPC predicts")
-    L = law.mpc_layout
-    g = log["guide"][1::every]  # the state after each sample's period
-    w = g[:, 1 + law.state.offset("w"):1 + law.state.offset("w") + L.n_w]
-    pos = np.stack([w[:, L.x(k).start + 12:L.x(k).start + 14] for k in range(L.N + 1)], axis=1)
+    g = log["guide"][1::every, 1:]  # the state after each sample's period
+    S = law.state
+    pos = np.stack([law.cond.states(x0, u)[:, 12:14] for x0, u in zip(g[:, S["x0"]], g[:, S["u"]])])
     return np.arange(0, g.shape[0] * every, every), pos
 

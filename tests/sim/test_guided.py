@@ -71,7 +71,7 @@ def test_the_guidance_runs_every_20th_period_and_holds_between(mpc_runs, law):
     count = g[:, 0]
     np.testing.assert_array_equal(count[:41], np.r_[np.arange(20), np.arange(20), 0.0])
     # the plan changes only in the sample's period
-    w = g[:, 1 + law.state.offset("w"):]
+    w = g[:, 1 + law.state.offset("x0"):]
     changed = np.flatnonzero(np.any(w[1:] != w[:-1], axis=1))
     assert set(changed % GUIDANCE_EVERY) == {0}
 

@@ -47,11 +47,8 @@ def results(sim, study_out) -> dict:
 
 #: Studies of several 100 s runs with estimators: slow tests.
 _LONG = ("yaw_seeds", "thesis_tuning", "predecessor")
-#: Studies whose spec waits for other work: the path study's MPC needs a QP solver that
-#: converges in the generated C on every sample (issue 18, the solver's branch); today
-#: its first figure-eight sample that cycles stops the run (SolverError), and pure
-#: pursuit misses the 2 cm lateral spec by far (measured: see the study's report).
-_PENDING = {"path": "the MPC's generated QP (qrqp) fails on the figure-eight (issue 18)"}
+#: Studies whose spec waits for other work (name -> reason): none today.
+_PENDING: dict[str, str] = {}
 
 
 def _marks(name: str) -> list:
