@@ -122,3 +122,18 @@ def test_without_rejections_the_gated_loop_is_the_ungated_one_bit_for_bit(estima
     a, b = _run_steps(step_g, inp, n), _run_steps(step_p, inp, n)
     assert a[10, -3] == 1.0 and np.sum(a[:, -4:]) == 1.0  # attitude_gyro at period 10
     assert np.max(np.abs(a[11:, 12:24] - b[11:, 12:24])) > 1e-3
+
+
+def test_the_gate_counters_are_carried_across_periods_so_a_persistent_fault_opens_the_gate(sim):
+    """A gyro offset lasting 25 periods: the mission carries each group's consecutive-rejection
+    count in the controller state, so the gate rejects exactly GATE_MAX_REJECTIONS periods and
+    then opens (a counter that restarts from zero every period would reject all 25)."""
+    from ballbot_casadi.estimation.tuning import GATE_MAX_REJECTIONS
+
+    sc = _sine("ukf")
+    k0, n_bad = round(T_GYRO / sc.Ts), GATE_MAX_REJECTIONS + 5
+    rows = tuple(((k0 + i) * sc.Ts, "gyro", "x", 5.0) for i in range(n_bad))
+    r = run_scenario(sc.replace(sensor_glitches=rows), sim)["rejections"][:, GATE_GROUPS["attitude_gyro"]]
+    np.testing.assert_array_equal(r[k0 - 5:k0].ravel(), 0)
+    np.testing.assert_array_equal(r[k0:k0 + GATE_MAX_REJECTIONS].ravel(), 1)
+    assert r[k0 + GATE_MAX_REJECTIONS, 0] == 0  # opened after GATE_MAX_REJECTIONS in a row
