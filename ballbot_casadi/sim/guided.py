@@ -47,19 +47,21 @@ from ballbot_casadi.guidance.prediction import NXL
 from ballbot_casadi.model.dynamics import NP, make_ode, make_wheel_speeds
 from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs
 from ballbot_casadi.sim.embedded import software_blocks
-from ballbot_casadi.sim.log import SimulationLog
+from ballbot_casadi.sim.log import PATH_KEY, SimulationLog
 from ballbot_casadi.sim.path_following import make_loop_state, path_scenario, velocity_loop_model
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
 
 __all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "mpc_law", "pursuit_law",
            "guided_simulator", "run_guided", "run_path_scenario", "scenario_law", "predictions",
-           "GUIDANCE_EVERY", "PURSUIT_GAINS"]
+           "GUIDANCE_EVERY", "PURSUIT_GAINS", "path_metadata", "PATH_LOG_SPACING"]
 
 #: The guidance laws of the slot.
 GUIDANCE_LAWS = ("mpc", "pursuit")
 #: Control periods per guidance sample (0.1 s at 200 Hz: 10 Hz).
 GUIDANCE_EVERY = 20
+#: Spacing (m) of the path's points kept in a path run's log (:func:`path_metadata`).
+PATH_LOG_SPACING = 0.02
 
 
 def make_guidance(name: str, sample: ca.Function, every: int = GUIDANCE_EVERY) -> ca.Function:
@@ -248,7 +250,18 @@ def run_path_scenario(scenario: Scenario, sim: ClosedLoop | None = None) -> Simu
     log.pop("xz_final", None)
     return SimulationLog(arrays=log, scenario=scenario.to_dict(), params=scenario.plant_params(),
                          ctrl_params=scenario.controller_params(),
-                         diag_names=scenario.diag_names(), extra={})
+                         diag_names=scenario.diag_names(), extra={PATH_KEY: path_metadata(path)})
+
+
+def path_metadata(path: Path, spacing: float = PATH_LOG_SPACING) -> dict[str, list]:
+    """The followed path as a log keeps it (:data:`~ballbot_casadi.sim.log.PATH_KEY`):
+    ``xy`` the path at arc lengths ``0, spacing, ..., length`` (both ends included) and
+    ``obstacles`` as ``[x, y, r]`` rows, so a viewer draws it without the path code."""
+    n = max(2, int(np.ceil(path.length / spacing)) + 1)
+    xy = np.asarray(path.point(np.linspace(0.0, path.length, n)), float)
+    return {"xy": xy.tolist(),
+            "obstacles": [[float(o.center[0]), float(o.center[1]), float(o.radius)]
+                          for o in path.obstacles]}
 
 
 def predictions(law: GuidanceLaw, log: dict[str, np.ndarray], every: int = GUIDANCE_EVERY

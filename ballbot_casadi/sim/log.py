@@ -14,7 +14,11 @@ from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import Params
 from ballbot_casadi.errors import BallbotError, FileFormatError
 
-__all__ = ["SimulationLog", "save_log", "load_log"]
+__all__ = ["SimulationLog", "save_log", "load_log", "PATH_KEY", "log_path"]
+
+#: Key of a path run's followed path in the log's ``extra`` metadata: ``{"xy": [[x, y],
+#: ...] (the path sampled along its length, m), "obstacles": [[x, y, r], ...] (m)}``.
+PATH_KEY = "path"
 
 
 @dataclass
@@ -104,7 +108,39 @@ def load_log(path: str | Path) -> SimulationLog:
         raise FileFormatError(f"{path}: not a readable ballbot simulation log "
                               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})") from None
     _check_shapes(log, path)
+    log_path(log, path)  # a damaged path table is refused here, not when drawing it
     return log
+
+
+def log_path(log: SimulationLog, source: str | Path = "log") -> tuple[np.ndarray, np.ndarray] | None:
+    """The followed path of a path run (:data:`PATH_KEY`): the sampled path ``(n, 2)``
+    and the obstacles ``(m, 3)`` as ``x, y, r``; ``None`` for a run without a path.
+
+    Raises
+    ------
+    FileFormatError
+        The metadata is not a path table: not finite, fewer than two points, rows of the
+        wrong length, a radius <= 0 (one line naming ``source``).
+    """
+    meta = log.extra.get(PATH_KEY) if isinstance(log.extra, dict) else None
+    if meta is None:
+        return None
+    try:
+        if not isinstance(meta, dict):
+            raise ValueError(f"a table expected, got {type(meta).__name__}")
+        xy = np.asarray(meta["xy"], dtype=float)
+        obs = np.asarray(meta.get("obstacles", []), dtype=float)
+        obs = np.zeros((0, 3)) if obs.size == 0 else obs
+    except (KeyError, TypeError, ValueError) as exc:
+        raise FileFormatError(f"{source}: damaged path metadata ({type(exc).__name__}: "
+                              f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
+    if xy.ndim != 2 or xy.shape[1] != 2 or xy.shape[0] < 2 or obs.ndim != 2 or obs.shape[1] != 3:
+        raise FileFormatError(f"{source}: damaged path metadata: xy {xy.shape}, obstacles "
+                              f"{obs.shape}; expected (n >= 2, 2) and (m, 3)")
+    if not (np.all(np.isfinite(xy)) and np.all(np.isfinite(obs)) and np.all(obs[:, 2] > 0)):
+        raise FileFormatError(f"{source}: damaged path metadata: non-finite points or an "
+                              "obstacle radius <= 0")
+    return xy, obs
 
 
 def _check_shapes(log: SimulationLog, path: str | Path) -> None:
