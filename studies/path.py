@@ -1,8 +1,9 @@
 """``ballbot study path``: path following, the MPC beside pure pursuit (issue 18).
 
 Runs (the guidance block in the control period, :mod:`ballbot_casadi.sim.guided`): the
-Monte Carlo base course (``path_mc``, undispersed; ``ballbot montecarlo path_mc`` draws
-random courses from it), the figure-eight 4 m x 2 m at 0.5 m/s with the true state and
+Monte Carlo base course with the true state and with noise + UKFs (``path_mc``,
+``path_mc_ukf``, undispersed; ``ballbot montecarlo path_mc[_ukf]`` draws random courses
+from them), the figure-eight 4 m x 2 m at 0.5 m/s with the true state and
 with noise + QUKF/VUKF, and an obstacle course (a 6 m line past three obstacles), each
 with pure pursuit and with the MPC.  Metrics per run
 (:mod:`ballbot_casadi.analysis.path_metrics`) are named ``<course>_<law>[_ukf]_<metric>``;
@@ -21,6 +22,7 @@ series are kept in each MPC log's ``extra["guidance_samples"]`` (saved with the 
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -82,7 +84,8 @@ def guidance_sample_metrics(log: SimulationLog, libraries: dict[str, Any] | None
                             ) -> dict[str, float]:
     """Per-sample figures of an MPC run (module docstring): ``sample_us_median``,
     ``_p99``, ``_max`` (wall-clock), ``sample_cpu_us_*``, ``r_prim_median``,
-    ``r_prim_max``; the series go to ``log.extra[SAMPLES_KEY]``.  ``libraries`` caches
+    ``r_prim_max``, ``samples`` and ``sample_load_avg`` (the machine's 1-minute load
+    average right after the timing: the wall-clock times depend on it); the series go to ``log.extra[SAMPLES_KEY]``.  ``libraries`` caches
     the compiled guidance block by name across calls.
 
     Raises
@@ -110,7 +113,8 @@ def guidance_sample_metrics(log: SimulationLog, libraries: dict[str, Any] | None
     log.extra[SAMPLES_KEY] = {"t_s": (timing.periods * float(inp["Ts"])).tolist(),
                               "wall_us": (1e6 * timing.wall_s).tolist(),
                               "cpu_us": (1e6 * timing.cpu_s).tolist(), "r_prim": r_prim.tolist()}
-    return {**{f"sample_us_{k.removesuffix('_us')}": v for k, v in wall.items()},
+    return {"sample_load_avg": float(os.getloadavg()[0]),
+            **{f"sample_us_{k.removesuffix('_us')}": v for k, v in wall.items()},
             **{f"sample_cpu_us_{k.removesuffix('_us')}": v for k, v in cpu.items()},
             "r_prim_median": float(np.median(r_prim)), "r_prim_max": float(np.max(r_prim)),
             "samples": float(timing.periods.size)}
@@ -199,14 +203,15 @@ MONTE_CARLO_NOTE = [
 def _sample_lines(m: dict[str, Any]) -> list[str]:
     """The per-sample table of the MPC runs (times: this machine)."""
     rows = []
-    for tag in ("fig8_mpc", "fig8_mpc_ukf", "obstacles_mpc", "mc"):
+    for tag in ("fig8_mpc", "fig8_mpc_ukf", "obstacles_mpc", "mc", "mc_ukf"):
         if f"{tag}_samples" not in m:
             continue
         rows.append(f"| {tag} | {_cell(m, f'{tag}_samples', 1, '.0f')} | "
                     + " / ".join(_cell(m, f"{tag}_sample_us_{k}", 1, ".0f") for k in ("median", "p99", "max"))
                     + " | "
                     + " / ".join(_cell(m, f"{tag}_sample_cpu_us_{k}", 1, ".0f") for k in ("median", "p99", "max"))
-                    + f" | {_cell(m, f'{tag}_r_prim_median', 1, '.2g')} / {_cell(m, f'{tag}_r_prim_max', 1, '.2g')} |")
+                    + f" | {_cell(m, f'{tag}_r_prim_median', 1, '.2g')} / {_cell(m, f'{tag}_r_prim_max', 1, '.2g')} | "
+                    f"{_cell(m, f'{tag}_sample_load_avg', 1, '.1f')} |")
     if not rows:
         return []
     return ["## MPC samples: time and QP residual", "",
@@ -218,7 +223,8 @@ def _sample_lines(m: dict[str, Any]) -> list[str]:
             "does not).  The ADMM's iteration count is fixed, so the primal residual "
             "r_prim = ||A u - z||_inf is reported instead.", "",
             "| run | samples | wall median / p99 / max (µs) | CPU median / p99 / max (µs) | "
-            "r_prim median / max |", "| --- | --- | --- | --- | --- |", *rows, ""]
+            "r_prim median / max | load average (1 min, 2 cores) |",
+            "| --- | --- | --- | --- | --- | --- |", *rows, ""]
 
 
 def path_plots(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path) -> list[Path]:
@@ -226,7 +232,7 @@ def path_plots(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path
     against their limits."""
     matplotlib.use("Agg")
     files = []
-    fig, axes = plt.subplots(1, 2, figsize=(13, 5))
+    fig, axes = plt.subplots(2, 1, figsize=(13, 9), gridspec_kw={"height_ratios": (2.2, 1)})
     for ax, course in zip(axes, ("fig8", "obstacles")):
         drawn = False
         for log in logs:
@@ -240,13 +246,13 @@ def path_plots(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path
                 for ob in path.obstacles:
                     ax.add_patch(plt.Circle(ob.center, ob.radius, color="0.6", alpha=0.6))
                 drawn = True
-            line, = ax.plot(*log.arrays["state"][:, STATE_XY].T, lw=1.2, label=_tag(log))
+            ax.plot(*log.arrays["state"][:, STATE_XY].T, lw=1.2, label=_tag(log))
             if sc.get("guidance", "mpc") == "mpc" and sc.get("estimator", "true") == "true":
-                _draw_horizons(ax, log, line.get_color())
+                _draw_horizons(ax, log)
         ax.set_aspect("equal")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     files.append(out / "path_xy.png")
     fig.savefig(files[-1], dpi=110)
@@ -285,13 +291,15 @@ def path_plots(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path
     return files
 
 
-def _draw_horizons(ax: Any, log: SimulationLog, color: str) -> None:
-    """A few of the MPC's predicted horizons (:func:`horizon_samples`): dots at the nodes."""
+def _draw_horizons(ax: Any, log: SimulationLog) -> None:
+    """A few of the MPC's predicted horizons (:func:`horizon_samples`): the predicted
+    positions at the N + 1 nodes (black dots), the sample's own position circled."""
     law = scenario_law(Scenario.from_dict(log.scenario))
     _, pos = predictions(law, log.arrays, GUIDANCE_EVERY)
     for j, i in enumerate(horizon_samples(pos.shape[0])):
-        ax.plot(pos[i, :, 0], pos[i, :, 1], ".-", color=color, ms=3, lw=0.6, alpha=0.8,
-                label=f"{_tag(log)}: predicted horizons" if j == 0 else None)
+        ax.plot(pos[i, :, 0], pos[i, :, 1], "k.-", ms=3.5, lw=0.7, zorder=5,
+                label=f"{_tag(log)}: predicted horizons (2 s)" if j == 0 else None)
+        ax.plot(pos[i, 0, 0], pos[i, 0, 1], "ko", mfc="none", ms=7, zorder=5)
 
 
 def _samples_plot(logs: Sequence[SimulationLog], file: Path) -> Path:

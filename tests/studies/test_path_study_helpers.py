@@ -20,10 +20,10 @@ def test_report_has_the_sample_table_and_the_peers_row_from_the_metrics():
          "fig8_mpc_sample_us_p99": 1270.4, "fig8_mpc_sample_us_max": 16673.4,
          "fig8_mpc_sample_cpu_us_median": 556.1, "fig8_mpc_sample_cpu_us_p99": 790.0,
          "fig8_mpc_sample_cpu_us_max": 2891.8, "fig8_mpc_r_prim_median": 0.0016784,
-         "fig8_mpc_r_prim_max": 0.0217872}
+         "fig8_mpc_r_prim_max": 0.0217872, "fig8_mpc_sample_load_avg": 4.26}
     lines = path_report_lines(m)
     text = "\n".join(lines)
-    assert "| fig8_mpc | 270 | 555 / 1270 / 16673 | 556 / 790 / 2892 | 0.0017 / 0.022 |" in lines
+    assert "| fig8_mpc | 270 | 555 / 1270 / 16673 | 556 / 790 / 2892 | 0.0017 / 0.022 | 4.3 |" in lines
     assert "fig8_mpc_ukf |" not in text  # no metrics, no row
     assert "555 µs median, 1270 µs p99 wall-clock (790 µs p99 CPU)" in text
     assert "fixed-iteration ADMM" in text and "r_prim" in text
