@@ -97,8 +97,6 @@ def animation_scene(log: SimulationLog, name: str = "log", fps: float = 15.0, ma
     idx = _frames(n, t, fps, max_frames)
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 13), np.linspace(0, np.pi, 7))
     sphere = rk * np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)])
-    fig = plt.figure(figsize=(5, 5))
-    ax = fig.add_subplot(111, projection="3d")
     span = max(0.6, l + 2 * rk)
     course = log_path(log, name)
     if course is not None:  # a path run: the whole course in view, not following the ball
@@ -106,7 +104,9 @@ def animation_scene(log: SimulationLog, name: str = "log", fps: float = 15.0, ma
         pts = np.vstack([xy, x[:n, STATE_XY], obstacles[:, :2] - obstacles[:, 2:],
                          obstacles[:, :2] + obstacles[:, 2:]])
         lo, hi = pts.min(axis=0) - 0.3, pts.max(axis=0) + 0.3
-        height = max(l + 2 * rk, 0.5)
+        height = max(l + 2 * rk, 0.25 * float(np.max(hi - lo)))
+    fig = plt.figure(figsize=(5, 5) if course is None else (8, 5.5))
+    ax = fig.add_subplot(111, projection="3d")
 
     def draw(k: int) -> None:
         ax.cla()
@@ -137,6 +137,7 @@ def animation_scene(log: SimulationLog, name: str = "log", fps: float = 15.0, ma
             ax.set_ylim(lo[1], hi[1])
             ax.set_zlim(0, height)
             ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], height))
+            ax.view_init(elev=40, azim=-70)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
         ax.set_zlabel("z (m)")
