@@ -3,9 +3,10 @@
 Draws the ball (a wire sphere of radius ``rk`` rolling on the floor), the body axes
 (x red, y green, z blue, from the ball centre, the z axis ``l`` long to the body's
 centre of mass), the heading (the body x axis projected on the floor), the ball's path
-and the time; for a path run (the log's path table, :func:`~ballbot_casadi.sim.log.log_path`)
-also the path to follow (dashed, black) and its obstacles (grey discs on the floor).  Matplotlib with the Agg backend: a GIF through Pillow, an MP4 through
-ffmpeg when it is installed.  The view follows the ball.
+and the time.  The view follows the ball; for a path run (the log's path table,
+:func:`~ballbot_casadi.sim.log.log_path`) it shows the whole course instead, with the path
+to follow (dashed, black) and its obstacles (grey discs on the floor).  Matplotlib with
+the Agg backend: a GIF through Pillow, an MP4 through ffmpeg when it is installed.
 """
 
 from __future__ import annotations

@@ -85,8 +85,9 @@ def guidance_sample_metrics(log: SimulationLog, libraries: dict[str, Any] | None
     """Per-sample figures of an MPC run (module docstring): ``sample_us_median``,
     ``_p99``, ``_max`` (wall-clock), ``sample_cpu_us_*``, ``r_prim_median``,
     ``r_prim_max``, ``samples`` and ``sample_load_avg`` (the machine's 1-minute load
-    average right after the timing: the wall-clock times depend on it); the series go to ``log.extra[SAMPLES_KEY]``.  ``libraries`` caches
-    the compiled guidance block by name across calls.
+    average right after the timing: the wall-clock times depend on it); the series go
+    to ``log.extra[SAMPLES_KEY]``.  ``libraries`` caches the compiled guidance block by
+    its name across calls (a test may put the uncompiled Function there).
 
     Raises
     ------

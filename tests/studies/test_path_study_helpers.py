@@ -1,11 +1,26 @@
 """Helpers of ``ballbot study path``: which predicted horizons are drawn, the per-sample
-table of the report from given metrics, the Monte Carlo note beside it."""
+table of the report from given metrics, the Monte Carlo note beside it, the per-sample
+metrics of an MPC run and their refusal when the re-evaluation differs from the log."""
 
 from __future__ import annotations
 
-import numpy as np
+import copy
 
-from ballbot_casadi.studies.path import MONTE_CARLO_NOTE, horizon_samples, path_report_lines
+import numpy as np
+import pytest
+
+from ballbot_casadi.analysis.guidance_samples import sample_residuals
+from ballbot_casadi.errors import SolverError
+from ballbot_casadi.sim.guided import GUIDANCE_EVERY, run_path_scenario, scenario_law
+from ballbot_casadi.sim.scenario import Scenario
+from ballbot_casadi.sim.scenario.file import parse_scenario
+from ballbot_casadi.studies.path import (
+    MONTE_CARLO_NOTE,
+    SAMPLES_KEY,
+    guidance_sample_metrics,
+    horizon_samples,
+    path_report_lines,
+)
 
 
 def test_horizon_samples_evenly_spaced_after_the_cold_start():
@@ -29,3 +44,33 @@ def test_report_has_the_sample_table_and_the_peers_row_from_the_metrics():
     assert "fixed-iteration ADMM" in text and "r_prim" in text
     assert all(line in lines for line in MONTE_CARLO_NOTE)
     assert "## MPC samples" not in "\n".join(path_report_lines({}))
+
+
+@pytest.fixture(scope="module")
+def mpc_log():
+    sc = parse_scenario({"duration_s": 1.0, "cascade": True, "guidance": "mpc",
+                         "path": {"type": "line", "start": [0.0, 0.0], "end": [3.0, 0.0],
+                                  "speed": 0.4}}, "line").scenario
+    return run_path_scenario(sc)
+
+
+def test_sample_metrics_of_an_mpc_run(mpc_log):
+    """The uncompiled guidance block stands in for the compiled one (same Function)."""
+    log = copy.deepcopy(mpc_log)
+    law = scenario_law(Scenario.from_dict(log.scenario))
+    m = guidance_sample_metrics(log, {law.function.name(): law.function})
+    r = sample_residuals(law, log["guide"])
+    assert m["samples"] == 10 and r.shape == (10,)
+    assert m["r_prim_median"] == np.median(r) and m["r_prim_max"] == r.max()
+    assert 0 < m["sample_us_median"] <= m["sample_us_p99"] <= m["sample_us_max"]
+    d = log.extra[SAMPLES_KEY]
+    np.testing.assert_allclose(d["t_s"], 0.1 * np.arange(10), rtol=0, atol=1e-12)
+    assert len(d["wall_us"]) == len(d["cpu_us"]) == 10 and d["r_prim"] == r.tolist()
+
+
+def test_sample_metrics_refuse_a_replay_that_differs_from_the_log(mpc_log):
+    log = copy.deepcopy(mpc_log)
+    law = scenario_law(Scenario.from_dict(log.scenario))
+    log.arrays["guide"][GUIDANCE_EVERY + 1, 1] += 1e-3  # the state after the second sample
+    with pytest.raises(SolverError, match="differs from the logged state"):
+        guidance_sample_metrics(log, {law.function.name(): law.function})
