@@ -376,15 +376,17 @@ def _make(model: LoopModel, cond: Condensed, config: MpcConfig
     HS = Hq[S, S] / scale + config.rho * ca.mtimes(E.T, ca.mtimes(ca.mtimes(Nm.T, Nm), E))
     # the parametric data as scalar code (small), split in two Functions (each one's
     # scalar work is smaller than both together's)
-    setup_cost = ca.Function("ballbot_mpc_setup_cost", [x0, p], [HS, Q["gq"] / scale, Hq / scale],
-                             ["x0", "p"], ["H_S", "g", "H"])
+    # (the whole scaled Hessian H only for a conic solver, which takes P = Yq' H Yq)
+    H_out = [Hq / scale] if config.solver != "admm" else []
+    setup_cost = ca.Function("ballbot_mpc_setup_cost", [x0, p], [HS, Q["gq"] / scale, *H_out],
+                             ["x0", "p"], ["H_S", "g", "H"][:2 + len(H_out)])
     setup_rows = ca.Function("ballbot_mpc_setup_rows", [x0, p], [Q["l"], Q["u"], nobs],
                              ["x0", "p"], ["l", "u", "nobs"])
     n, m = L.n_u, L.n_rows
     X0 = ca.MX.sym("x0", NX_MPC)
     Pm = ca.MX.sym("p", L.n_p)
     u0, z0, y0 = ca.MX.sym("u0", n), ca.MX.sym("z0", m), ca.MX.sym("y0", m)
-    HSh, gh, Hh = setup_cost(X0, Pm)
+    HSh, gh, *Hh = setup_cost(X0, Pm)
     lh, hh, nh = setup_rows(X0, Pm)
     # q = Yq' g, a called Function (its constant in the callees' shared workspace)
     g_s = ca.MX.sym("g", Yq.shape[0])
@@ -392,7 +394,7 @@ def _make(model: LoopModel, cond: Condensed, config: MpcConfig
                        ["g"], ["q"])
     qh = grad(gh)
     if config.solver == "admm":
-        # K = sigma I + rho A_c'A_c + Yq' HK Yq, accumulated in one dense n x n vector
+        # K = C0 + Yq[S]' H_S Yq[S], accumulated in one dense n x n vector
         C0 = kkt_constant((Q["D"], Q["Y"]), config.rho, config.sigma) + Yq.T @ Hc @ Yq / scale
         YS = ca.sparsify(ca.DM(Yq[S]))
         H_s = ca.MX.sym("H_S", HS.sparsity())
@@ -405,10 +407,11 @@ def _make(model: LoopModel, cond: Condensed, config: MpcConfig
                                       K, qh, lh, hh, nh, u0, z0, y0)
     else:
         Yqm = ca.MX(ca.sparsify(ca.DM(Yq)))
-        Ph = ca.densify(ca.mtimes(ca.MX(ca.sparsify(ca.DM(Yq.T))), ca.mtimes(Hh, Yqm)))
+        Ph = ca.densify(ca.mtimes(ca.MX(ca.sparsify(ca.DM(Yq.T))), ca.mtimes(Hh[0], Yqm)))
         uo, zo, yo = _conic(Q, Nm.sparsity(), config, Ph, qh, lh, hh, nh, u0, y0)
         rp = ca.MX(0)
-    v_ref = uo[np.flatnonzero(cond.T[0][0:2].any(axis=0)).tolist()]  # T[0] selects them
+    # T[0] selects the first block's v_ref from u (an index, not a product with a constant)
+    v_ref = uo[[int(np.argmax(row)) for row in cond.T[0][0:2]]]
     f = ca.Function("ballbot_mpc", [X0, Pm, u0, z0, y0], [v_ref, uo, zo, yo, rp],
                     ["x0", "p", "u0", "z0", "y0"], ["v_ref", "u", "z", "y", "r_prim"])
     cost = ca.Function("ballbot_mpc_cost", [Q["ub"], x0, p], [Q["J"]], ["u", "x0", "p"], ["J"])

@@ -1,6 +1,7 @@
 """A fixed-iteration ADMM solver for the MPC's small dense QP, as CasADi expressions.
 
-``ballbot_mpc_admm(P, q, l, h, nobs, u0, z0, y0) -> (u_opt, z, y, r_prim)`` solves
+``ballbot_mpc_admm(P, q, l, h, nobs, u0, z0, y0) -> (u_opt, z, y, r_prim)`` (:func:`make_admm`;
+the MPC forms ``K`` itself and calls :func:`admm_iterate`) solves
 
 ``min 1/2 u'P u + q'u + sum_i c_i dist(a_i u, [l_i, u_i])``
 
@@ -18,10 +19,18 @@ rows).  ``K = P + sigma I + rho A'A`` is factorised once per call (sparse LDL', 
 ``ldl`` linear solver, which generates plain C; its inverse is formed by ``n`` solves),
 then ``iterations`` fixed steps follow: a deterministic operation count and a static
 workspace (no data-dependent branching, no allocation).  Warm start: ``u0, z0, y0``.
-Generated C: the iteration is one Function called ``iterations`` times, and it, the
-KKT matrix and the residual are MX matrix operations, so the C multiplies by the
-constant sparse factors and the dense ``K^-1`` in loops (an SX body wrote one scalar
-line per product: several times the C and the compile time).
+Generated C and static workspace: the ``iterations`` steps are one flat MX graph in
+the caller's Function (:func:`admm_iterate`), so CasADi's live-variable analysis gives
+all steps the same few work vectors (a work vector is only reused by one of equal size;
+a called step Function would hold copies of all its inputs).  The products with the
+constant factors, ``A v`` and ``A' w``, and ``K^-1 r`` are small called Functions: their
+constants and temporaries share the callees' workspace region.  Scalar constants are single nodes
+(CasADi orders constant nodes, with no dependencies, before the first iteration, so a
+literal per use would be a work element each).  The multiplier update is written
+``y+ = rho (w - z+)`` with ``w = v + y / rho`` (equal to ``y + rho (v - z+)``), so ``v``
+and ``y`` die early.  The C multiplies by the sparse factors and the dense ``K^-1`` in
+loops (an SX body wrote one scalar line per product: several times the C and the
+compile time).
 ``r_prim = ||A u - z||_inf`` tells how far from feasibility (of the rows' split) the
 fixed iteration count left the solution (the dual residual is not formed: it would keep
 ``P`` in the workspace).
@@ -126,10 +135,12 @@ def admm_iterate(A_c: tuple[np.ndarray, np.ndarray], G: np.ndarray, N_sp: ca.Spa
     A_f = ca.Function("ballbot_mpc_admm_rows", [v_s, n_s],
                       [ca.vertcat(ca.mtimes(Dm, ca.mtimes(Ym, v_s)), ca.mtimes(N_s, ca.mtimes(Gm, v_s)))],
                       ["v", "nobs"], ["Av"])
-    # (w' A)': row vectors times the factors, no transposed constants
+    # A'w by the transposed constant factors (in this callee's own workspace, which the
+    # callees share; row vectors times D, Y instead take a loop per nonzero in the C)
+    DTm, YTm, GTm = (ca.MX(ca.sparsify(ca.DM(M.T))) for M in (Dn, Yn, G))
     At_f = ca.Function("ballbot_mpc_admm_rows_t", [w_s, n_s],
-                       [(ca.mtimes(ca.mtimes(w_s[:m_c].T, Dm), Ym)
-                         + ca.mtimes(ca.mtimes(w_s[m_c:].T, N_s), Gm)).T], ["w", "nobs"], ["Atw"])
+                       [ca.mtimes(YTm, ca.mtimes(DTm, w_s[:m_c]))
+                        + ca.mtimes(GTm, ca.mtimes(N_s.T, w_s[m_c:]))], ["w", "nobs"], ["Atw"])
 
     def A_mul(v: ca.MX) -> ca.MX:
         return A_f(v, nm)
