@@ -84,6 +84,7 @@ def test_mpc_group():
     _check(data, {"mpc_solve_us_median", "mpc_solve_us_p99", "mpc_solve_us_max", "mpc_failures",
                   "mpc_solve_us_median_min", "mpc_solve_us_p99_min", "mpc_solve_repeats",
                   "mpc_solve_cpu_us_median", "mpc_solve_cpu_us_p99", "mpc_solve_cpu_us_max",
+                  "mpc_solve_cpu_us_median_min", "mpc_solve_cpu_us_p99_min",
                   "mpc_workspace_bytes", "mpc_mission_s", "mpc_mission_ratio",
                   "mpc_solve_us_p99_target", "mpc_workspace_bytes_target"})
     assert data["mpc_solve_repeats"] == 3.0
@@ -91,6 +92,7 @@ def test_mpc_group():
     # are below those of all passes pooled (whatever the machine's load)
     assert data["mpc_solve_us_median_min"] <= data["mpc_solve_us_median"]
     assert data["mpc_solve_us_p99_min"] <= data["mpc_solve_us_p99"] <= data["mpc_solve_us_max"]
+    assert data["mpc_solve_cpu_us_p99_min"] <= data["mpc_solve_cpu_us_p99"]
     assert 0 < data["mpc_workspace_bytes"] <= data["mpc_workspace_bytes_target"]
 
 
