@@ -113,9 +113,8 @@ def admm_iterate(A_c: tuple[np.ndarray, np.ndarray], G: np.ndarray, N_sp: ca.Spa
 
     ``K^-1`` is formed once (``ldl``, ``n`` solves in place of the identity); the
     ``iterations`` steps are one flat graph in the caller's Function, so CasADi's
-    live-variable analysis gives every step the same few work vectors, and the constant
-    factors ``D, Y, G`` are single nodes multiplied from the right by row vectors for
-    ``A' w`` (no transposed copies).
+    live-variable analysis gives every step the same few work vectors; ``A v``, ``A' w``
+    and ``K^-1 r`` are called Functions (see the module docstring).
     """
     Dn, Yn = (np.asarray(M, float) for M in A_c)
     G = np.asarray(G, float)
