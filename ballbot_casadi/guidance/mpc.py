@@ -68,7 +68,7 @@ from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.guidance.condensed import NU_MPC, NX_MPC, Condensed, condense
 from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL, LoopModel
-from ballbot_casadi.guidance.qp_admm import admm_graph
+from ballbot_casadi.guidance.qp_admm import admm_iterate, kkt_constant
 
 __all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "make_mpc_parts", "mpc_library",
            "workspace_bytes", "dual_shift_index", "FIRST_SAMPLE_QPS", "input_shift_matrix",
@@ -200,17 +200,23 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
          for k in range(N + 1)]
     U = [ca.mtimes(ca.DM(cond.T[k]), ub) for k in range(N)]
     model_C, model_D = _outputs(model)
-    # J = sum_i w_i r_i^2 with residuals r linear in ub: P = 2 R'WR, q = 2 R'W r(0)
+    # J = sum_i w_i r_i^2, written on the cost quantities c = Yq ub (the inputs, then the
+    # position, progress and its rate at the nodes 1..N; their x0 parts are added back), so
+    # the Hessian P = Yq' Hq Yq has a small sparse middle factor Hq (3x3 blocks per node)
+    qsel = [12, 13, NXL, NXL + 1]
+    Yq = np.vstack([np.eye(L.n_u)] + [cond.Gamma[k][qsel] for k in range(1, N + 1)])
+    cq = ca.SX.sym("c", Yq.shape[0])
+    Uq = [ca.mtimes(ca.DM(cond.T[k]), cq[:L.n_u]) for k in range(N)]
     res, wts = [], []
     v_before = P["v_prev"]
     for k in range(N):
-        vr, dds = U[k][0:2], U[k][2]
+        vr, dds = Uq[k][0:2], Uq[k][2]
         res += [vr - v_before, dds]
         wts += [ca.DM([config.w_dv] * 2), config.w_dds]
         v_before = vr
         k1 = k + 1
-        xn = X[k1]
-        pos, s1, ds1 = xn[12:14], xn[NXL], xn[NXL + 1]
+        xn = ca.mtimes(ca.DM(cond.Phi[k1][qsel]), x0) + cq[L.n_u + 4 * k:L.n_u + 4 * k1]
+        pos, s1, ds1 = xn[0:2], xn[2], xn[3]
         pk, tk = P["path_p"][2 * k1:2 * k1 + 2], P["path_t"][2 * k1:2 * k1 + 2]
         nk = ca.vertcat(-tk[1], tk[0])
         e = pos - pk - tk * (s1 - P["s_bar"][k1])
@@ -218,7 +224,8 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
         res += [ca.dot(nk, e), ca.dot(tk, e), ds1 - P["v_s"][k1]]
         wts += [wt * P["w_lat"][k1] * config.w_lat, wt * config.w_lon, config.w_speed]
     r, w = ca.vertcat(*res), ca.vertcat(*wts)
-    J = ca.dot(w, r ** 2)
+    Jq = ca.dot(w, r ** 2)
+    J = ca.substitute(Jq, cq, ca.mtimes(ca.DM(Yq), ub))
     dirs, f8 = polygon(8)
     D8 = ca.DM(dirs)
     # rows = D y(ub): the distinct outputs y (tilt, rates, speeds, ... linear in ub) and the
@@ -263,17 +270,17 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
             pos0 = ca.mtimes(ca.DM(cond.Phi[k][12:14]), x0)
             ob_lo.append(so * (P["obs_b"][j * (N + 1) + k] - ca.dot(n_ob, pos0)))
     zero = ca.DM.zeros(L.n_u)
-    Hs = ca.hessian(J, ub)[0]
-    grad = ca.substitute(ca.gradient(J, ub), ub, zero)
-    R = ca.jacobian(r, ub)
-    r0 = ca.substitute(r, ub, zero)
+    Hq = ca.hessian(Jq, cq)[0]
+    gq = ca.substitute(ca.gradient(Jq, cq), cq, ca.DM.zeros(cq.numel()))
     Y = ca.jacobian(y_out, ub)
     if ca.depends_on(Y, ca.vertcat(x0, p)):
         raise ShapeError("MPC: the constant rows depend on the parameters")  # pragma: no cover
     Y, D = np.array(ca.evalf(Y)), np.array(D)
     A_c = D @ Y
     g0 = ca.substitute(g, ub, zero)
-    return {"x0": x0, "p": p, "ub": ub, "J": J, "P": Hs, "q": grad, "R": R, "r0": r0, "w": w,
+    # the node positions G u among the cost quantities (the obstacle rows' A'A = G'N'NG)
+    i_pos = [L.n_u + 4 * (k - 1) + j for k in nodes for j in (0, 1)]
+    return {"x0": x0, "p": p, "ub": ub, "J": J, "Hq": Hq, "gq": gq, "Yq": Yq, "i_pos": i_pos,
             "A_c": A_c, "D": D, "Y": Y,
             "G": G,
             "N": Nm, "l": ca.vertcat(ca.DM(lo) - g0, *ob_lo),
@@ -305,7 +312,10 @@ def make_mpc_parts(model: LoopModel, config: MpcConfig = MpcConfig()
                    ) -> tuple[ca.Function, MpcLayout, dict[str, Any]]:
     """``ballbot_mpc``, its layout and what a caller needs to warm-start and parametrise
     it: ``cond`` (:class:`Condensed`), ``A_c`` (constant rows), ``G`` (node positions
-    from ``u``), ``cost`` (``ballbot_mpc_cost``), ``scale``."""
+    from ``u``), ``cost`` (``ballbot_mpc_cost``), ``scale``; and the QP it solves, formed
+    directly (for checks): ``qp_data(x0, p) -> (P, q, l, u, nobs)`` (the scaled Hessian
+    and gradient of ``cost``, the row bounds and the obstacle factor's nonzeros of
+    sparsity ``N_sp``), the rows' ``penalty``."""
     if abs(model.dt - config.dt) > 1e-12:
         raise ScenarioError(f"prediction model step {model.dt} s differs from the MPC dt {config.dt} s")
     return _make(model, condense(model, config.blocks), config)
@@ -345,35 +355,74 @@ def _make(model: LoopModel, cond: Condensed, config: MpcConfig
                      v_s=np.zeros(L.N + 1), w_lat=np.ones(L.N + 1),
                      obs_n=np.zeros((L.M, L.N + 1, 2)), obs_b=np.zeros((L.M, L.N + 1)),
                      s_max=[1.0])
-    P_nom = np.array(ca.Function("P", [p], [Q["P"]])(nominal))
-    scale = float(np.mean(np.diag(P_nom)))
+    Yq = Q["Yq"]
+    Hq_nom = np.array(ca.Function("Hq", [p], [ca.densify(Q["Hq"])])(nominal))
+    scale = float(np.mean(np.diag(Yq.T @ Hq_nom @ Yq)))
     Nm = Q["N"]
     nobs = ca.vertcat(*Nm.nonzeros()) if Nm.nnz() else ca.SX(0, 1)
-    # the residuals' Jacobian R, r(0) and the weights as scalar code (small), the products
-    # P = 2 R'WR / scale, q = 2 R'W r(0) / scale as matrix operations (loops in the C)
-    setup = ca.Function("ballbot_mpc_setup", [x0, p],
-                        [Q["R"], Q["r0"], Q["w"], Q["l"], Q["u"], nobs],
-                        ["x0", "p"], ["R", "r0", "w", "l", "u", "nobs"])
+    # the Hessian's parametric part acts on a few cost quantities S (the positions and
+    # progress at the nodes): K = C0 + Yq[S]' H_S Yq[S] with the constant C0 = sigma I +
+    # rho A_c'A_c + (constant Hessian part) and H_S = the Hessian's S block + rho N'N on the
+    # node positions (the obstacle rows' A'A = G'N'NG)
+    Hq = Q["Hq"]
+    hr, hc = Hq.sparsity().get_triplet()
+    par = [bool(ca.depends_on(e, ca.vertcat(x0, p))) for e in Hq.nonzeros()]
+    S = sorted({r for r, d in zip(hr, par) if d} | {c for c, d in zip(hc, par) if d}
+               | set(Q["i_pos"]))
+    Hc = Hq_nom.copy()
+    Hc[np.ix_(S, S)] = 0.0
+    E = ca.DM(ca.Sparsity.triplet(len(Q["i_pos"]), len(S), list(range(len(Q["i_pos"]))),
+                                  [S.index(i) for i in Q["i_pos"]]), 1.0)
+    HS = Hq[S, S] / scale + config.rho * ca.mtimes(E.T, ca.mtimes(ca.mtimes(Nm.T, Nm), E))
+    # the parametric data as scalar code (small), split in two Functions (each one's
+    # scalar work is smaller than both together's)
+    # (the whole scaled Hessian H only for a conic solver, which takes P = Yq' H Yq)
+    H_out = [Hq / scale] if config.solver != "admm" else []
+    setup_cost = ca.Function("ballbot_mpc_setup_cost", [x0, p], [HS, Q["gq"] / scale, *H_out],
+                             ["x0", "p"], ["H_S", "g", "H"][:2 + len(H_out)])
+    setup_rows = ca.Function("ballbot_mpc_setup_rows", [x0, p], [Q["l"], Q["u"], nobs],
+                             ["x0", "p"], ["l", "u", "nobs"])
     n, m = L.n_u, L.n_rows
     X0 = ca.MX.sym("x0", NX_MPC)
     Pm = ca.MX.sym("p", L.n_p)
     u0, z0, y0 = ca.MX.sym("u0", n), ca.MX.sym("z0", m), ca.MX.sym("y0", m)
-    Rh, r0h, wh, lh, hh, nh = setup(X0, Pm)
-    WR = ca.mtimes(ca.diag(wh), Rh)
-    Ph = ca.densify(ca.mtimes(Rh.T, WR) * (2.0 / scale))
-    qh = ca.mtimes(WR.T, r0h) * (2.0 / scale)
+    HSh, gh, *Hh = setup_cost(X0, Pm)
+    lh, hh, nh = setup_rows(X0, Pm)
+    # q = Yq' g, a called Function (its constant in the callees' shared workspace)
+    g_s = ca.MX.sym("g", Yq.shape[0])
+    grad = ca.Function("ballbot_mpc_grad", [g_s], [ca.mtimes(g_s.T, ca.MX(ca.sparsify(ca.DM(Yq)))).T],
+                       ["g"], ["q"])
+    qh = grad(gh)
     if config.solver == "admm":
-        uo, zo, yo, rp = admm_graph(n, (Q["D"], Q["Y"]), Q["G"], Nm.sparsity(), Q["penalty"],
-                                    config.rho, config.sigma, config.alpha, config.iterations,
-                                    Ph, qh, lh, hh, nh, u0, z0, y0)
+        # K = C0 + Yq[S]' H_S Yq[S], accumulated in one dense n x n vector
+        C0 = kkt_constant((Q["D"], Q["Y"]), config.rho, config.sigma) + Yq.T @ Hc @ Yq / scale
+        YS = ca.sparsify(ca.DM(Yq[S]))
+        H_s = ca.MX.sym("H_S", HS.sparsity())
+        kkt = ca.Function("ballbot_mpc_kkt", [H_s],
+                          [ca.mac(ca.MX(YS.T), ca.mtimes(H_s, ca.MX(YS)), ca.MX(ca.DM(C0)))],
+                          ["H_S"], ["K"])
+        K = kkt(HSh)
+        uo, zo, yo, rp = admm_iterate((Q["D"], Q["Y"]), Q["G"], Nm.sparsity(), Q["penalty"],
+                                      config.rho, config.sigma, config.alpha, config.iterations,
+                                      K, qh, lh, hh, nh, u0, z0, y0)
     else:
+        Yqm = ca.MX(ca.sparsify(ca.DM(Yq)))
+        Ph = ca.densify(ca.mtimes(ca.MX(ca.sparsify(ca.DM(Yq.T))), ca.mtimes(Hh[0], Yqm)))
         uo, zo, yo = _conic(Q, Nm.sparsity(), config, Ph, qh, lh, hh, nh, u0, y0)
         rp = ca.MX(0)
-    v_ref = ca.mtimes(ca.DM(cond.T[0][0:2]), uo)
+    # T[0] selects the first block's v_ref from u (an index, not a product with a constant)
+    v_ref = uo[[int(np.argmax(row)) for row in cond.T[0][0:2]]]
     f = ca.Function("ballbot_mpc", [X0, Pm, u0, z0, y0], [v_ref, uo, zo, yo, rp],
                     ["x0", "p", "u0", "z0", "y0"], ["v_ref", "u", "z", "y", "r_prim"])
     cost = ca.Function("ballbot_mpc_cost", [Q["ub"], x0, p], [Q["J"]], ["u", "x0", "p"], ["J"])
-    return f, L, {"A_c": Q["A_c"], "G": Q["G"], "scale": scale, "cond": cond, "cost": cost}
+    ub = Q["ub"]
+    zero = ca.DM.zeros(L.n_u)
+    qp_data = ca.Function("ballbot_mpc_qp_data", [x0, p],
+                          [ca.densify(ca.hessian(Q["J"], ub)[0]) / scale,
+                           ca.substitute(ca.gradient(Q["J"], ub), ub, zero) / scale,
+                           Q["l"], Q["u"], nobs], ["x0", "p"], ["P", "q", "l", "u", "nobs"])
+    return f, L, {"A_c": Q["A_c"], "G": Q["G"], "scale": scale, "cond": cond, "cost": cost,
+                  "qp_data": qp_data, "N_sp": Nm.sparsity(), "penalty": Q["penalty"]}
 
 
 def _conic(Q: dict, N_sp: ca.Sparsity, config: MpcConfig, Ph: ca.MX, qh: ca.MX, lh: ca.MX,

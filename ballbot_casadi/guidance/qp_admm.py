@@ -1,6 +1,7 @@
 """A fixed-iteration ADMM solver for the MPC's small dense QP, as CasADi expressions.
 
-``ballbot_mpc_admm(P, q, l, h, nobs, u0, z0, y0) -> (u_opt, z, y, r_prim)`` solves
+``ballbot_mpc_admm(P, q, l, h, nobs, u0, z0, y0) -> (u_opt, z, y, r_prim)`` (:func:`make_admm`;
+the MPC forms ``K`` itself and calls :func:`admm_iterate`) solves
 
 ``min 1/2 u'P u + q'u + sum_i c_i dist(a_i u, [l_i, u_i])``
 
@@ -18,10 +19,18 @@ rows).  ``K = P + sigma I + rho A'A`` is factorised once per call (sparse LDL', 
 ``ldl`` linear solver, which generates plain C; its inverse is formed by ``n`` solves),
 then ``iterations`` fixed steps follow: a deterministic operation count and a static
 workspace (no data-dependent branching, no allocation).  Warm start: ``u0, z0, y0``.
-Generated C: the iteration is one Function called ``iterations`` times, and it, the
-KKT matrix and the residual are MX matrix operations, so the C multiplies by the
-constant sparse factors and the dense ``K^-1`` in loops (an SX body wrote one scalar
-line per product: several times the C and the compile time).
+Generated C and static workspace: the ``iterations`` steps are one flat MX graph in
+the caller's Function (:func:`admm_iterate`), so CasADi's live-variable analysis gives
+all steps the same few work vectors (a work vector is only reused by one of equal size;
+a called step Function would hold copies of all its inputs).  The products with the
+constant factors, ``A v`` and ``A' w``, and ``K^-1 r`` are small called Functions: their
+constants and temporaries share the callees' workspace region.  Scalar constants are single nodes
+(CasADi orders constant nodes, with no dependencies, before the first iteration, so a
+literal per use would be a work element each).  The multiplier update is written
+``y+ = rho (w - z+)`` with ``w = v + y / rho`` (equal to ``y + rho (v - z+)``), so ``v``
+and ``y`` die early.  The C multiplies by the sparse factors and the dense ``K^-1`` in
+loops (an SX body wrote one scalar line per product: several times the C and the
+compile time).
 ``r_prim = ||A u - z||_inf`` tells how far from feasibility (of the rows' split) the
 fixed iteration count left the solution (the dual residual is not formed: it would keep
 ``P`` in the workspace).
@@ -34,7 +43,7 @@ import numpy as np
 
 from ballbot_casadi.errors import ShapeError
 
-__all__ = ["make_admm", "admm_graph"]
+__all__ = ["make_admm", "admm_graph", "admm_iterate", "kkt_constant"]
 
 #: Stand-in for an infinite penalty in the generated code (a hard row).
 _HARD = 1e20
@@ -80,65 +89,84 @@ def admm_graph(n: int, A_c: tuple[np.ndarray, np.ndarray], G: np.ndarray, N_sp: 
     iterations
         Fixed number of ADMM iterations.
     """
-    Dn, Yn = (np.asarray(M, float) for M in A_c)
-    A_c, G = Dn @ Yn, np.asarray(G, float)
-    m_c, m_o = A_c.shape[0], N_sp.size1()
-    m = m_c + m_o
-    penalty = np.asarray(penalty, float).reshape(-1)
-    if A_c.shape[1] != n or G.shape[1] != n or N_sp.size2() != G.shape[0] or penalty.size != m:
-        raise ShapeError(f"ADMM: A_c {A_c.shape}, G {G.shape}, N {N_sp.shape}, penalty "
-                         f"{penalty.shape} do not fit n = {n}")
-    Dd, Yd = ca.sparsify(ca.DM(Dn)), ca.sparsify(ca.DM(Yn))
-    Gd = ca.sparsify(ca.DM(G))
-    cr = ca.DM(np.where(np.isfinite(penalty), penalty / rho, _HARD))
+    N_m = ca.MX(N_sp, nm)
+    Gd = ca.MX(ca.sparsify(ca.DM(np.asarray(G, float))))
+    NG = ca.mtimes(N_m, Gd)
+    C0 = kkt_constant(A_c, rho, sigma)
+    K = ca.densify(Pm + ca.MX(ca.DM(C0)) + rho * ca.mtimes(NG.T, NG))
+    return admm_iterate(A_c, G, N_sp, penalty, rho, sigma, alpha, iterations, K, qm, lm, hm, nm,
+                        u0, z0, y0)
 
-    # matrix operations on MX: the generated C multiplies by the constant sparse D, Y, G
-    # and the dense K^-1 in loops (casadi_mtimes) instead of one scalar line per product
-    # (the SX form took ~70k lines of C and minutes of -O3 per library)
-    P = ca.MX.sym("P", ca.Sparsity.dense(n, n))
-    q = ca.MX.sym("q", n)
-    lo = ca.MX.sym("l", m)
-    hi = ca.MX.sym("u", m)
-    nobs = ca.MX.sym("nobs", N_sp.nnz())
-    Nm = ca.MX(N_sp, nobs)
-    Kinv = ca.MX.sym("Kinv", ca.Sparsity.dense(n, n))
+
+def kkt_constant(A_c: tuple[np.ndarray, np.ndarray], rho: float, sigma: float) -> np.ndarray:
+    """The constant part ``sigma I + rho A_c' A_c`` of the ADMM's KKT matrix (dense, n x n)."""
+    A = np.asarray(A_c[0], float) @ np.asarray(A_c[1], float)
+    return sigma * np.eye(A.shape[1]) + rho * (A.T @ A)
+
+
+def admm_iterate(A_c: tuple[np.ndarray, np.ndarray], G: np.ndarray, N_sp: ca.Sparsity,
+                 penalty: np.ndarray, rho: float, sigma: float, alpha: float, iterations: int,
+                 K: ca.MX, qm: ca.MX, lm: ca.MX, hm: ca.MX, nm: ca.MX, u0: ca.MX, z0: ca.MX,
+                 y0: ca.MX) -> tuple[ca.MX, ca.MX, ca.MX, ca.MX]:
+    """The ADMM on the KKT matrix ``K = P + sigma I + rho A'A`` (dense MX, formed by the
+    caller), the linear term ``qm``, the row bounds and the warm start: ``(u, z, y, r_prim)``.
+
+    ``K^-1`` is formed once (``ldl``, ``n`` solves in place of the identity); the
+    ``iterations`` steps are one flat graph in the caller's Function, so CasADi's
+    live-variable analysis gives every step the same few work vectors; ``A v``, ``A' w``
+    and ``K^-1 r`` are called Functions (see the module docstring).
+    """
+    Dn, Yn = (np.asarray(M, float) for M in A_c)
+    G = np.asarray(G, float)
+    m_c, m_o, n = Dn.shape[0], N_sp.size1(), Yn.shape[1]
+    penalty = np.asarray(penalty, float).reshape(-1)
+    if Dn.shape[1] != Yn.shape[0] or G.shape[1] != n or N_sp.size2() != G.shape[0] or \
+            penalty.size != m_c + m_o:
+        raise ShapeError(f"ADMM: D {Dn.shape}, Y {Yn.shape}, G {G.shape}, N {N_sp.shape}, "
+                         f"penalty {penalty.shape} do not fit")
+    Dm, Ym, Gm = (ca.MX(ca.sparsify(ca.DM(M))) for M in (Dn, Yn, G))
+    crv = np.where(np.isfinite(penalty), penalty / rho, _HARD)
+    cr = ca.MX(float(crv[0])) if np.all(crv == crv[0]) else ca.MX(ca.DM(crv))
+    # A v and A' w as two called Functions: their constant factors and temporaries live in
+    # the callees' shared workspace, not beside the iteration's vectors
+    v_s, w_s, n_s = ca.MX.sym("v", n), ca.MX.sym("w", m_c + m_o), ca.MX.sym("nobs", N_sp.nnz())
+    N_s = ca.MX(N_sp, n_s)
+    A_f = ca.Function("ballbot_mpc_admm_rows", [v_s, n_s],
+                      [ca.vertcat(ca.mtimes(Dm, ca.mtimes(Ym, v_s)), ca.mtimes(N_s, ca.mtimes(Gm, v_s)))],
+                      ["v", "nobs"], ["Av"])
+    # A'w by the transposed constant factors (in this callee's own workspace, which the
+    # callees share; row vectors times D, Y instead take a loop per nonzero in the C)
+    DTm, YTm, GTm = (ca.MX(ca.sparsify(ca.DM(M.T))) for M in (Dn, Yn, G))
+    At_f = ca.Function("ballbot_mpc_admm_rows_t", [w_s, n_s],
+                       [ca.mtimes(YTm, ca.mtimes(DTm, w_s[:m_c]))
+                        + ca.mtimes(GTm, ca.mtimes(N_s.T, w_s[m_c:]))], ["w", "nobs"], ["Atw"])
 
     def A_mul(v: ca.MX) -> ca.MX:
-        return ca.vertcat(ca.mtimes(Dd, ca.mtimes(Yd, v)), ca.mtimes(Nm, ca.mtimes(Gd, v)))
+        return A_f(v, nm)
 
     def At_mul(w: ca.MX) -> ca.MX:
-        return (ca.mtimes(Yd.T, ca.mtimes(Dd.T, w[:m_c]))
-                + ca.mtimes(Gd.T, ca.mtimes(Nm.T, w[m_c:])))
+        return At_f(w, nm)
 
-    # factorisation, once per call
-    NG = ca.mtimes(Nm, Gd)
-    K = P + sigma * ca.DM.eye(n) + rho * (ca.DM(A_c.T @ A_c) + ca.mtimes(NG.T, NG))
-    K = ca.densify(0.5 * (K + K.T))
-    kkt = ca.Function("ballbot_mpc_admm_kkt", [P, nobs], [K], ["P", "nobs"], ["K"])
-
-    # one iteration: the state (u, z, y) is accumulated, the data are the same each time
-    st = ca.MX.sym("st", n + 2 * m)
-    uk, zk, yk = st[:n], st[n:n + m], st[n + m:]
-    ut = ca.mtimes(Kinv, sigma * uk - q + At_mul(rho * zk - yk))
-    zt = A_mul(ut)
-    un = alpha * ut + (1 - alpha) * uk
-    v = alpha * zt + (1 - alpha) * zk
-    wv = v + yk / rho
-    zn = wv - ca.fmin(ca.fmax(wv - hi, 0), cr) + ca.fmin(ca.fmax(lo - wv, 0), cr)
-    yn = yk + rho * (v - zn)
-    step = ca.Function("ballbot_mpc_admm_step", [st, Kinv, q, lo, hi, nobs],
-                       [ca.vertcat(un, zn, yn)])
-
-    # primal residual of the final iterate
-    ur = ca.MX.sym("u", n)
-    zr = ca.MX.sym("z", m)
-    resid = ca.Function("ballbot_mpc_admm_residual", [ur, zr, nobs],
-                        [ca.norm_inf(A_mul(ur) - zr)])
-
-    # K^-1 by one sparse LDL' factorisation (CasADi's codegen-able ``ldl``), n solves
-    Ki = ca.solve(kkt(Pm, nm), ca.DM.eye(n), "ldl")
-    s = ca.vertcat(u0, z0, y0)
+    Kinv = ca.solve(K, ca.DM.eye(n), "ldl")
+    # K^-1 r in a called Function too (an inline product's zero accumulator is a constant
+    # that CasADi's depth-first ordering places, for all iterations, before the first one)
+    Ki_s, r_s = ca.MX.sym("Kinv", ca.Sparsity.dense(n, n)), ca.MX.sym("r", n)
+    Ki_f = ca.Function("ballbot_mpc_admm_kinv", [Ki_s, r_s], [ca.mtimes(Ki_s, r_s)],
+                       ["Kinv", "r"], ["x"])
+    # the scalar constants once (a literal per use would be one work element each, all
+    # ordered before the first iteration)
+    c_sig, c_rho, c_al, c_1al, c_0 = (ca.MX(v) for v in (sigma, rho, alpha, 1.0 - alpha, 0.0))
+    uk, zk, yk = u0, z0, y0
     for _ in range(iterations):
-        s = step(s, Ki, qm, lm, hm, nm)
-    uo, zo, yo = s[:n], s[n:n + m], s[n + m:]
-    return uo, zo, yo, resid(uo, zo, nm)
+        ut = Ki_f(Kinv, c_sig * uk - qm + At_mul(c_rho * zk - yk))
+        zt = A_mul(ut)
+        un = c_al * ut + c_1al * uk
+        v = c_al * zt + c_1al * zk
+        wv = v + yk / c_rho
+        zn = wv - ca.fmin(ca.fmax(wv - hm, c_0), cr) + ca.fmin(ca.fmax(lm - wv, c_0), cr)
+        # y + rho (v - zn) = rho (wv - zn): v and y are dead once wv is formed (one
+        # row-sized work vector less)
+        yn = c_rho * (wv - zn)
+        uk, zk, yk = un, zn, yn
+    return uk, zk, yk, ca.norm_inf(A_mul(uk) - zk)
+

@@ -21,6 +21,7 @@ from ballbot_casadi.bench import control as bench_control_mod
 from ballbot_casadi.bench import estimation as bench_estimation_mod
 from ballbot_casadi.bench import fmu as bench_fmu_mod
 from ballbot_casadi.bench import fmu3 as bench_fmu3_mod
+from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.firmware.toolchain import missing_tools
 
 pytestmark = pytest.mark.needs_cc
@@ -79,9 +80,25 @@ def test_montecarlo_group(monkeypatch):
 
 
 def test_mpc_group():
-    _check(BENCHMARKS["mpc"](duration=0.5, mission=0.5),
-           {"mpc_solve_us_median", "mpc_solve_us_p99", "mpc_solve_us_max", "mpc_failures",
-            "mpc_workspace_bytes", "mpc_mission_s", "mpc_mission_ratio"})
+    data = BENCHMARKS["mpc"](duration=0.5, mission=0.5, repeats=3)
+    _check(data, {"mpc_solve_us_median", "mpc_solve_us_p99", "mpc_solve_us_max", "mpc_failures",
+                  "mpc_solve_us_median_min", "mpc_solve_us_p99_min", "mpc_solve_repeats",
+                  "mpc_solve_cpu_us_median", "mpc_solve_cpu_us_p99", "mpc_solve_cpu_us_max",
+                  "mpc_solve_cpu_us_median_min", "mpc_solve_cpu_us_p99_min",
+                  "mpc_workspace_bytes", "mpc_mission_s", "mpc_mission_ratio",
+                  "mpc_solve_us_p99_target", "mpc_workspace_bytes_target"})
+    assert data["mpc_solve_repeats"] == 3.0
+    # each solve's minimum over the passes is below every pass's time, so its quantiles
+    # are below those of all passes pooled (whatever the machine's load)
+    assert data["mpc_solve_us_median_min"] <= data["mpc_solve_us_median"]
+    assert data["mpc_solve_us_p99_min"] <= data["mpc_solve_us_p99"] <= data["mpc_solve_us_max"]
+    assert data["mpc_solve_cpu_us_p99_min"] <= data["mpc_solve_cpu_us_p99"]
+    assert 0 < data["mpc_workspace_bytes"] <= data["mpc_workspace_bytes_target"]
+
+
+def test_mpc_group_refuses_bad_repeats():
+    with pytest.raises(ScenarioError, match="repeats"):
+        BENCHMARKS["mpc"](duration=0.5, mission=0.5, repeats=0)
 
 
 class _ShortScenario:

@@ -14,7 +14,14 @@ from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.toolchain import generate_sources
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.guidance.condensed import condense
-from ballbot_casadi.guidance.mpc import MpcConfig, PathMPC, make_mpc, mpc_library, workspace_bytes
+from ballbot_casadi.guidance.mpc import (
+    MpcConfig,
+    PathMPC,
+    make_mpc,
+    make_mpc_parts,
+    mpc_library,
+    workspace_bytes,
+)
 from ballbot_casadi.guidance.qp_admm import make_admm
 from ballbot_casadi.guidance.paths import figure_eight, line_path, waypoint_path
 from ballbot_casadi.sim.closed_loop import ClosedLoop
@@ -244,9 +251,59 @@ def test_bad_configuration_is_refused(kw, key):
 def test_generated_c_multiplies_in_loops(model):
     """The ADMM iteration, the KKT matrix and the cost's Hessian are matrix operations
     (loops in the C), not one scalar line per product: the default ballbot_mpc generates
-    to ~0.47 MB of C (1.78 MB with the scalar form, minutes of -O3 in every mission
-    library); the 60 iterations call one step function."""
+    to ~0.54 MB of C (1.78 MB with the scalar form, minutes of -O3 in every mission
+    library); the heavy products are a few called Functions (rows, transposed rows, K^-1
+    times a vector, the KKT matrix, the gradient, the two scalar setups)."""
     f, _ = make_mpc(model)
     c_src, _ = generate_sources("ballbot_mpc", [f])
     assert len(c_src) < 700_000
-    assert len(re.findall(r"^static int casadi_f\d+\(", c_src, re.M)) <= 6
+    assert len(re.findall(r"^static int casadi_f\d+\(", c_src, re.M)) <= 8
+
+
+def test_default_workspace_fits_64_kib(model):
+    """Issue 18: the static workspace of the default solver (N = 20, 30 unknowns, 310
+    rows, 60 iterations) <= 64 KiB of doubles, argument pointers included (was 120,128 B
+    before the iteration was written flat and the KKT matrix from the cost quantities)."""
+    f, _ = make_mpc(model)
+    assert workspace_bytes(f) <= 65536
+
+
+def _dense_admm(P, q, A, lo, hi, penalty, cfg, u, z, y):
+    """OSQP's iteration with the L1 prox (the solver's docstring) on dense numpy data."""
+    rho, sigma, alpha = cfg.rho, cfg.sigma, cfg.alpha
+    Kinv = np.linalg.inv(P + sigma * np.eye(P.shape[0]) + rho * A.T @ A)
+    cr = np.where(np.isfinite(penalty), penalty / rho, np.inf)
+    for _ in range(cfg.iterations):
+        ut = Kinv @ (sigma * u - q + A.T @ (rho * z - y))
+        zt = A @ ut
+        u, v = alpha * ut + (1 - alpha) * u, alpha * zt + (1 - alpha) * z
+        wv = v + y / rho
+        zn = wv - np.minimum(np.maximum(wv - hi, 0), cr) + np.minimum(np.maximum(lo - wv, 0), cr)
+        z, y = zn, y + rho * (v - zn)
+    return u, z, y, np.abs(A @ u - z).max()
+
+
+def test_solver_equals_a_dense_reference_iteration(model):
+    """The generated-form solver (K from the cost quantities, flat iteration, row products
+    by the factors) equals the same 60 ADMM steps on the dense QP formed directly (P from
+    the cost's Hessian, A from A_c and N(p) G, K^-1 by numpy) to 1e-9, at a warm-started
+    sample with obstacle rows and active limits."""
+    path = figure_eight(obstacles=[(1.0, 0.9, 0.2)])
+    cfg = MpcConfig()
+    mpc = PathMPC(model, path, cfg)
+    for _ in range(3):
+        mpc.step(_state(path))
+    _, _, parts = make_mpc_parts(model, cfg)
+    x0, p, u0 = mpc.last["x0"], mpc.last["p"], mpc.last["u0"]
+    z0, y0 = mpc.rows(u0, p), mpc.y
+    assert np.abs(y0).max() > 0.1  # active multipliers
+    P, q, lo, hi, nobs = (np.asarray(v, float) for v in parts["qp_data"](x0, p))
+    N = np.asarray(ca.DM(parts["N_sp"], nobs.ravel()))
+    A = np.vstack([parts["A_c"], N @ parts["G"]])  # N carries the obstacle scale
+    assert np.abs(N).max() > 0  # an obstacle row in play
+    ref = _dense_admm(P, q.ravel(), A, lo.ravel(), hi.ravel(), parts["penalty"], cfg,
+                      u0, z0, y0)
+    out = mpc.function(x0, p, u0, z0, y0)
+    for got, want in zip(out[1:], ref):
+        np.testing.assert_allclose(np.asarray(got, float).ravel(), np.ravel(want), rtol=0,
+                                   atol=1e-9 * max(1.0, np.abs(want).max()))
