@@ -16,7 +16,8 @@ from xml.sax.saxutils import quoteattr
 
 from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies, value_range
 
-__all__ = ["model_description_xml", "LOG_CATEGORIES", "xml_number", "xml_start"]
+__all__ = ["model_description_xml", "LOG_CATEGORIES", "xml_number", "xml_start",
+           "range_attributes"]
 
 #: The log categories of the shared layer (``fmu/layer/fmi2_common.c``).
 LOG_CATEGORIES = (
@@ -40,12 +41,10 @@ def xml_start(v: FmuVar) -> str:
     return xml_number(v.start)
 
 
-def _type_element(v: FmuVar) -> str:
+def range_attributes(v: FmuVar) -> str:
+    """A variable's ``min``/``max`` (settable non-Boolean variables, finite bounds only) and
+    ``start`` attributes, each with a leading space; FMI 2.0 and 3.0."""
     attrs = ""
-    if v.kind == "derivative":
-        return f'<Real derivative="{v.derivative_of + 1}"/>'
-    if v.type == "Real" and v.unit:
-        attrs += f' unit="{v.unit}"'
     if v.type != "Boolean" and v.kind in ("parameter", "discrete_input", "input"):
         lo, hi, _, _, _ = value_range(v)
         if v.type == "Integer":
@@ -55,7 +54,14 @@ def _type_element(v: FmuVar) -> str:
                 f' max="{xml_number(hi)}"' if math.isfinite(hi) else "")
     if v.start is not None:
         attrs += f' start="{xml_start(v)}"'
-    return f"<{v.type}{attrs}/>"
+    return attrs
+
+
+def _type_element(v: FmuVar) -> str:
+    if v.kind == "derivative":
+        return f'<Real derivative="{v.derivative_of + 1}"/>'
+    unit = f' unit="{v.unit}"' if v.type == "Real" and v.unit else ""
+    return f"<{v.type}{unit}{range_attributes(v)}/>"
 
 
 def _interface(tag: str, spec: FmuSpec, src: str, extra: str) -> list[str]:
