@@ -17,7 +17,7 @@ from xml.sax.saxutils import quoteattr
 from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies, value_range
 
 __all__ = ["model_description_xml", "LOG_CATEGORIES", "xml_number", "xml_start",
-           "range_attributes"]
+           "range_attributes", "common_elements"]
 
 #: The log categories of the shared layer (``fmu/layer/fmi2_common.c``).
 LOG_CATEGORIES = (
@@ -64,6 +64,21 @@ def _type_element(v: FmuVar) -> str:
     return f"<{v.type}{unit}{range_attributes(v)}/>"
 
 
+def common_elements(spec: FmuSpec, units: Sequence[str]) -> list[str]:
+    """The ``UnitDefinitions`` (of ``units``, none when empty), ``LogCategories``
+    (:data:`LOG_CATEGORIES`) and ``DefaultExperiment`` elements, FMI 2.0 and 3.0."""
+    start, stop, step = spec.default_experiment
+    out = []
+    if units:
+        out += ["  <UnitDefinitions>", *[f'    <Unit name="{u}"/>' for u in units],
+                "  </UnitDefinitions>"]
+    return out + ["  <LogCategories>",
+                  *[f'    <Category name="{n}" description="{d}"/>' for n, d in LOG_CATEGORIES],
+                  "  </LogCategories>",
+                  f'  <DefaultExperiment startTime="{start:g}" stopTime="{stop:g}" '
+                  f'stepSize="{step:g}"/>']
+
+
 def _interface(tag: str, spec: FmuSpec, src: str, extra: str) -> list[str]:
     caps = ('canGetAndSetFMUstate="true" canSerializeFMUstate="true" '
             f'providesDirectionalDerivative="{str(spec.directional_derivatives).lower()}" '
@@ -77,7 +92,6 @@ def model_description_xml(spec: FmuSpec, guid: str, sources: Sequence[str]) -> s
     rows = spec.variables
     units = sorted({v.unit for v in rows if v.unit and v.type == "Real"})
     src = "\n".join(f'      <File name="{s}"/>' for s in sources)
-    start, stop, step = spec.default_experiment
     out = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName="{spec.model_name}"',
@@ -92,15 +106,7 @@ def model_description_xml(spec: FmuSpec, guid: str, sources: Sequence[str]) -> s
                           '\n    canHandleVariableCommunicationStepSize="true" '
                           'canInterpolateInputs="false"\n    maxOutputDerivativeOrder="0" '
                           'canRunAsynchronuously="false"')
-    if units:
-        out += ["  <UnitDefinitions>", *[f'    <Unit name="{u}"/>' for u in units],
-                "  </UnitDefinitions>"]
-    out += ["  <LogCategories>",
-            *[f'    <Category name="{n}" description="{d}"/>' for n, d in LOG_CATEGORIES],
-            "  </LogCategories>",
-            f'  <DefaultExperiment startTime="{start:g}" stopTime="{stop:g}" '
-            f'stepSize="{step:g}"/>',
-            "  <ModelVariables>"]
+    out += common_elements(spec, units) + ["  <ModelVariables>"]
     for v in rows:
         head = (f"name={quoteattr(v.name)} valueReference=\"{v.vr}\" "
                 f'causality="{v.causality}" variability="{v.variability}"')

@@ -90,13 +90,24 @@ def _range_and_start(root, fmi3: bool) -> dict[str, dict[str, str]]:
 @pytest.mark.parametrize("make_spec", [plant_spec, controller_spec])
 def test_fmi3_description_carries_the_fmi2_ranges_and_starts(make_spec):
     """Both writers take min/max/start from one place (range_attributes): the same values,
-    the finite bounds of PARAM_RULES (value_range) on the settable variables only."""
+    the finite bounds of PARAM_RULES (value_range) on the settable variables only; and the
+    same default experiment, log categories and units (common_elements)."""
     spec = make_spec()
-    md2 = _range_and_start(ElementTree.fromstring(model_description_xml(spec, "{0}", ["a.c"])),
-                           fmi3=False)
-    md3 = _range_and_start(ElementTree.fromstring(model_description3_xml(spec, "{0}")), fmi3=True)
+    root2 = ElementTree.fromstring(model_description_xml(spec, "{0}", ["a.c"]))
+    root3 = ElementTree.fromstring(model_description3_xml(spec, "{0}"))
+    md2, md3 = _range_and_start(root2, fmi3=False), _range_and_start(root3, fmi3=True)
     md3.pop("time")
     assert md3 == md2
+    # the shared elements (common_elements): the same experiment, log categories and units
+    start, stop, step = spec.default_experiment
+    for root in (root2, root3):
+        assert {k: float(v) for k, v in root.find("DefaultExperiment").items()} == {
+            "startTime": start, "stopTime": stop, "stepSize": step}
+        assert [c.get("name") for c in root.find("LogCategories")] == [
+            "logStatusError", "logStatusWarning", "logCalls"]
+    units = {u.get("name") for u in root2.find("UnitDefinitions")}
+    assert units == {v.unit for v in spec.variables if v.unit and v.type == "Real"}
+    assert {u.get("name") for u in root3.find("UnitDefinitions")} == units | {"s"}  # time
     n_ranged = 0
     for v in spec.variables:
         lo, hi, _, _, _ = value_range(v)
