@@ -77,10 +77,6 @@ def c_function_us(lib: Library, function: ca.Function, inputs: list, n_calls: in
 MATCHED = min(MATCHED_VELOCITY)
 
 
-#: The estimator choice with the matched velocity filter (timed beside the scenario's).
-MATCHED = min(MATCHED_VELOCITY)
-
-
 def _full_scenario():
     path = Path(str(resources.files("ballbot_casadi.studies") / "scenarios" / "full_velocity.toml"))
     return load_scenario_file(path).scenario
@@ -133,6 +129,13 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
     return data
 
 
+def _by_name(f: ca.Function, values: dict) -> list:
+    """``f``'s inputs in its order, taken by name (``name_in``) from ``values``; a gated
+    filter's consecutive-rejection counters ``n_rej`` start at zero (none so far)."""
+    return [np.zeros(f.size1_in(i)) if n == "n_rej" and n not in values else values[n]
+            for i, n in enumerate(f.name_in())]
+
+
 def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: bool = True
                      ) -> dict[str, float]:
     """Microseconds per call of the parts of ``sc``'s estimation (its attitude filter under
@@ -155,30 +158,26 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     acc, gyro, enc = (meas[M[f]] for f in ("acc", "gyro", "enc"))
     z_att = np.r_[acc, gyro, meas[M["heading"]] if M.has("heading") else []]
     XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
-    q_in = [xa, Pa, z_att, est["Qa"], est["Ra"], inputs["Ts"], p, [0.1, -0.05, 0.0]]
-    if "n_rej" in att_f.name_in():  # a gated filter: no consecutive rejections so far
-        q_in.append(np.zeros(att_f.size1_in(att_f.index_in("n_rej"))))
-    out = {"attitude": c_function_us(lib, att_f, q_in, n_calls)}
+    att_values = {"xhat": xa, "P": Pa, "z": z_att, "Q": est["Qa"], "R": est["Ra"],
+                  "dt": inputs["Ts"], "p": p, "a": [0.1, -0.05, 0.0]}
+    out = {"attitude": c_function_us(lib, att_f, _by_name(att_f, att_values), n_calls)}
     out[att_f.name().removeprefix("ballbot_")] = out["attitude"]
     if not with_rest:
         return out
-    v_in = [xv, Pv, np.r_[enc * inputs["Ts"], acc], xa[:XA.size], np.eye(3) * 1e-8, est["Qv"],
-            est["Rv"], inputs["Ts"], p]
-    if "P_rate" in vel_f.name_in():  # the matched filter's gyro-rate covariance (Ra's gyro block)
-        v_in.append(np.asarray(est["Ra"])[3:6, 3:6])
-    if "n_rej" in vel_f.name_in():
-        v_in.append(np.zeros(vel_f.size1_in(vel_f.index_in("n_rej"))))
-    t_in = [xa[XA["q"]], xv[XV["a"]], xv[XV["b_acc"]], p]
-    x_hat = log["x_hat"][k]
-    o_in = [x_hat, np.zeros(3), obs, inputs["p_ctrl"], inputs["k_obs"], inputs["Ts"]]
-    out[vel_f.name().removeprefix("ballbot_")] = c_function_us(lib, vel_f, v_in, n_calls)
-    out["tilt_correction"] = c_function_us(lib, tilt, t_in, n_calls)
-    out["com_observer"] = c_function_us(lib, observer, o_in, n_calls)
+    vel_values = {"xhat": xv, "P": Pv, "z": np.r_[enc * inputs["Ts"], acc], "att": xa[:XA.size],
+                  "P_att": np.eye(3) * 1e-8, "Q": est["Qv"], "R": est["Rv"], "dt": inputs["Ts"],
+                  "p": p, "P_rate": np.asarray(est["Ra"])[3:6, 3:6]}  # (Ra's gyro block)
+    tilt_values = {"q": xa[XA["q"]], "a": xv[XV["a"]], "b_acc": xv[XV["b_acc"]], "p": p}
+    obs_values = {"x": log["x_hat"][k], "v_ref": np.zeros(3), "o": obs, "p": inputs["p_ctrl"],
+                  "k": inputs["k_obs"], "Ts": inputs["Ts"]}
+    out[vel_f.name().removeprefix("ballbot_")] = c_function_us(
+        lib, vel_f, _by_name(vel_f, vel_values), n_calls)
+    out["tilt_correction"] = c_function_us(lib, tilt, _by_name(tilt, tilt_values), n_calls)
+    out["com_observer"] = c_function_us(lib, observer, _by_name(observer, obs_values), n_calls)
     # the reference rows of period k after the whole-run inputs (which hold the sequences)
     values = {**inputs, **est, "c": c, "meas": meas, **{r: inputs[r][k] for r in REFERENCE_SEQUENCES},
               "cascade": 1.0 if inputs["cascade"] else 0.0,
               "feedforward": 1.0 if inputs["feedforward"] else 0.0,
               "com_observer": 1.0 if inputs.get("com_observer") else 0.0}
-    e_in = [values[n] for n in embedded.name_in()]
-    out["embedded"] = c_function_us(lib, embedded, e_in, n_calls)
+    out["embedded"] = c_function_us(lib, embedded, _by_name(embedded, values), n_calls)
     return out

@@ -31,8 +31,8 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
-from fmpy import extract, read_model_description, simulate_fmu
 
+from ballbot_casadi.bench.fmpy_timing import fmpy_best_time
 from ballbot_casadi.bench.fmu3 import bench_fmu3_vs_casadi
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.fmi.build import build_fmu, build_tool
@@ -109,15 +109,9 @@ def build_pythonfmu(out: Path) -> Path:
 
 
 def _fmpy_time(fmu: Path, start_values: dict, reps: int = 3) -> tuple[float, np.ndarray]:
-    unzip = extract(str(fmu))
-    md = read_model_description(unzip)
-    best, res = float("inf"), None
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        res = simulate_fmu(unzip, model_description=md, fmi_type="CoSimulation",
-                           stop_time=_STOP, output_interval=_DT, start_values=start_values,
-                           output=list(STATE_NAMES))
-        best = min(best, time.perf_counter() - t0)
+    best, res = fmpy_best_time(fmu, reps, fmi_type="CoSimulation", stop_time=_STOP,
+                               output_interval=_DT, start_values=start_values,
+                               output=list(STATE_NAMES))
     return best, np.column_stack([res[n] for n in STATE_NAMES])
 
 

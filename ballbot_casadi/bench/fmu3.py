@@ -20,14 +20,13 @@ solver (CVode, relative tolerance 1e-10, 1 s from a 0.05 rad roll, constant torq
 from __future__ import annotations
 
 import contextlib
-import time
 from pathlib import Path
 
 import casadi as ca
 import fmpy
 import numpy as np
-from fmpy import extract, read_model_description, simulate_fmu
 
+from ballbot_casadi.bench.fmpy_timing import fmpy_best_time
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.fmi.build import build_fmu
@@ -70,16 +69,9 @@ def casadi_export_fmu(out: Path | None = None, roll0: float = _ROLL0) -> Path:
 
 
 def _time(fmu: Path, start_values: dict, reps: int = 3) -> tuple[float, np.ndarray]:
-    unzip = extract(str(fmu))
-    md = read_model_description(unzip)
-    best, res = float("inf"), None
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        res = simulate_fmu(unzip, model_description=md, fmi_type="ModelExchange",
-                           solver="CVode", relative_tolerance=_RTOL, stop_time=_STOP,
-                           output_interval=_DT, start_values=start_values,
-                           output=list(STATE_NAMES))
-        best = min(best, time.perf_counter() - t0)
+    best, res = fmpy_best_time(fmu, reps, fmi_type="ModelExchange", solver="CVode",
+                               relative_tolerance=_RTOL, stop_time=_STOP, output_interval=_DT,
+                               start_values=start_values, output=list(STATE_NAMES))
     # the values after the events (a time event repeats its time in the result)
     last = np.array([np.flatnonzero(res["time"] == t)[-1] for t in np.unique(res["time"])])
     return best, np.column_stack([res[n][last] for n in STATE_NAMES])

@@ -1,7 +1,7 @@
 """Closed-loop controllers of the ballbot (thesis ch. 7-8).
 
 Balance controllers (inner loop), built from the model's control-affine Function
-``affine(x, p) -> (f, g)`` and sharing one interface::
+``affine(x, p) -> (f, g)`` and sharing one interface (:mod:`.balance_frame`)::
     ballbot_<name>(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[NK]) -> (tau[3], diag[12])
 
 * ``"flc"`` - feedback linearisation (thesis ch. 8), :mod:`.flc`;
@@ -44,12 +44,8 @@ from ballbot_casadi.control.disturbance_observer import (
     DOB_NZ,
     make_flc_dob,
 )
-from ballbot_casadi.control.flc import (
-    DIAG_NAMES,
-    FLC_DEFAULT_GAINS,
-    FLC_GAIN_NAMES,
-    make_flc,
-)
+from ballbot_casadi.control.balance_frame import DIAG_NAMES
+from ballbot_casadi.control.flc import FLC_DEFAULT_GAINS, FLC_GAIN_NAMES, make_flc
 from ballbot_casadi.control.quaternion_error import (
     make_quaternion_error,
     quaternion_error,

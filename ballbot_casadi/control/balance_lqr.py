@@ -26,7 +26,7 @@ units ``sin(2.5 deg)``, ``10 deg/s``), 10 deg and 60 deg/s for the heading, and 
 limit ``tau_max`` per wheel.  The trim torque at the upright point is zero (the COM lies
 on the body axis for the design parameters), so no feedforward term is needed.
 
-``diag`` follows :data:`~ballbot_casadi.control.flc.DIAG_NAMES`: ``singular = 0`` and
+``diag`` follows :data:`~ballbot_casadi.control.balance_frame.DIAG_NAMES`: ``singular = 0`` and
 ``cond_margin = 1`` (no inverse is taken), ``sigma``, ``y``, ``dy``, and as ``v`` the
 error acceleration ``D + E tau`` that the torque produces in the internal model.
 
@@ -42,7 +42,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from ballbot_casadi.control.decoupling import check_affine, error_output_dynamics
+from ballbot_casadi.control.balance_frame import BalanceFrame, balance_controller, balance_diag
 from ballbot_casadi.control.dlqr import stabilising_dlqr
 from ballbot_casadi.core.constants import THESIS_LIMITS, TS_CONTROL
 from ballbot_casadi.core.layout import REDUCED_STATE
@@ -119,28 +119,17 @@ def design_balance_lqr(linear: Any, Ts: float = TS_CONTROL, Qw: Any = None,
 
 
 def make_balance_lqr(affine: ca.Function) -> ca.Function:
-    """Build the balance LQR ``ballbot_lqr`` (module docstring).
+    """Build ``ballbot_lqr``, the balance LQR (module docstring).
 
-    Parameters
-    ----------
-    affine
-        The model Function ``affine(x, p) -> (f, g)``, used only for ``diag``'s ``v``.
-
-    Returns
-    -------
-    casadi.Function
-        ``ballbot_lqr(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[18]) ->
-        (tau[3], diag[12])``; ``tau`` unsaturated.
+    ``affine`` (used only for ``diag``'s ``v``), the signature and ``diag``: as in
+    :func:`~ballbot_casadi.control.balance_frame.balance_controller`; ``k`` as
+    :data:`LQR_GAIN_NAMES`; ``tau`` unsaturated.
     """
-    _, np_ = check_affine(affine)
-    x, q_ref, dq_ref, ddq_ref = (ca.MX.sym(n, m) for n, m in
-                                 (("x", 12), ("q_ref", 4), ("dq_ref", 4), ("ddq_ref", 4)))
-    p, k = ca.MX.sym("p", np_), ca.MX.sym("k", len(LQR_GAIN_NAMES))
-    f, g = affine(x, p)
-    o = error_output_dynamics(x, q_ref, dq_ref, ddq_ref, f, g)
-    K = ca.reshape(k, 6, 3).T  # row-major 3 x 6
-    tau = -ca.mtimes(K, ca.vertcat(o["y"], o["dy"]))
-    v = o["D"] + ca.mtimes(o["E"], tau)
-    diag = ca.vertcat(0, 1, o["sigma"], o["y"], o["dy"], v)
-    return ca.Function("ballbot_lqr", [x, q_ref, dq_ref, ddq_ref, p, k], [tau, diag],
-                       ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"], ["tau", "diag"])
+
+    def lqr_law(b: BalanceFrame) -> tuple[ca.MX, ca.MX]:
+        K = ca.reshape(b.k, 6, 3).T  # row-major 3 x 6
+        tau = -ca.mtimes(K, ca.vertcat(b.o["y"], b.o["dy"]))
+        v = b.o["D"] + ca.mtimes(b.o["E"], tau)
+        return tau, balance_diag(b.o, 0, 1, v)
+
+    return balance_controller("lqr", affine, len(LQR_GAIN_NAMES), lqr_law)

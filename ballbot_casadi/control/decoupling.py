@@ -30,6 +30,8 @@ NaN even for an exactly singular E), and the flag ``singular = 1`` is reported.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import casadi as ca
 
 from ballbot_casadi.core.layout import GENERALISED, STATE
@@ -45,6 +47,7 @@ __all__ = [
     "check_affine",
     "error_output_dynamics",
     "damped_solve",
+    "DampedInverse",
     "solve3",
     "QE0_MIN",
     "RCOND_MIN",
@@ -151,16 +154,31 @@ def solve3(M: ca.MX, b: ca.MX) -> ca.MX:
     return ca.mtimes(_adj3(M), b) / _det3(M)
 
 
+@dataclass(frozen=True)
+class DampedInverse:
+    """Singularity thresholds and relative damping of the regularised inverse (module docstring).
+
+    Attributes
+    ----------
+    qe0_min
+        Scalar part of the error quaternion below which E counts as near-singular.
+    rcond_min
+        Reciprocal Frobenius condition number of G below which E counts as near-singular.
+    mu
+        Relative damping ``lambda^2 = mu^2 ||E||_F^2 (1 - m)`` below the margin.
+    """
+
+    qe0_min: float = QE0_MIN
+    rcond_min: float = RCOND_MIN
+    mu: float = DAMPING_MU
+
+
 def damped_solve(
-    E: ca.MX,
-    rhs: ca.MX,
-    qe0: ca.MX,
-    G: ca.MX,
-    qe0_min: float = QE0_MIN,
-    rcond_min: float = RCOND_MIN,
-    mu: float = DAMPING_MU,
+    E: ca.MX, rhs: ca.MX, qe0: ca.MX, G: ca.MX, inverse: DampedInverse = DampedInverse()
 ) -> tuple[ca.MX, ca.MX, ca.MX]:
     """Regularised ``E^-1 rhs`` (thesis 8.26; damped least squares near singularity).
+
+    ``inverse`` holds the thresholds and the damping (:class:`DampedInverse`).
 
     Returns
     -------
@@ -168,6 +186,7 @@ def damped_solve(
         The solution, the flag (1.0 when damping was active, else 0.0) and the
         conditioning margin ``m`` (see the module docstring; < 1 means damped).
     """
+    qe0_min, rcond_min, mu = inverse.qe0_min, inverse.rcond_min, inverse.mu
     margin = ca.fmin(qe0 / qe0_min, rcond_fro(G) / rcond_min)
     w = ca.fmax(0, 1 - margin)
     lam2 = mu**2 * (ca.sumsqr(E) + 1e-12) * w

@@ -60,16 +60,9 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ballbot_casadi.control.decoupling import (
-    DAMPING_MU,
-    QE0_MIN,
-    RCOND_MIN,
-    check_affine,
-    damped_solve,
-    error_output_dynamics,
-    solve3,
-)
-from ballbot_casadi.control.flc import FLC_DEFAULT_GAINS, FLC_GAIN_NAMES
+from ballbot_casadi.control.balance_frame import BalanceFrame, balance_controller
+from ballbot_casadi.control.decoupling import DampedInverse, solve3
+from ballbot_casadi.control.flc import FLC_DEFAULT_GAINS, FLC_GAIN_NAMES, pd_error_acceleration
 from ballbot_casadi.control.torque_limit import saturate_torques
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.core import quaternion as Q
@@ -93,56 +86,31 @@ DOB_DEFAULT_GAINS = np.concatenate([FLC_DEFAULT_GAINS,
 _TAU_MAX = PARAM_NAMES.index("tau_max")
 
 
-def make_flc_dob(
-    affine: ca.Function,
-    qe0_min: float = QE0_MIN,
-    rcond_min: float = RCOND_MIN,
-    mu: float = DAMPING_MU,
-) -> ca.Function:
-    """Build the FLC with a disturbance observer (module docstring).
+def make_flc_dob(affine: ca.Function, inverse: DampedInverse = DampedInverse()) -> ca.Function:
+    """Build ``ballbot_flc_dob``, the FLC with a disturbance observer (module docstring).
 
-    Parameters
-    ----------
-    affine
-        The model Function ``affine(x, p) -> (f, g)``; it stays a called Function.
-    qe0_min, rcond_min, mu
-        Singularity thresholds and relative damping of the regularised inverse
-        (:func:`~ballbot_casadi.control.decoupling.damped_solve`).
-
-    Returns
-    -------
-    casadi.Function
-        ``ballbot_flc_dob(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[10],
-        zb[7]) -> (tau[3], diag[12], zb_next[7])``; ``tau`` unsaturated, ``diag`` as the
-        FLC's (:data:`~ballbot_casadi.control.flc.DIAG_NAMES`, ``v`` the PD law's output).
+    ``affine``, ``inverse``, the signature with ``zb`` (:data:`DOB_STATE`) and ``diag``
+    (``v`` the PD law's output): as in
+    :func:`~ballbot_casadi.control.balance_frame.balance_controller`; ``k`` as
+    :data:`DOB_GAIN_NAMES`; ``tau`` unsaturated.
     """
-    _, np_ = check_affine(affine)
-    x, q_ref, dq_ref, ddq_ref = (ca.MX.sym(n, m) for n, m in
-                                 (("x", 12), ("q_ref", 4), ("dq_ref", 4), ("ddq_ref", 4)))
-    p, k, zb = ca.MX.sym("p", np_), ca.MX.sym("k", len(DOB_GAIN_NAMES)), ca.MX.sym("zb", DOB_NZ)
-    Kp, Kd, L, h = k[0:3], k[3:6], k[6:9], k[9]
-    S = DOB_STATE
-    d_prev, w_pred, armed = zb[S["d_hat"]], zb[S["w_pred"]], zb[S["armed"]]
-    f, g = affine(x, p)
-    o = error_output_dynamics(x, q_ref, dq_ref, ddq_ref, f, g)
-    q, dq = x[STATE["q"]], x[STATE["dq"]]
-    qc = Q.Phi(q).T  # left multiplication by q* (unit q)
-    omega = 2 * ca.mtimes(qc, dq)[1:4]
-    F = 2 * ca.mtimes(qc, f[GENERALISED["q"]])[1:4]
-    G = o["G"]  # 2 vec(q* o g_q), torque -> body angular acceleration
-    d_hat = ca.if_else(armed > 0.5, d_prev + L * (omega - w_pred), d_prev)
-    v = -Kp * o["y"] - Kd * o["dy"]  # (8.44)
-    tau_flc, singular, margin = damped_solve(
-        o["E"], v - o["D"], o["qe0"], o["G"], qe0_min, rcond_min, mu
-    )  # (8.26)
-    tau = tau_flc - solve3(G, d_hat)
-    tau_a = saturate_torques(tau, p[_TAU_MAX])
-    w_next = omega + h * (F + ca.mtimes(G, tau_a) + d_hat)
-    diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
-    return ca.Function(
-        "ballbot_flc_dob",
-        [x, q_ref, dq_ref, ddq_ref, p, k, zb],
-        [tau, diag, ca.vertcat(d_hat, w_next, 1)],
-        ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k", "zb"],
-        ["tau", "diag", "zb_next"],
-    )
+
+    def observer_law(b: BalanceFrame) -> tuple[ca.MX, ca.MX, ca.MX]:
+        Kp, Kd, L, h = b.k[0:3], b.k[3:6], b.k[6:9], b.k[9]
+        S = DOB_STATE
+        d_prev, w_pred, armed = b.zb[S["d_hat"]], b.zb[S["w_pred"]], b.zb[S["armed"]]
+        q, dq = b.x[STATE["q"]], b.x[STATE["dq"]]
+        qc = Q.Phi(q).T  # left multiplication by q* (unit q)
+        omega = 2 * ca.mtimes(qc, dq)[1:4]
+        F = 2 * ca.mtimes(qc, b.f[GENERALISED["q"]])[1:4]
+        G = b.o["G"]  # 2 vec(q* o g_q), torque -> body angular acceleration
+        d_hat = ca.if_else(armed > 0.5, d_prev + L * (omega - w_pred), d_prev)
+        v = pd_error_acceleration(b, Kp, Kd)  # (8.44)
+        tau_flc, diag = b.linearising_torque(v)  # (8.26)
+        tau = tau_flc - solve3(G, d_hat)
+        tau_a = saturate_torques(tau, b.p[_TAU_MAX])
+        w_next = omega + h * (F + ca.mtimes(G, tau_a) + d_hat)
+        return tau, diag, ca.vertcat(d_hat, w_next, 1)
+
+    return balance_controller("flc_dob", affine, len(DOB_GAIN_NAMES), observer_law, DOB_NZ,
+                              inverse=inverse)

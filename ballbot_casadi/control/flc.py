@@ -53,21 +53,13 @@ Near-singular E(x) is handled by damped least squares and reported in ``diag``
 
 from __future__ import annotations
 
-from typing import Callable
-
 import casadi as ca
 import numpy as np
 
-from ballbot_casadi.control.decoupling import (
-    DAMPING_MU,
-    QE0_MIN,
-    RCOND_MIN,
-    check_affine,
-    damped_solve,
-    error_output_dynamics,
-)
+from ballbot_casadi.control.balance_frame import BalanceFrame, balance_controller
+from ballbot_casadi.control.decoupling import DampedInverse
 
-__all__ = ["make_flc", "FLC_GAIN_NAMES", "FLC_DEFAULT_GAINS", "DIAG_NAMES", "balance_controller"]
+__all__ = ["make_flc", "FLC_GAIN_NAMES", "FLC_DEFAULT_GAINS", "pd_error_acceleration"]
 
 #: Gain vector layout of the FLC.
 FLC_GAIN_NAMES = ("Kp1", "Kp2", "Kp3", "Kd1", "Kd2", "Kd3")
@@ -77,86 +69,23 @@ FLC_DEFAULT_GAINS = np.array(
     [_W_TILT**2, _W_TILT**2, _W_YAW**2, 2 * _W_TILT, 2 * _W_TILT, 2 * _W_YAW]
 )
 
-#: ``diag`` entries of both balance controllers.
-DIAG_NAMES = (
-    "singular",  # 1.0 when E(x) was near-singular and damped least squares was used
-    "cond_margin",  # conditioning margin of E(x); < 1: damped inverse active
-    "sigma",  # shortest-path sign applied to the error quaternion (+1 / -1)
-    "e1", "e2", "e3",  # vec(q_e), body-frame error (half-angle units)
-    "de1", "de2", "de3",  # its time derivative
-    "v1", "v2", "v3",  # commanded error acceleration (linear control input)
-)
+
+def pd_error_acceleration(b: BalanceFrame, Kp: ca.MX, Kd: ca.MX) -> ca.MX:
+    """``v = -K_p y - K_d dy`` (thesis 8.44) on the exact error output of ``b``."""
+    return -Kp * b.o["y"] - Kd * b.o["dy"]
 
 
-def balance_controller(
-    name: str,
-    affine: ca.Function,
-    n_gains: int,
-    law: Callable[[dict[str, ca.MX], ca.MX], ca.MX],
-    qe0_min: float,
-    rcond_min: float,
-    mu: float,
-) -> ca.Function:
-    """Common frame of the balance controllers: ``ballbot_<name>(x, q_ref, dq_ref, ddq_ref, p, k)``.
+def make_flc(affine: ca.Function, inverse: DampedInverse = DampedInverse()) -> ca.Function:
+    """Build ``ballbot_flc``, the feedback-linearising balance controller (thesis 8.12-8.26,
+    8.43-8.45).
 
-    Computes the exact error-output dynamics ``ddy = D + E tau`` from the model's
-    ``affine`` Function (thesis 8.12-8.26, with the body-frame error of 7.4/7.5), asks
-    ``law(o, k)`` for the desired error acceleration ``v`` and solves ``E tau = v - D``
-    with the regularised inverse (thesis 8.26).  Outputs ``tau`` and ``diag``
-    (:data:`DIAG_NAMES`).
-    """
-    _, np_ = check_affine(affine)
-    x, q_ref, dq_ref, ddq_ref = (ca.MX.sym(n, m) for n, m in
-                                 (("x", 12), ("q_ref", 4), ("dq_ref", 4), ("ddq_ref", 4)))
-    p, k = ca.MX.sym("p", np_), ca.MX.sym("k", n_gains)
-    f, g = affine(x, p)
-    o = error_output_dynamics(x, q_ref, dq_ref, ddq_ref, f, g)
-    v = law(o, k)
-    tau, singular, margin = damped_solve(
-        o["E"], v - o["D"], o["qe0"], o["G"], qe0_min, rcond_min, mu
-    )  # (8.26)
-    diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
-    return ca.Function(
-        f"ballbot_{name}",
-        [x, q_ref, dq_ref, ddq_ref, p, k],
-        [tau, diag],
-        ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k"],
-        ["tau", "diag"],
-    )
-
-
-def make_flc(
-    affine: ca.Function,
-    qe0_min: float = QE0_MIN,
-    rcond_min: float = RCOND_MIN,
-    mu: float = DAMPING_MU,
-) -> ca.Function:
-    """Build the feedback-linearising balance controller (thesis 8.12-8.26, 8.43-8.45).
-
-    Parameters
-    ----------
-    affine
-        The model Function ``affine(x, p) -> (f, g)`` (``ddchi = f + g tau``); it stays a
-        called Function inside the controller.
-    qe0_min, rcond_min, mu
-        Singularity thresholds and relative damping of the regularised inverse
-        (:func:`~ballbot_casadi.control.decoupling.damped_solve`).
-
-    Returns
-    -------
-    casadi.Function
-        ``ballbot_flc(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[6]) ->
-        (tau[3], diag[12])``; ``tau`` unsaturated; ``diag`` as :data:`DIAG_NAMES`.
-
-    Notes
-    -----
-    ``q_ref`` must be a unit quaternion and ``dq_ref``, ``ddq_ref`` its derivatives (e.g.
-    from :func:`ballbot_casadi.sim.references.rpy_reference` or the velocity controller);
-    they are used as given, not re-normalised.  The reference may use either sign of
-    the double cover: the shortest-path sign is applied inside.
+    ``affine``, ``inverse``, the signature and ``diag``: as in
+    :func:`~ballbot_casadi.control.balance_frame.balance_controller`; ``k`` as
+    :data:`FLC_GAIN_NAMES`; ``tau`` unsaturated.
     """
 
-    def pd_law(o: dict[str, ca.MX], k: ca.MX) -> ca.MX:
-        return -k[0:3] * o["y"] - k[3:6] * o["dy"]  # (8.44) on the exact error output
+    def pd_law(b: BalanceFrame) -> tuple[ca.MX, ca.MX]:
+        v = pd_error_acceleration(b, b.k[0:3], b.k[3:6])  # (8.44)
+        return b.linearising_torque(v)  # (8.26)
 
-    return balance_controller("flc", affine, len(FLC_GAIN_NAMES), pd_law, qe0_min, rcond_min, mu)
+    return balance_controller("flc", affine, len(FLC_GAIN_NAMES), pd_law, inverse=inverse)

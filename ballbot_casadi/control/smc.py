@@ -25,8 +25,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ballbot_casadi.control.decoupling import DAMPING_MU, QE0_MIN, RCOND_MIN
-from ballbot_casadi.control.flc import balance_controller
+from ballbot_casadi.control.balance_frame import BalanceFrame, balance_controller
+from ballbot_casadi.control.decoupling import DampedInverse
 
 __all__ = ["make_smc", "SMC_GAIN_NAMES", "SMC_DEFAULT_GAINS"]
 
@@ -35,35 +35,19 @@ SMC_GAIN_NAMES = ("K1", "K2", "K3", "eta1", "eta2", "eta3", "eps1", "eps2", "eps
 SMC_DEFAULT_GAINS = np.array([15.0, 15.0, 6.0, 6.0, 6.0, 3.0, 0.5, 0.5, 0.2])
 
 
-def make_smc(
-    affine: ca.Function,
-    qe0_min: float = QE0_MIN,
-    rcond_min: float = RCOND_MIN,
-    mu: float = DAMPING_MU,
-) -> ca.Function:
-    """Build the sliding-mode balance controller (thesis §8.3, V2019 baseline).
+def make_smc(affine: ca.Function, inverse: DampedInverse = DampedInverse()) -> ca.Function:
+    """Build ``ballbot_smc``, the sliding-mode balance controller (thesis §8.3, V2019 baseline).
 
-    Parameters
-    ----------
-    affine
-        The model Function ``affine(x, p) -> (f, g)``; it stays a called Function.
-    qe0_min, rcond_min, mu
-        Singularity thresholds and relative damping of the regularised inverse
-        (:func:`~ballbot_casadi.control.decoupling.damped_solve`).
-
-    Returns
-    -------
-    casadi.Function
-        ``ballbot_smc(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[9]) ->
-        (tau[3], diag[12])``; same ``diag`` layout as the FLC.
+    ``affine``, ``inverse``, the signature and ``diag``: as in
+    :func:`~ballbot_casadi.control.balance_frame.balance_controller`; ``k`` as
+    :data:`SMC_GAIN_NAMES`; ``tau`` unsaturated.
     """
 
-    def sliding_law(o: dict[str, ca.MX], k: ca.MX) -> ca.MX:
-        K, eta, eps = k[0:3], k[3:6], k[6:9]
-        S = o["dy"] + K * o["y"]  # sliding surface in the body frame
+    def sliding_law(b: BalanceFrame) -> tuple[ca.MX, ca.MX]:
+        K, eta, eps = b.k[0:3], b.k[3:6], b.k[6:9]
+        S = b.o["dy"] + K * b.o["y"]  # sliding surface in the body frame
         sat = ca.fmin(ca.fmax(S / eps, -1), 1)
-        return -K * o["dy"] - eta * sat  # equivalent control + continuous switching
+        v = -K * b.o["dy"] - eta * sat  # equivalent control + continuous switching
+        return b.linearising_torque(v)  # (8.26)
 
-    return balance_controller(
-        "smc", affine, len(SMC_GAIN_NAMES), sliding_law, qe0_min, rcond_min, mu
-    )
+    return balance_controller("smc", affine, len(SMC_GAIN_NAMES), sliding_law, inverse=inverse)

@@ -75,14 +75,8 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from ballbot_casadi.control.decoupling import (
-    DAMPING_MU,
-    QE0_MIN,
-    RCOND_MIN,
-    check_affine,
-    damped_solve,
-    error_output_dynamics,
-)
+from ballbot_casadi.control.balance_frame import BalanceFrame, balance_controller
+from ballbot_casadi.control.decoupling import DampedInverse
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.errors import ScenarioError
 
@@ -164,47 +158,21 @@ def make_sta_step(n: int = STA_NZ) -> ca.Function:
                        ["s", "z", "k1", "k2", "h"], ["s_next", "z_next", "w"])
 
 
-def make_super_twisting(
-    affine: ca.Function,
-    qe0_min: float = QE0_MIN,
-    rcond_min: float = RCOND_MIN,
-    mu: float = DAMPING_MU,
-) -> ca.Function:
-    """Build the super-twisting balance controller (module docstring).
+def make_super_twisting(affine: ca.Function, inverse: DampedInverse = DampedInverse()) -> ca.Function:
+    """Build ``ballbot_sta``, the super-twisting balance controller (module docstring).
 
-    Parameters
-    ----------
-    affine
-        The model Function ``affine(x, p) -> (f, g)``; it stays a called Function.
-    qe0_min, rcond_min, mu
-        Singularity thresholds and relative damping of the regularised inverse
-        (:func:`~ballbot_casadi.control.decoupling.damped_solve`).
-
-    Returns
-    -------
-    casadi.Function
-        ``ballbot_sta(x[12], q_ref[4], dq_ref[4], ddq_ref[4], p[NP], k[10],
-        zb[3]) -> (tau[3], diag[12], zb_next[3])``; ``diag`` as the FLC's
-        (:data:`~ballbot_casadi.control.flc.DIAG_NAMES`).
+    ``affine``, ``inverse``, the signature with ``zb[STA_NZ]`` and ``diag``: as in
+    :func:`~ballbot_casadi.control.balance_frame.balance_controller`; ``k`` as
+    :data:`STA_GAIN_NAMES`; ``tau`` unsaturated.
     """
-    _, np_ = check_affine(affine)
-    x, q_ref, dq_ref, ddq_ref = (ca.MX.sym(n, m) for n, m in
-                                 (("x", 12), ("q_ref", 4), ("dq_ref", 4), ("ddq_ref", 4)))
-    p, k, zb = ca.MX.sym("p", np_), ca.MX.sym("k", len(STA_GAIN_NAMES)), ca.MX.sym("zb", STA_NZ)
-    K, k1, k2, h = k[0:3], k[3:6], k[6:9], k[9]
-    f, g = affine(x, p)
-    o = error_output_dynamics(x, q_ref, dq_ref, ddq_ref, f, g)
-    S = o["dy"] + K * o["y"]
-    _, zb_next, w = make_sta_step()(S, zb, k1, k2, h)
-    v = (w - K * o["dy"]) / (1 + K * h / 2)  # realises S(t + h) = S+ under the ZOH
-    tau, singular, margin = damped_solve(
-        o["E"], v - o["D"], o["qe0"], o["G"], qe0_min, rcond_min, mu
-    )  # (8.26)
-    diag = ca.vertcat(singular, margin, o["sigma"], o["y"], o["dy"], v)
-    return ca.Function(
-        "ballbot_sta",
-        [x, q_ref, dq_ref, ddq_ref, p, k, zb],
-        [tau, diag, zb_next],
-        ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k", "zb"],
-        ["tau", "diag", "zb_next"],
-    )
+
+    def super_twisting_law(b: BalanceFrame) -> tuple[ca.MX, ca.MX, ca.MX]:
+        K, k1, k2, h = b.k[0:3], b.k[3:6], b.k[6:9], b.k[9]
+        S = b.o["dy"] + K * b.o["y"]
+        _, zb_next, w = make_sta_step()(S, b.zb, k1, k2, h)
+        v = (w - K * b.o["dy"]) / (1 + K * h / 2)  # realises S(t + h) = S+ under the ZOH
+        tau, diag = b.linearising_torque(v)  # (8.26)
+        return tau, diag, zb_next
+
+    return balance_controller("sta", affine, len(STA_GAIN_NAMES), super_twisting_law, STA_NZ,
+                              inverse=inverse)

@@ -20,9 +20,13 @@ and is carried as a state, the gyroscope model of thesis (3.7)/(4.30) with its b
   the first two blocks the QUKF's (4.29), (4.30) with the bias; the heading is compared
   relative to the prior estimate's yaw ``yaw_prior`` (the same for every sigma point),
   and the reading is passed as ``wrap(yaw - yaw_prior)``: the innovation is then the
-  wrapped angle difference and no sigma point crosses the ``±pi`` cut.  A missing
-  heading reading (NaN, the sensor samples at a low rate) makes this a QUKF period with
-  the bias predicted only.
+  wrapped angle difference and no sigma point crosses the ``±pi`` cut.  Per sigma point
+  the relative heading is one ``atan2`` of ``v conj(v_prior)``, ``v = (cos yaw, sin yaw)``
+  up to a positive factor (the arguments of the yaw's ``atan2``), not two ``atan2`` and a
+  ``sin``/``cos`` pair.  A missing heading reading (NaN, the sensor samples at a low rate)
+  makes this a QUKF period with the bias predicted only: that period runs the
+  accelerometer and gyroscope update alone (a conditional, no heading predictions), equal
+  to the masked 7-component update.
 
 The accelerometer is normalised by ``g`` and compensated by the given acceleration as in
 :func:`~ballbot_casadi.estimation.attitude.make_qukf` (``compensate_acceleration``).
@@ -39,6 +43,7 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ukf_step
+from ballbot_casadi.estimation.linalg import FINITE_MAX
 from ballbot_casadi.estimation.manifold import attitude
 from ballbot_casadi.estimation.quaternion_mean import MEAN_ITERATIONS
 from ballbot_casadi.estimation.tuning import QUKF_P0, QUKF_Q, QUKF_R, QUKF_X0, read_only
@@ -74,9 +79,18 @@ def _wrap(a: ca.SX) -> ca.SX:
     return ca.atan2(ca.sin(a), ca.cos(a))
 
 
-def _models() -> tuple[ca.Function, ca.Function]:
-    """Process and measurement models; ``u = [a_B / g (3), yaw_prior]``."""
-    x, u, dt, p = ca.SX.sym("x", _NX), ca.SX.sym("u", 4), ca.SX.sym("dt"), ca.SX.sym("p", _NP)
+def _heading_vector(q: ca.SX) -> ca.SX:
+    """The x and y arguments of the yaw's ``atan2`` in
+    :func:`~ballbot_casadi.core.quaternion.to_rpy`: ``(cos yaw, sin yaw)`` times a positive
+    factor."""
+    q0, q1, q2, q3 = (q[i] for i in range(4))
+    return ca.vertcat(1 - 2 * (q2**2 + q3**2), 2 * (q0 * q3 + q1 * q2))
+
+
+def _models() -> tuple[ca.Function, ca.Function, ca.Function]:
+    """Process and measurement models, the latter with and without the heading;
+    ``u = [a_B / g (3), heading vector of the prior (2)]``."""
+    x, u, dt, p = ca.SX.sym("x", _NX), ca.SX.sym("u", 5), ca.SX.sym("dt"), ca.SX.sym("p", _NP)
     X = HEADING_FILTER_STATE
     q, w, b = x[X["q"]], x[X["omega"]], x[X["b_z"]]
     f = ca.Function("att_heading_process", [x, u, dt, p],
@@ -84,14 +98,50 @@ def _models() -> tuple[ca.Function, ca.Function]:
                     ["x_next"], {"cse": True})
     g_b = Q.rotate_inv(q, ca.DM([0.0, 0.0, 1.0])) + u[:3]
     gyro = w + ca.vertcat(0, 0, b)
-    yaw = _wrap(Q.to_rpy(q)[2] - u[3])
+    # wrap(yaw(q) - yaw_prior) as the angle of v conj(v_prior) (one atan2, no sin/cos)
+    v, v0 = _heading_vector(q), u[3:5]
+    yaw = ca.atan2(v[1] * v0[0] - v[0] * v0[1], v[0] * v0[0] + v[1] * v0[1])
     h = ca.Function("att_heading_measurement", [x, u, dt, p], [ca.vertcat(g_b, gyro, yaw)],
                     ["x", "u", "dt", "p"], ["z"], {"cse": True})
-    return f, h
+    h_imu = ca.Function("att_heading_measurement_imu", [x, u, dt, p], [ca.vertcat(g_b, gyro)],
+                        ["x", "u", "dt", "p"], ["z"], {"cse": True})
+    return f, h, h_imu
+
+
+def _period(mean_iterations: int, with_heading: bool) -> ca.Function:
+    """One filter period with the heading reading in the update, or (``with_heading``
+    False) with the accelerometer and gyroscope only: the period without a reading, whose
+    masked 7-component update equals this 6-component one (the heading is the last
+    component), so skipping the heading's sigma-point predictions changes no result."""
+    f, h, h_imu = _models()
+    model = FilterModel(attitude(mean_iterations, n_vec=4), f, h if with_heading else h_imu,
+                        noise="pre")
+    xhat, P, z = ca.MX.sym("xhat", _NX), ca.MX.sym("P", _ND, _ND), ca.MX.sym("z", _NZ)
+    Qn, R = ca.MX.sym("Q", _ND, _ND), ca.MX.sym("R", _NZ, _NZ)
+    dt, p, a = ca.MX.sym("dt"), ca.MX.sym("p", _NP), ca.MX.sym("a", 3)
+    q_prior = xhat[HEADING_FILTER_STATE["q"]]
+    u = ca.vertcat(Q.rotate_inv(q_prior, a) / ParamView(p).g, _heading_vector(q_prior))
+    M = HEADING_MEAS
+    zn = ca.vertcat(z[M["acc"]] / ParamView(p).g, z[M["gyro"]])
+    if with_heading:
+        zn = ca.vertcat(zn, _wrap(z[M["yaw"]] - Q.to_rpy(q_prior)[2]))
+        out = ukf_step(model, xhat, P, zn, u, Qn, R, dt, p, kappa=0.0)
+    else:
+        n = zn.numel()
+        out = ukf_step(model, xhat, P, zn, u, Qn, R[:n, :n], dt, p, kappa=0.0)
+        out["nu"] = ca.vertcat(out["nu"], ca.MX.zeros(_NZ - n))
+    return ca.Function(f"qukf_heading_{'with' if with_heading else 'without'}_reading",
+                       [xhat, P, z, Qn, R, dt, p, a],
+                       [*(out[k] for k in OUTPUT_NAMES), out["P_next"][:3, :3]],
+                       list(HEADING_INPUT_NAMES), list(HEADING_OUTPUT_NAMES))
 
 
 def make_qukf_heading(mean_iterations: int = MEAN_ITERATIONS) -> ca.Function:
     """``ballbot_qukf_heading``: one period of the heading-aided QUKF (module docstring).
+
+    A period without a heading reading (non-finite ``z[6]``, most periods: the sensor
+    samples at a low rate) runs the 6-component update only (a conditional in the
+    generated C), with the same results as the masked 7-component one.
 
     Returns
     -------
@@ -103,19 +153,13 @@ def make_qukf_heading(mean_iterations: int = MEAN_ITERATIONS) -> ca.Function:
         last, ``a`` the IMU's linear acceleration in {K} (m/s^2) removed from the
         accelerometer's prediction (zero: the thesis's model).
     """
-    f, h = _models()
-    model = FilterModel(attitude(mean_iterations, n_vec=4), f, h, noise="pre")
-    xhat, P, z = ca.MX.sym("xhat", _NX), ca.MX.sym("P", _ND, _ND), ca.MX.sym("z", _NZ)
-    Qn, R = ca.MX.sym("Q", _ND, _ND), ca.MX.sym("R", _NZ, _NZ)
-    dt, p, a = ca.MX.sym("dt"), ca.MX.sym("p", _NP), ca.MX.sym("a", 3)
-    q_prior = xhat[HEADING_FILTER_STATE["q"]]
-    yaw_prior = Q.to_rpy(q_prior)[2]
-    u = ca.vertcat(Q.rotate_inv(q_prior, a) / ParamView(p).g, yaw_prior)
-    M = HEADING_MEAS
-    zn = ca.vertcat(z[M["acc"]] / ParamView(p).g, z[M["gyro"]], _wrap(z[M["yaw"]] - yaw_prior))
-    out = ukf_step(model, xhat, P, zn, u, Qn, R, dt, p, kappa=0.0)
-    return ca.Function("ballbot_qukf_heading", [xhat, P, z, Qn, R, dt, p, a],
-                       [*(out[k] for k in OUTPUT_NAMES), out["P_next"][:3, :3]],
+    full = _period(mean_iterations, with_heading=True)
+    step = ca.Function.conditional("qukf_heading_period",
+                                   [_period(mean_iterations, with_heading=False)], full)
+    args = full.mx_in()
+    z = args[HEADING_INPUT_NAMES.index("z")]
+    has_reading = ca.fabs(z[HEADING_MEAS["yaw"]]) <= FINITE_MAX  # case 0: no reading
+    return ca.Function("ballbot_qukf_heading", args, step(has_reading, *args),
                        list(HEADING_INPUT_NAMES), list(HEADING_OUTPUT_NAMES))
 
 

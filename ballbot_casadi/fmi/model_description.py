@@ -16,7 +16,8 @@ from xml.sax.saxutils import quoteattr
 
 from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies, value_range
 
-__all__ = ["model_description_xml", "LOG_CATEGORIES", "xml_number", "xml_start"]
+__all__ = ["model_description_xml", "LOG_CATEGORIES", "xml_number", "xml_start",
+           "range_attributes", "common_elements"]
 
 #: The log categories of the shared layer (``fmu/layer/fmi2_common.c``).
 LOG_CATEGORIES = (
@@ -40,12 +41,10 @@ def xml_start(v: FmuVar) -> str:
     return xml_number(v.start)
 
 
-def _type_element(v: FmuVar) -> str:
+def range_attributes(v: FmuVar) -> str:
+    """A variable's ``min``/``max`` (settable non-Boolean variables, finite bounds only) and
+    ``start`` attributes, each with a leading space; FMI 2.0 and 3.0."""
     attrs = ""
-    if v.kind == "derivative":
-        return f'<Real derivative="{v.derivative_of + 1}"/>'
-    if v.type == "Real" and v.unit:
-        attrs += f' unit="{v.unit}"'
     if v.type != "Boolean" and v.kind in ("parameter", "discrete_input", "input"):
         lo, hi, _, _, _ = value_range(v)
         if v.type == "Integer":
@@ -55,7 +54,29 @@ def _type_element(v: FmuVar) -> str:
                 f' max="{xml_number(hi)}"' if math.isfinite(hi) else "")
     if v.start is not None:
         attrs += f' start="{xml_start(v)}"'
-    return f"<{v.type}{attrs}/>"
+    return attrs
+
+
+def _type_element(v: FmuVar) -> str:
+    if v.kind == "derivative":
+        return f'<Real derivative="{v.derivative_of + 1}"/>'
+    unit = f' unit="{v.unit}"' if v.type == "Real" and v.unit else ""
+    return f"<{v.type}{unit}{range_attributes(v)}/>"
+
+
+def common_elements(spec: FmuSpec, units: Sequence[str]) -> list[str]:
+    """The ``UnitDefinitions`` (of ``units``, none when empty), ``LogCategories``
+    (:data:`LOG_CATEGORIES`) and ``DefaultExperiment`` elements, FMI 2.0 and 3.0."""
+    start, stop, step = spec.default_experiment
+    out = []
+    if units:
+        out += ["  <UnitDefinitions>", *[f'    <Unit name="{u}"/>' for u in units],
+                "  </UnitDefinitions>"]
+    return out + ["  <LogCategories>",
+                  *[f'    <Category name="{n}" description="{d}"/>' for n, d in LOG_CATEGORIES],
+                  "  </LogCategories>",
+                  f'  <DefaultExperiment startTime="{start:g}" stopTime="{stop:g}" '
+                  f'stepSize="{step:g}"/>']
 
 
 def _interface(tag: str, spec: FmuSpec, src: str, extra: str) -> list[str]:
@@ -71,7 +92,6 @@ def model_description_xml(spec: FmuSpec, guid: str, sources: Sequence[str]) -> s
     rows = spec.variables
     units = sorted({v.unit for v in rows if v.unit and v.type == "Real"})
     src = "\n".join(f'      <File name="{s}"/>' for s in sources)
-    start, stop, step = spec.default_experiment
     out = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName="{spec.model_name}"',
@@ -86,15 +106,7 @@ def model_description_xml(spec: FmuSpec, guid: str, sources: Sequence[str]) -> s
                           '\n    canHandleVariableCommunicationStepSize="true" '
                           'canInterpolateInputs="false"\n    maxOutputDerivativeOrder="0" '
                           'canRunAsynchronuously="false"')
-    if units:
-        out += ["  <UnitDefinitions>", *[f'    <Unit name="{u}"/>' for u in units],
-                "  </UnitDefinitions>"]
-    out += ["  <LogCategories>",
-            *[f'    <Category name="{n}" description="{d}"/>' for n, d in LOG_CATEGORIES],
-            "  </LogCategories>",
-            f'  <DefaultExperiment startTime="{start:g}" stopTime="{stop:g}" '
-            f'stepSize="{step:g}"/>',
-            "  <ModelVariables>"]
+    out += common_elements(spec, units) + ["  <ModelVariables>"]
     for v in rows:
         head = (f"name={quoteattr(v.name)} valueReference=\"{v.vr}\" "
                 f'causality="{v.causality}" variability="{v.variability}"')

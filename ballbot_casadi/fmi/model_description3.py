@@ -18,11 +18,10 @@ the controller's 5 ms period stays a fixed communication step (``fmi3DoStep``).
 
 from __future__ import annotations
 
-import math
 from xml.sax.saxutils import quoteattr
 
-from ballbot_casadi.fmi.model_description import LOG_CATEGORIES, xml_number, xml_start
-from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies, value_range
+from ballbot_casadi.fmi.model_description import common_elements, range_attributes
+from ballbot_casadi.fmi.spec import FmuSpec, FmuVar, output_dependencies
 
 __all__ = ["model_description3_xml", "FMI3_TYPES", "time_value_reference"]
 
@@ -45,15 +44,7 @@ def _variable(v: FmuVar) -> list[str]:
         attrs += f' unit="{v.unit}"'
     if v.kind == "derivative":
         attrs += f' derivative="{v.derivative_of}"'
-    if v.type != "Boolean" and v.kind in ("parameter", "discrete_input", "input"):
-        lo, hi, _, _, _ = value_range(v)
-        if v.type == "Integer":
-            attrs += f' min="{int(lo)}" max="{int(hi)}"'
-        else:
-            attrs += (f' min="{xml_number(lo)}"' if math.isfinite(lo) else "") + (
-                f' max="{xml_number(hi)}"' if math.isfinite(hi) else "")
-    if v.start is not None:
-        attrs += f' start="{xml_start(v)}"'
+    attrs += range_attributes(v)
     return [f"    <{FMI3_TYPES[v.type]} {attrs}/>"]
 
 
@@ -61,7 +52,6 @@ def model_description3_xml(spec: FmuSpec, token: str) -> str:
     """FMI 3.0 ``modelDescription.xml`` for ``spec`` with instantiation token ``token``."""
     rows = spec.variables
     units = sorted({"s", *(v.unit for v in rows if v.unit and v.type == "Real")})
-    start, stop, step = spec.default_experiment
     caps = ('canGetAndSetFMUState="true" canSerializeFMUState="true" '
             f'providesDirectionalDerivatives="{str(spec.directional_derivatives).lower()}" '
             f'providesAdjointDerivatives="{str(spec.directional_derivatives).lower()}"')
@@ -79,14 +69,7 @@ def model_description3_xml(spec: FmuSpec, token: str) -> str:
                 '    canHandleVariableCommunicationStepSize="true" hasEventMode="false"',
                 '    providesIntermediateUpdate="false" canReturnEarlyAfterIntermediateUpdate='
                 '"false"/>']
-    if units:
-        out += ["  <UnitDefinitions>", *[f'    <Unit name="{u}"/>' for u in units],
-                "  </UnitDefinitions>"]
-    out += ["  <LogCategories>",
-            *[f'    <Category name="{n}" description="{d}"/>' for n, d in LOG_CATEGORIES],
-            "  </LogCategories>",
-            f'  <DefaultExperiment startTime="{start:g}" stopTime="{stop:g}" '
-            f'stepSize="{step:g}"/>',
+    out += [*common_elements(spec, units),
             "  <ModelVariables>",
             f'    <Float64 name="time" valueReference="{time_value_reference(spec)}" '
             'causality="independent" variability="continuous" description="simulation time" '

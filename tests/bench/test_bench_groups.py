@@ -56,6 +56,36 @@ def test_control_group(monkeypatch):
             "control_step_target_us", "mission_100s_target_s"})
 
 
+def test_estimation_inputs_are_passed_by_name(monkeypatch):
+    """Every function the estimation group times gets one argument per input, each of that
+    input's size (taken by name), the gated filters' rejection counters at zero, and
+    evaluates to finite outputs at that operating point (CasADi, no C build)."""
+    import numpy as np
+
+    seen = {}
+
+    def record(lib, f, inputs, n_calls):
+        assert len(inputs) == f.n_in(), f.name()
+        for i, v in enumerate(inputs):
+            assert np.size(v) == f.numel_in(i), (f.name(), f.name_in(i), np.size(v))
+            if f.name_in(i) == "n_rej":
+                assert not np.any(v), f.name()
+        out = f(*[np.reshape(np.asarray(v, float), f.size_in(i), order="F")
+                  for i, v in enumerate(inputs)])
+        for o in (out if isinstance(out, (list, tuple)) else [out]):
+            assert np.all(np.isfinite(np.asarray(o))), f.name()
+        seen[f.name()] = f.name_in()
+        return 1.0
+
+    orig = bench_estimation_mod._full_scenario
+    monkeypatch.setattr(bench_estimation_mod, "_full_scenario", lambda: orig().replace(duration=0.5))
+    monkeypatch.setattr(bench_estimation_mod, "c_function_us", record)
+    bench_estimation_mod.bench_estimation(n_calls=1, repeats=1)
+    assert {"ballbot_qukf", "ballbot_vukf", "ballbot_qukf_heading", "ballbot_qekf_heading",
+            "ballbot_tilt_correction", "ballbot_com_observer"} <= set(seen)
+    assert "n_rej" in seen["ballbot_qukf"]
+
+
 def test_estimation_group(monkeypatch):
     orig = bench_estimation_mod._full_scenario
     monkeypatch.setattr(bench_estimation_mod, "_full_scenario", lambda: orig().replace(duration=0.5))

@@ -9,6 +9,7 @@ import pytest
 from ballbot_casadi.control import (
     BALANCE_CONTROLLERS,
     BALANCE_DIAG_NAMES,
+    balance_state_size,
     check_gains,
     controller_functions_list,
     default_balance_gains,
@@ -83,6 +84,37 @@ def test_output_dynamics_are_exactly_the_designed_linear_ones(flc, model_functio
         assert diag[0] == 0.0
         ddy = _error_accel(model_functions, p, x, tau, q_ref, dq_ref, ddq_ref)
         np.testing.assert_allclose(ddy, v, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["flc", "smc", "sta", "lqr", "flc_dob"])
+def test_every_balance_controller_has_the_common_frame(name, model_functions, default_params, rng):
+    """One signature for all five (control.balance_frame), and ``diag`` means the same in
+    each: ``y``, ``dy`` the independent error output, ``v`` the error acceleration that
+    ``tau`` produces in the model (thesis 8.12-8.26; zero ``zb``: no disturbance estimate)."""
+    f = make_balance_controller(name, model_functions["affine"])
+    nz = balance_state_size(name)
+    assert f.name() == f"ballbot_{name}"
+    assert f.name_in() == ["x", "q_ref", "dq_ref", "ddq_ref", "p", "k", *(["zb"] if nz else [])]
+    assert f.name_out() == ["tau", "diag", *(["zb_next"] if nz else [])]
+    assert f.size_out(0) == (3, 1) and f.size1_out(1) == len(BALANCE_DIAG_NAMES)
+    if nz:
+        assert f.size1_in(6) == nz and f.size1_out(2) == nz
+    p = default_params.to_vector()
+    linear = linearize(default_params, functions=model_functions)
+    k = default_balance_gains(name, linear)
+    for _ in range(5):
+        x, q_ref, dq_ref, ddq_ref = _random_case(rng)
+        tau, diag, *_ = f(x, q_ref, dq_ref, ddq_ref, p, k, *([np.zeros(nz)] if nz else []))
+        diag = np.asarray(diag).ravel()
+        s = shortest_path_sign(quaternion_error(x[2:6], q_ref))
+        assert diag[2] == s and diag[0] == 0.0
+        np.testing.assert_allclose(diag[3:6], s * quaternion_error(x[2:6], q_ref)[1:],
+                                   rtol=0, atol=1e-14)
+        np.testing.assert_allclose(
+            diag[6:9], s * quaternion_error_rate(x[2:6], x[8:12], q_ref, dq_ref)[1:],
+            rtol=0, atol=1e-14)
+        ddy = _error_accel(model_functions, p, x, tau, q_ref, dq_ref, ddq_ref)
+        np.testing.assert_allclose(ddy, diag[9:12], rtol=0, atol=1e-9)
 
 
 def test_axes_are_decoupled(flc, model_functions, default_params, rng):

@@ -3,6 +3,7 @@ on matched synthetic data (analysis/heading.py)."""
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -10,6 +11,8 @@ from ballbot_casadi.analysis.heading import heading_readings, heading_run
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.core.sensor_params import load_sensor_params
+from ballbot_casadi.estimation.core import FilterModel, make_filter
+from ballbot_casadi.estimation.manifold import attitude
 from ballbot_casadi.estimation.heading import (
     HEADING_FILTER_STATE,
     HEADING_MEAS,
@@ -67,6 +70,55 @@ def test_one_reading_across_the_cut_is_a_small_innovation_and_moves_the_bias():
     z[6] = np.nan
     assert float(f(x, P, z, tun["Q"], tun["R"], 0.005, load_params().to_vector(),
                    np.zeros(3))[4]) == 6
+
+
+def _reference_filter() -> ca.Function:
+    """The module docstring's filter written out plainly: ``h``'s heading is
+    ``wrap(yaw(q) - yaw_prior)`` by ``to_rpy`` and ``atan2(sin, cos)``, and every period
+    runs the masked 7-component update (``u = [a_B / g, yaw_prior]``)."""
+    x, u, dt = ca.SX.sym("x", 8), ca.SX.sym("u", 4), ca.SX.sym("dt")
+    p = ca.SX.sym("p", load_params().to_vector().size)
+    q, w, b = x[0:4], x[4:7], x[7]
+    f = ca.Function("f", [x, u, dt, p], [ca.vertcat(Q.mul(q, Q.exp(0.5 * dt * w)), w, b)])
+    d = Q.to_rpy(q)[2] - u[3]
+    h = ca.Function("h", [x, u, dt, p], [ca.vertcat(Q.rotate_inv(q, ca.DM([0, 0, 1])) + u[:3],
+                                                    w + ca.vertcat(0, 0, b),
+                                                    ca.atan2(ca.sin(d), ca.cos(d)))])
+    return make_filter("reference", FilterModel(attitude(n_vec=4), f, h, noise="pre"))
+
+
+def test_every_period_equals_the_plain_masked_update(rng):
+    """Independent reference (_reference_filter): with a reading, without one (the
+    conditional's short branch), across the +-pi cut, and with other components missing."""
+    f, ref = make_qukf_heading(), _reference_filter()
+    s, prm = load_sensor_params(), load_params()
+    p = prm.to_vector()
+    tun = heading_tuning(s.heading_noise_var[0], s.gyro_bias_rw[2], 0.005)
+    branches = set()
+    for j in range(24):
+        yaw = np.pi - 0.002 if j % 4 == 0 else rng.uniform(-np.pi, np.pi)
+        x = np.r_[Q.from_rpy(*rng.uniform(-0.2, 0.2, 2), yaw), rng.normal(0, 0.3, 3),
+                  rng.normal(0, 0.01)]
+        P = np.array(tun["P0"]) * rng.uniform(0.5, 30)
+        a = rng.normal(0, 1, 3)
+        z = np.r_[rng.normal([0, 0, prm.g], 0.5), rng.normal(0, 0.2, 3),
+                  yaw + rng.normal(0, 0.05) + (0.01 if j % 4 == 0 else 0)]
+        z[6] = (z[6] + np.pi) % (2 * np.pi) - np.pi  # a reading in [-pi, pi)
+        if j % 2:
+            z[6] = np.nan  # no reading (most periods)
+        if j % 5 == 0:
+            z[rng.integers(0, 6)] = np.nan
+        yaw_prior = Q.to_rpy(x[:4])[2]
+        u = np.r_[Q.rotate_inv(x[:4], a) / prm.g, yaw_prior]
+        d = z[6] - yaw_prior
+        zn = np.r_[z[:3] / prm.g, z[3:6], np.arctan2(np.sin(d), np.cos(d))]
+        got = f(x, P, z, tun["Q"], tun["R"], 0.005, p, a)
+        want = ref(x, P, zn, u, tun["Q"], tun["R"], 0.005, p)
+        for k, (g_, w_) in enumerate(zip(got[:6], want)):
+            np.testing.assert_allclose(np.asarray(g_), np.asarray(w_), rtol=1e-12, atol=1e-13,
+                                       err_msg=f"output {f.name_out(k)}, case {j}")
+        branches.add(bool(np.isfinite(z[6])))
+    assert branches == {True, False}
 
 
 def test_aided_heading_error_and_bias_estimate_on_ten_minutes():

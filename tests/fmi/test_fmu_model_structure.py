@@ -4,6 +4,9 @@ input")."""
 
 from __future__ import annotations
 
+import math
+from xml.etree import ElementTree
+
 import numpy as np
 import pytest
 from fmpy import read_model_description
@@ -11,8 +14,9 @@ from fmpy import read_model_description
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.fmi.controller.controller import REJECTION_NAMES, controller_spec
 from ballbot_casadi.fmi.model_description import model_description_xml
+from ballbot_casadi.fmi.model_description3 import model_description3_xml
 from ballbot_casadi.fmi.plant.plant import plant_functions, plant_spec
-from ballbot_casadi.fmi.spec import sparsity_dependencies
+from ballbot_casadi.fmi.spec import sparsity_dependencies, value_range
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -72,3 +76,50 @@ def test_no_controller_output_depends_on_an_input(tmp_path):
     md = _md(controller_spec(), tmp_path)
     assert len(md.outputs) == 53 + len(REJECTION_NAMES)  # + the innovation-gate rejections
     assert all(u.dependencies == [] for u in md.outputs)
+
+
+def _range_and_start(root, fmi3: bool) -> dict[str, dict[str, str]]:
+    """Variable name -> its min, max and start attributes (FMI 2.0: on the type element)."""
+    keys = ("min", "max", "start")
+    rows = root.find("ModelVariables")
+    if fmi3:
+        return {e.get("name"): {k: e.get(k) for k in keys} for e in rows}
+    return {e.get("name"): {k: e[0].get(k) for k in keys} for e in rows}
+
+
+@pytest.mark.parametrize("make_spec", [plant_spec, controller_spec])
+def test_fmi3_description_carries_the_fmi2_ranges_and_starts(make_spec):
+    """Both writers take min/max/start from one place (range_attributes): the same values,
+    the finite bounds of PARAM_RULES (value_range) on the settable variables only; and the
+    same default experiment, log categories and units (common_elements)."""
+    spec = make_spec()
+    root2 = ElementTree.fromstring(model_description_xml(spec, "{0}", ["a.c"]))
+    root3 = ElementTree.fromstring(model_description3_xml(spec, "{0}"))
+    md2, md3 = _range_and_start(root2, fmi3=False), _range_and_start(root3, fmi3=True)
+    md3.pop("time")
+    assert md3 == md2
+    # the shared elements (common_elements): the same experiment, log categories and units
+    start, stop, step = spec.default_experiment
+    for root in (root2, root3):
+        assert {k: float(v) for k, v in root.find("DefaultExperiment").items()} == {
+            "startTime": start, "stopTime": stop, "stepSize": step}
+        assert [c.get("name") for c in root.find("LogCategories")] == [
+            "logStatusError", "logStatusWarning", "logCalls"]
+    units = {u.get("name") for u in root2.find("UnitDefinitions")}
+    assert units == {v.unit for v in spec.variables if v.unit and v.type == "Real"}
+    assert {u.get("name") for u in root3.find("UnitDefinitions")} == units | {"s"}  # time
+    n_ranged = 0
+    for v in spec.variables:
+        lo, hi, _, _, _ = value_range(v)
+        settable = v.type != "Boolean" and v.kind in ("parameter", "discrete_input", "input")
+        got = md2[v.name]
+        assert (got["min"] is not None) == (settable and math.isfinite(lo)), v.name
+        assert (got["max"] is not None) == (settable and math.isfinite(hi)), v.name
+        if got["min"] is not None:
+            n_ranged += 1
+            assert float(got["min"]) == lo
+        if got["max"] is not None:
+            assert float(got["max"]) == hi
+        if v.start is not None and v.type == "Real" and v.kind != "derivative":
+            assert float(got["start"]) == float(v.start), v.name
+    assert n_ranged > 0

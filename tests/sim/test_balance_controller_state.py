@@ -7,6 +7,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
+from _period_support import period_loop
 
 from ballbot_casadi.control import (
     BALANCE_CONTROLLERS,
@@ -30,10 +31,8 @@ from ballbot_casadi.model.dynamics import make_affine, make_model_functions, mak
 from ballbot_casadi.model.integrators import make_rk4_n
 from ballbot_casadi.model.linearization import linearize
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.period import control_period, rk4_plant
 from ballbot_casadi.sim.ports import (
     PERIOD_CONSTANTS,
-    PERIOD_SEQUENCES,
     PeriodBlocks,
     check_blocks,
     controller_state,
@@ -61,17 +60,7 @@ def _python_loop(blocks: PeriodBlocks, scenario: Scenario) -> dict[str, np.ndarr
     parts = {"z": inp["z0"], "obs": com_observer_initial_state(inp["x0"], inp["p_ctrl"])}
     if Z.has("bal"):
         parts["bal"] = np.zeros(Z.size_of("bal"))
-    z = Z.pack(parts)
-    plant = rk4_plant(make_ode(), scenario.n_sub, const["p_plant"], const["Ts"])
-    x = inp["x0"].copy()
-    states, taus = [], []
-    for k in range(scenario.n_periods):
-        out = control_period(blocks, x, z, {s: inp[s][k] for s in PERIOD_SEQUENCES}, const, plant)
-        states.append(out["x"])
-        taus.append(out["tau"])
-        x, z = out["x_next"], out["z_next"]
-    states.append(x)
-    return {"state": np.array(states), "tau": np.array(taus), "c_final": z}
+    return period_loop(blocks, scenario, inp, Z.pack(parts), const)
 
 
 def _sliding_variable(log, k_bal) -> np.ndarray:

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _step_support import run_steps
 
 from ballbot_casadi.analysis.com_observer import com_observer_metrics
 from ballbot_casadi.analysis.metrics import velocity_metrics
 from ballbot_casadi.control import make_flc, make_velocity_controller
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.estimation.com_observer import com_observer_initial_state, make_com_observer
+from ballbot_casadi.estimation.com_observer import make_com_observer
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
@@ -19,6 +20,9 @@ from ballbot_casadi.sim.embedded import estimator_blocks, make_embedded_step
 from ballbot_casadi.sim.scenario import load_scenario_file, parse_scenario
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.studies.registry import shipped_scenarios, study_scenarios
+
+#: The outputs a period row of run_steps holds.
+_KEYS = ("x", "x_hat", "tau", "meas")
 
 OFFSET = {"com_x": ["set", -0.02], "com_y": ["set", -0.03], "l": ["add", 0.03]}
 
@@ -54,26 +58,6 @@ def test_observer_off_is_the_loop_without_observer_bit_for_bit(blocks):
         run_scenario(sc.replace(com_observer=True), plain)
 
 
-def _run_steps(step, inp, n):
-    """``n`` periods of an estimating step, called period by period (by input name)."""
-    est = inp["estimation"]
-    with_obs = "k_obs" in step.name_in()
-    o0 = [com_observer_initial_state(inp["x0"], inp["p_ctrl"])] if with_obs else []
-    xz = np.concatenate([inp["x0"], np.zeros(3), inp["z0"], est["e0"], *o0, est["s0"]])
-    const = {"p_plant": inp["p_plant"], "p_ctrl": inp["p_ctrl"], "k_bal": inp["k_bal"],
-             "k_vel": inp["k_vel"], "Ts": inp["Ts"], "cascade": 1.0, "feedforward": 1.0,
-             **{k: np.ravel(est[k], order="F") for k in ("s", "p_est", "Qa", "Ra", "Qv", "Rv")},
-             **({"com_observer": 0.0, "k_obs": inp["k_obs"]} if with_obs else {})}
-    rows = []
-    for k in range(n):
-        seq = {key: inp[key][k] for key in ("q_ref", "dq_ref", "ddq_ref", "v_ref", "w")}
-        seq.update({key: est[key][k] for key in ("noise", "valid")})
-        out = step.call({"xz": xz, **seq, **const})
-        xz = np.ravel(np.asarray(out["xz_next"]))
-        rows.append(np.concatenate([np.ravel(np.asarray(out[key])) for key in ("x", "x_hat", "tau", "meas")]))
-    return np.array(rows)
-
-
 def test_observer_off_with_estimators_is_the_loop_without_observer_bit_for_bit(blocks):
     flc, vel, ode = blocks
     ws = make_wheel_speeds()
@@ -83,7 +67,7 @@ def test_observer_off_with_estimators_is_the_loop_without_observer_bit_for_bit(b
                                     embedded=make_embedded_step(flc, vel, est, make_com_observer()))
     assert step_obs.n_in() == step_plain.n_in() + 2
     inp = _com(com_observer=False, duration=0.1, estimator="ukf", seed=3).inputs()
-    a, b = _run_steps(step_plain, inp, 20), _run_steps(step_obs, inp, 20)
+    a, b = run_steps(step_plain, inp, 20, _KEYS), run_steps(step_obs, inp, 20, _KEYS)
     assert np.all(np.isfinite(a[1:]))
     np.testing.assert_array_equal(a, b)
 

@@ -8,6 +8,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from _step_support import run_steps
 
 from ballbot_casadi.analysis.estimates import estimation_metrics
 from ballbot_casadi.control import make_flc, make_velocity_controller
@@ -19,6 +20,9 @@ from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.embedded import GATE_GROUPS, estimator_blocks
 from ballbot_casadi.studies.registry import study_scenarios
+
+#: The outputs a period row of run_steps holds.
+_KEYS = ("x", "x_hat", "tau", "rejections")
 
 T_GYRO, T_ACC = 1.0, 2.0
 GLITCHES = ((T_GYRO, "gyro", "x", 1000.0), (T_ACC, "acc", "z", 1e20))
@@ -84,24 +88,6 @@ def test_estimate_recovers_within_a_second_of_each_glitch(runs):
                                rtol=0, atol=1e-3)
 
 
-def _run_steps(step, inp, n):
-    """``n`` periods of an estimating step (no observer), called period by period."""
-    est = inp["estimation"]
-    xz = np.concatenate([inp["x0"], np.zeros(3), inp["z0"], est["e0"], est["s0"]])
-    const = {"p_plant": inp["p_plant"], "p_ctrl": inp["p_ctrl"], "k_bal": inp["k_bal"],
-             "k_vel": inp["k_vel"], "Ts": inp["Ts"], "cascade": 1.0, "feedforward": 1.0,
-             **{k: np.ravel(est[k], order="F") for k in ("s", "p_est", "Qa", "Ra", "Qv", "Rv")}}
-    rows = []
-    for k in range(n):
-        seq = {key: inp[key][k] for key in ("q_ref", "dq_ref", "ddq_ref", "v_ref", "w")}
-        seq.update({key: est[key][k] for key in ("noise", "valid")})
-        out = step.call({"xz": xz, **seq, **const})
-        xz = np.ravel(np.asarray(out["xz_next"]))
-        rows.append(np.concatenate([np.ravel(np.asarray(out[key]))
-                                    for key in ("x", "x_hat", "tau", "rejections")]))
-    return np.array(rows)
-
-
 @pytest.mark.parametrize("estimator", ["ukf", "ekf"])
 def test_without_rejections_the_gated_loop_is_the_ungated_one_bit_for_bit(estimator):
     ode, ws = make_ode(), make_wheel_speeds()
@@ -114,12 +100,12 @@ def test_without_rejections_the_gated_loop_is_the_ungated_one_bit_for_bit(estima
     step_p = make_estimating_step(flc, vel, ode, ws, plain)
     n = 30
     inp = _sine(estimator, duration=n * 0.005).inputs()
-    a, b = _run_steps(step_g, inp, n), _run_steps(step_p, inp, n)
+    a, b = run_steps(step_g, inp, n, _KEYS), run_steps(step_p, inp, n, _KEYS)
     assert np.all(np.isfinite(a))
     np.testing.assert_array_equal(a, b)  # the rejections columns are zero in both
     # with a glitch the gate acts and the runs part
     inp = _sine(estimator, duration=n * 0.005, sensor_glitches=((0.05, "gyro", "y", 500.0),)).inputs()
-    a, b = _run_steps(step_g, inp, n), _run_steps(step_p, inp, n)
+    a, b = run_steps(step_g, inp, n, _KEYS), run_steps(step_p, inp, n, _KEYS)
     assert a[10, -3] == 1.0 and np.sum(a[:, -4:]) == 1.0  # attitude_gyro at period 10
     assert np.max(np.abs(a[11:, 12:24] - b[11:, 12:24])) > 1e-3
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _period_support import period_loop
 from ballbot_casadi.studies.registry import study_scenarios
 
 from ballbot_casadi.control import (
@@ -15,9 +16,9 @@ from ballbot_casadi.control import (
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import DISTURBANCE, STATE
 from ballbot_casadi.core.params import PARAM_NAMES, load_params
-from ballbot_casadi.model.dynamics import make_affine, make_ode
+from ballbot_casadi.model.dynamics import make_affine
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.period import actuate, apply_push, control_period, rk4_plant
+from ballbot_casadi.sim.period import actuate, apply_push, control_period
 from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES, PeriodBlocks
 from ballbot_casadi.sim.scenario import Scenario, initial_state
 
@@ -38,17 +39,8 @@ def blocks() -> dict[str, PeriodBlocks]:
 def python_loop(blocks: PeriodBlocks, scenario: Scenario) -> dict[str, np.ndarray]:
     """The scenario as a Python loop of control_period with the RK4 plant."""
     inp = scenario.inputs()
-    const = {k: inp[k] for k in PERIOD_CONSTANTS}
-    plant = rk4_plant(make_ode(), scenario.n_sub, const["p_plant"], const["Ts"])
-    x, z = inp["x0"].copy(), inp["z0"].copy()
-    states, taus = [], []
-    for k in range(scenario.n_periods):
-        out = control_period(blocks, x, z, {s: inp[s][k] for s in PERIOD_SEQUENCES}, const, plant)
-        states.append(out["x"])
-        taus.append(out["tau"])
-        x, z = out["x_next"], out["z_next"]
-    states.append(x)
-    return {"state": np.array(states), "tau": np.array(taus)}
+    return period_loop(blocks, scenario, inp, inp["z0"].copy(),
+                       {k: inp[k] for k in PERIOD_CONSTANTS})
 
 
 def _disturbed(controller: str = "flc", **kw) -> Scenario:
