@@ -42,6 +42,7 @@ from ballbot_casadi.bench.exports import estimation_bench_library
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
+from ballbot_casadi.estimation.attitude import ATTITUDE_MEAS
 from ballbot_casadi.sim.embedded import MATCHED_VELOCITY, embedded_readings, software_layout
 from ballbot_casadi.sim.ports import REFERENCE_SEQUENCES
 from ballbot_casadi.sim.scenario import load_scenario_file
@@ -165,7 +166,8 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     v_in = [xv, Pv, np.r_[enc * inputs["Ts"], acc], xa[:XA.size], np.eye(3) * 1e-8, est["Qv"],
             est["Rv"], inputs["Ts"], p]
     if "P_rate" in vel_f.name_in():  # the matched filter's gyro-rate covariance (Ra's gyro block)
-        v_in.append(np.asarray(est["Ra"])[3:6, 3:6])
+        g = ATTITUDE_MEAS["gyro"]
+        v_in.append(np.asarray(est["Ra"])[g, g])
     if "n_rej" in vel_f.name_in():
         v_in.append(np.zeros(vel_f.size1_in(vel_f.index_in("n_rej"))))
     t_in = [xa[XA["q"]], xv[XV["a"]], xv[XV["b_acc"]], p]

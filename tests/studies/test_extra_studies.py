@@ -54,9 +54,9 @@ def test_consistency_study_reports_the_band_and_the_overconfident_velocity_filte
     for f in ("attitude", "velocity"):
         np.testing.assert_allclose(r[f]["band"], chi2_band(NIS_DIM, r[f]["n"]), rtol=1e-12)
     assert r["velocity"]["verdict"] == "overconfident" and r["velocity"]["mean_nis"] > 50
-    # the matched velocity filter beside it, with the random walk measured on the run
+    # the matched velocity filter beside it, with the random walk (x, y) measured on its run
     v = r["velocity_matched"]
-    assert 4.5 < v["mean_nis"] < 7.5 and 1e-3 < v["acc_process_var"] < 1e-1
+    assert 4.5 < v["mean_nis"] < 7.5 and all(1e-3 < q < 1e-1 for q in v["acc_process_var"])
     assert v["velocity_rms_mps"] < r["velocity"]["velocity_rms_mps"]
     assert not m["passed"]
     assert (tmp_path / "nis.png").is_file() and "| full_sine | velocity_matched |" in \
