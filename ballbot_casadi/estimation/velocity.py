@@ -36,6 +36,12 @@ VUKF (:func:`make_vukf`): additive process noise (5.14), 2N+1 sigma points with
 filter state (``q`` and ``omega`` are inputs), so the unscented transform is exact here
 and the VUKF equals the Kalman filter - and the VEKF - to rounding (tested).
 VEKF (:func:`make_vekf`): the same models in the EKF core (the predecessor's filter).
+
+The matched model (``matched=True``, issue 22; the estimator ``ukf_consistent``) fixes
+the thesis's model where the loop's innovations showed it wrong: the encoder prediction's
+body-rate term with its covariance (:func:`encoder_rate`), the period's acceleration
+increment on the velocity (:func:`period_acceleration_noise`) and the attitude error as a
+slowly varying accelerometer offset instead of white noise (:func:`attitude_offset_noise`).
 """
 
 from __future__ import annotations

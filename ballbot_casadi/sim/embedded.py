@@ -401,10 +401,12 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                        Q=ca.reshape(sym["Qa"], nq, nq), R=ca.reshape(sym["Ra"], nr, nr), dt=Ts,
                        p=p_est, a=ca.vertcat(xv_prev[XV["a"]], 0), **gate_in["att"])
     xa = att["xhat_next"]
-    # a velocity filter with the body-rate covariance input predicts the encoders with the
-    # period's gyroscope reading and its noise covariance (the attitude filter's gyro
-    # block of Ra, plus a third of its rate process noise: the rate's change within the
-    # period); in a gyro dropout with the attitude filter's rate and covariance
+    # a velocity filter with the body-rate covariance input (the matched model) predicts the
+    # encoders with the period's gyroscope reading and its noise covariance (the attitude
+    # filter's gyro block of Ra, plus a third of its rate process noise: the rate's change
+    # within the period), the same covariance driving its accelerometer-offset walk
+    # (estimation.velocity.attitude_offset_noise); in a gyro dropout with the attitude
+    # filter's rate and covariance
     # (the rate block of its covariance: the tangent has one entry less than the state
     # on S^3, the additive chart of the QEKF none): estimation.velocity.encoder_rate
     r0 = XA.offset("omega") - (XA.size - na)
