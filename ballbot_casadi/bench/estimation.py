@@ -42,6 +42,7 @@ from ballbot_casadi.bench.exports import estimation_bench_library
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
+from ballbot_casadi.estimation.attitude import ATTITUDE_MEAS
 from ballbot_casadi.sim.embedded import MATCHED_VELOCITY, embedded_readings, software_layout
 from ballbot_casadi.sim.ports import REFERENCE_SEQUENCES
 from ballbot_casadi.sim.scenario import load_scenario_file
@@ -164,9 +165,10 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     out[att_f.name().removeprefix("ballbot_")] = out["attitude"]
     if not with_rest:
         return out
+    g = ATTITUDE_MEAS["gyro"]
     vel_values = {"xhat": xv, "P": Pv, "z": np.r_[enc * inputs["Ts"], acc], "att": xa[:XA.size],
                   "P_att": np.eye(3) * 1e-8, "Q": est["Qv"], "R": est["Rv"], "dt": inputs["Ts"],
-                  "p": p, "P_rate": np.asarray(est["Ra"])[3:6, 3:6]}  # (Ra's gyro block)
+                  "p": p, "P_rate": np.asarray(est["Ra"])[g, g]}  # (Ra's gyro block)
     tilt_values = {"q": xa[XA["q"]], "a": xv[XV["a"]], "b_acc": xv[XV["b_acc"]], "p": p}
     obs_values = {"x": log["x_hat"][k], "v_ref": np.zeros(3), "o": obs, "p": inputs["p_ctrl"],
                   "k": inputs["k_obs"], "Ts": inputs["Ts"]}

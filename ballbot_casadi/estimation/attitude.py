@@ -50,6 +50,7 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.estimation.core import (
     GATE_OUTPUT_NAMES,
@@ -70,6 +71,8 @@ from ballbot_casadi.estimation.tuning import (
 
 __all__ = [
     "ATTITUDE_GATE",
+    "ATTITUDE_MEAS",
+    "ATTITUDE_NOISE",
     "ATTITUDE_OUTPUT_NAMES",
     "INPUT_NAMES",
     "make_attitude_measurement",
@@ -86,9 +89,18 @@ __all__ = [
 INPUT_NAMES = ("xhat", "P", "z", "Q", "R", "dt", "p")
 #: Outputs: the core outputs plus ``P_att``, the 3x3 attitude covariance (body rotation vector).
 ATTITUDE_OUTPUT_NAMES = (*OUTPUT_NAMES, "P_att")
+#: The attitude filters' measurement ``z`` (the rows and columns of ``R``): accelerometer,
+#: gyroscope (thesis 4.29-4.30).
+ATTITUDE_MEAS = Layout("attitude filter measurement", [("acc", 3), ("gyro", 3)])
+#: The attitude filters' process noise ``Q`` on the tangent (thesis 4.37-4.39): the body
+#: rotation vector, then the body rate (the rows and columns of ``Q``).
+ATTITUDE_NOISE = Layout("attitude filter process noise", [("rotation", 3), ("omega", 3)])
 #: Measurement groups of the attitude filters' gate (``gate=True``): the accelerometer
-#: (``z[0:3]``) and the gyroscope (``z[3:6]``).
-ATTITUDE_GATE = InnovationGate((("acc", (0, 1, 2)), ("gyro", (3, 4, 5))),
+#: and the gyroscope rows of :data:`ATTITUDE_MEAS`.
+ATTITUDE_GATE = InnovationGate(tuple((f, tuple(range(ATTITUDE_MEAS.offset(f),
+                                                      ATTITUDE_MEAS.offset(f)
+                                                      + ATTITUDE_MEAS.size_of(f))))
+                                     for f in ATTITUDE_MEAS.fields),
                                scale=GATE_SCALE_ATTITUDE, name="attitude_gate")
 
 _NP = len(PARAM_NAMES)

@@ -36,6 +36,12 @@ VUKF (:func:`make_vukf`): additive process noise (5.14), 2N+1 sigma points with
 filter state (``q`` and ``omega`` are inputs), so the unscented transform is exact here
 and the VUKF equals the Kalman filter - and the VEKF - to rounding (tested).
 VEKF (:func:`make_vekf`): the same models in the EKF core (the predecessor's filter).
+
+The matched model (``matched=True``, issue 22; the estimator ``ukf_consistent``) fixes
+the thesis's model where the loop's innovations showed it wrong: the encoder prediction's
+body-rate term with its covariance (:func:`encoder_rate`), the period's acceleration
+increment on the velocity (:func:`period_acceleration_noise`) and the attitude error as a
+slowly varying accelerometer offset instead of white noise (:func:`attitude_offset_noise`).
 """
 
 from __future__ import annotations
@@ -67,6 +73,7 @@ __all__ = [
     "make_vekf",
     "make_velocity_model",
     "make_vukf",
+    "attitude_offset_noise",
     "encoder_rate",
     "period_acceleration_noise",
 ]
@@ -104,7 +111,8 @@ def _accelerometer(q, a_xy, b, g):
     return Q.rotate_inv(q, ca.vertcat(a_xy, g)) + b
 
 
-def make_velocity_model(wheel_speeds: ca.Function, midpoint: bool = False) -> FilterModel:
+def make_velocity_model(wheel_speeds: ca.Function, midpoint: bool = False,
+                        attitude_noise: bool = True) -> FilterModel:
     """The velocity filters' :class:`FilterModel` (thesis 5.9-5.11, 5.17, 5.18, 5.28).
 
     ``u = [q(4), omega(3), vec(P_att)(9)]``; ``p`` the parameter vector (``g``,
@@ -123,6 +131,11 @@ def make_velocity_model(wheel_speeds: ca.Function, midpoint: bool = False) -> Fi
     period *before* the state's instant.  Settled on a synthetic constant-acceleration
     case with exact increments (tests/estimation/test_vukf_midpoint.py): this sign is
     exact there; without the midpoint the estimate lags by ``dt/2 a``, with ``+`` by ``dt a``.
+
+    With ``attitude_noise`` false the measurement noise is ``R`` alone (no
+    ``J P_att J^T``): the matched model carries the attitude error's image in the
+    accelerometer as the slowly varying offset ``b_acc`` instead
+    (:func:`attitude_offset_noise`).
     """
     _check_wheel_speeds(wheel_speeds)
     x, u, dt, p = ca.MX.sym("x", NX), ca.MX.sym("u", _NU), ca.MX.sym("dt"), ca.MX.sym("p", _NP)
@@ -139,12 +152,10 @@ def make_velocity_model(wheel_speeds: ca.Function, midpoint: bool = False) -> Fi
     z = ca.vertcat(enc, _accelerometer(q, x[2:4], x[4:7], P.g))
     measurement = ca.Function("vel_measurement", [x, u, dt, p], [z], names, ["z"])
 
+    if not attitude_noise:
+        return FilterModel(euclidean(NX), process, measurement, "additive", None)
     # Attitude uncertainty of the accelerometer prediction (5.27-5.28), mapped by J.
-    r = ca.SX.sym("r", 3)
-    xs, qs, gs = ca.SX.sym("x", NX), ca.SX.sym("q", 4), ca.SX.sym("g")
-    acc_r = _accelerometer(Q.mul(qs, Q.from_rotation_vector(r)), xs[2:4], xs[4:7], gs)
-    J = ca.substitute(ca.jacobian(acc_r, r), r, ca.DM.zeros(3))
-    jac = ca.Function("acc_attitude_jacobian", [xs, qs, gs], [J], ["x", "q", "g"], ["J"])
+    jac = _acc_attitude_jacobian()
     R = ca.MX.sym("R", 6, 6)
     Ja = jac(x, q, P.g)
     P_att = ca.reshape(u[7:], 3, 3)
@@ -152,6 +163,17 @@ def make_velocity_model(wheel_speeds: ca.Function, midpoint: bool = False) -> Fi
     noise = ca.Function("vel_measurement_noise", [x, u, p, R], [R_eff], ["x", "u", "p", "R"],
                         ["R_eff"])
     return FilterModel(euclidean(NX), process, measurement, "additive", noise)
+
+
+def _acc_attitude_jacobian() -> ca.Function:
+    """``J = d acc / d r`` (3 x 3): the predicted accelerometer's sensitivity to a body
+    rotation vector ``r`` of the attitude (CasADi AD at ``r = 0``), inputs ``(x, q, g)``;
+    near upright and at rest ``g [[0, -1, 0], [1, 0, 0], [0, 0, 0]]``."""
+    r = ca.SX.sym("r", 3)
+    xs, qs, gs = ca.SX.sym("x", NX), ca.SX.sym("q", 4), ca.SX.sym("g")
+    acc_r = _accelerometer(Q.mul(qs, Q.from_rotation_vector(r)), xs[2:4], xs[4:7], gs)
+    J = ca.substitute(ca.jacobian(acc_r, r), r, ca.DM.zeros(3))
+    return ca.Function("acc_attitude_jacobian", [xs, qs, gs], [J], ["x", "q", "g"], ["J"])
 
 
 def _encoder_rate_jacobian(wheel_speeds: ca.Function) -> ca.Function:
@@ -184,24 +206,43 @@ def period_acceleration_noise(Q, dt):
     return ca.mtimes([G, Q, G.T])
 
 
+def attitude_offset_noise(J, P_rate, dt):
+    """``dt^2 J P_rate J^T`` (3 x 3): the per-period change of the accelerometer offset an
+    attitude error makes, the process noise the matched model adds to ``b_acc``.
+
+    The attitude the velocity filter receives is off by a slowly varying rotation
+    ``dtheta`` (measured in the loop: lag-1 autocorrelation 0.99 and more); the
+    accelerometer prediction (5.18) is then off by ``J dtheta`` (``J = d acc / d r``),
+    which is a slowly varying offset like the bias, not the white noise
+    ``J P_att J^T`` of (5.27-5.28): taken as white, the filter averages it away and is
+    overconfident in the velocity it integrates from the accelerometer.  The attitude
+    filter propagates the attitude with a body rate, so over one period the attitude
+    error changes by ``dt`` times the rate error: ``b_acc`` (the accelerometer's offset in
+    {B}, the state that already absorbs the slow tilt error,
+    :mod:`~ballbot_casadi.estimation.tilt_aiding`) walks by ``dt J w``, ``w ~ N(0, P_rate)``.
+    """
+    return dt * dt * ca.mtimes([J, P_rate, J.T])
+
+
 def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = False,
-           rate_covariance: bool = False, period_acceleration: bool = False,
-           gate: bool = False) -> ca.Function:
-    model = make_velocity_model(wheel_speeds, midpoint)
+           matched: bool = False, gate: bool = False) -> ca.Function:
+    model = make_velocity_model(wheel_speeds, midpoint, attitude_noise=not matched)
     args = (ca.MX.sym("xhat", NX), ca.MX.sym("P", NX, NX), ca.MX.sym("z", 6), ca.MX.sym("att", 7),
             ca.MX.sym("P_att", 3, 3), ca.MX.sym("Q", NX, NX), ca.MX.sym("R", 6, 6),
             ca.MX.sym("dt"), ca.MX.sym("p", _NP))
     xhat, P, z, att, P_att, Qn, R, dt, p = args
-    if period_acceleration:
-        Qn = period_acceleration_noise(0.5 * (Qn + Qn.T), dt)
     u = ca.vertcat(att, ca.vec(0.5 * (P_att + P_att.T)))
     names = list(INPUT_NAMES)
-    if rate_covariance:
+    if matched:
         P_rate = ca.MX.sym("P_rate", 3, 3)
         args = (*args, P_rate)
         names.append("P_rate")
+        P_rate = 0.5 * (P_rate + P_rate.T)
+        Qn = period_acceleration_noise(0.5 * (Qn + Qn.T), dt)
+        J = _acc_attitude_jacobian()(xhat, att[:4], ParamView(p).g)
+        Qn = Qn + ca.diagcat(ca.DM.zeros(4, 4), attitude_offset_noise(J, P_rate, dt))
         Jw = _encoder_rate_jacobian(wheel_speeds)(att, dt, p)
-        R = R + ca.diagcat(ca.mtimes([Jw, 0.5 * (P_rate + P_rate.T), Jw.T]), ca.DM.zeros(3, 3))
+        R = R + ca.diagcat(ca.mtimes([Jw, P_rate, Jw.T]), ca.DM.zeros(3, 3))
     g, names_out = {}, list(OUTPUT_NAMES)
     if gate:
         g = {"gate": VELOCITY_GATE, "n_rej": ca.MX.sym("n_rej", len(VELOCITY_GATE.groups))}
@@ -214,8 +255,7 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
     return ca.Function(name, list(args), [out[k] for k in names_out], names, names_out)
 
 
-def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
-              rate_covariance: bool = False, period_acceleration: bool = False,
+def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool = False,
               gate: bool = False) -> ca.Function:
     """``ballbot_vukf``: one period of the velocity UKF (thesis 5.1-5.28).
 
@@ -227,17 +267,22 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
     midpoint
         Predict the encoder increments at the period's middle (see
         :func:`make_velocity_model`) instead of the thesis's end of period.
-    rate_covariance
-        Add a last input ``P_rate`` (3 x 3, the attitude filter's body-rate covariance):
-        the encoder prediction depends on the body rate through ``dq``, so
-        ``J_w P_rate J_w^T`` (``J_w = d enc / d omega``, AD) is added to the encoder block
-        of ``R``, as the attitude covariance is to the accelerometer's (5.27-5.28).
-        The embedded software passes the gyroscope reading as the rate and its noise
-        covariance here (:func:`encoder_rate`).
-    period_acceleration
-        The acceleration's random-walk increment of a period acts during that period:
-        ``Q`` enters as ``G Q G^T`` (:func:`period_acceleration_noise`) instead of the
-        thesis's diagonal (5.26).
+    matched
+        The matched model (issue 22; the thesis's model where it was found wrong), with a
+        last input ``P_rate`` (3 x 3, the covariance of the body rate in ``att``; the
+        embedded software passes the period's gyroscope reading and its noise,
+        :func:`encoder_rate`):
+
+        * the encoder prediction depends on the body rate through ``dq`` (5.17, B.47):
+          ``J_w P_rate J_w^T`` (``J_w = d enc / d omega``, AD) is added to the encoder
+          block of ``R``, as the attitude covariance is to the accelerometer's (5.27-5.28);
+        * the acceleration's random-walk increment of a period acts during that period:
+          ``Q`` enters as ``G Q G^T`` (:func:`period_acceleration_noise`) instead of the
+          thesis's diagonal (5.26);
+        * the attitude error is a slowly varying accelerometer offset, not white noise:
+          ``P_att`` is not used (no ``J P_att J^T`` in ``R``) and ``b_acc`` walks by the
+          attitude error's change per period, ``dt^2 J P_rate J^T``
+          (:func:`attitude_offset_noise`, ``J`` at the prior mean).
     gate
         Chi-square gating of the encoders and the accelerometer (:data:`VELOCITY_GATE`,
         :class:`~ballbot_casadi.estimation.core.InnovationGate`): a last input ``n_rej``
@@ -253,16 +298,13 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False,
         non-finite component is not used); ``att = [q, omega]`` and ``P_att`` from the
         attitude filter; ``R`` without the attitude term (added inside).
     """
-    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, rate_covariance,
-                  period_acceleration, gate)
+    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, matched, gate)
 
 
-def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False,
-              rate_covariance: bool = False, period_acceleration: bool = False,
+def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool = False,
               gate: bool = False) -> ca.Function:
     """``ballbot_vekf``: the predecessor's velocity EKF, same interface as :func:`make_vukf`."""
-    return _build("ballbot_vekf", wheel_speeds, "ekf", midpoint, rate_covariance,
-                  period_acceleration, gate)
+    return _build("ballbot_vekf", wheel_speeds, "ekf", midpoint, matched, gate)
 
 
 def encoder_rate(omega_att, P_rate_att, gyro, Sigma_gyro, Q_rate) -> tuple[ca.MX, ca.MX]:

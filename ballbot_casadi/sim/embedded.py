@@ -74,7 +74,12 @@ from ballbot_casadi.estimation import (
     make_vekf,
     make_vukf,
 )
-from ballbot_casadi.estimation.attitude import ATTITUDE_GATE, tangent_map
+from ballbot_casadi.estimation.attitude import (
+    ATTITUDE_GATE,
+    ATTITUDE_MEAS,
+    ATTITUDE_NOISE,
+    tangent_map,
+)
 from ballbot_casadi.estimation.velocity import VELOCITY_GATE
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_observer
 from ballbot_casadi.estimation.heading import HEADING_FILTER_STATE, make_qukf_heading
@@ -132,11 +137,12 @@ ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ek
                                                     "ukf_heading": ("qukf_heading", "vukf"),
                                                     "ekf_heading": ("qekf_heading", "vekf"),
                                                     "ukf_consistent": ("qukf", "vukf")}
-#: Estimator choices whose velocity filter has the matched model of issue 22: the encoders'
-#: body-rate term from the gyro reading (estimation.velocity.encoder_rate) and the period's
-#: acceleration noise on the velocity (estimation.velocity.period_acceleration_noise).
-#: Consistent (mean NIS ~6.0-6.1) and more accurate, but the standing robot wanders more
-#: than with the thesis-model "ukf" (see the README), so it is a choice, not the default.
+#: Estimator choices whose velocity filter has the matched model of issue 22
+#: (``make_vukf(..., matched=True)``): the encoders' body-rate term from the gyro reading
+#: (estimation.velocity.encoder_rate), the period's acceleration noise on the velocity
+#: (estimation.velocity.period_acceleration_noise) and the attitude error as a slowly
+#: varying accelerometer offset (estimation.velocity.attitude_offset_noise).  A choice,
+#: not the default (the README compares it with the thesis-model "ukf").
 MATCHED_VELOCITY = frozenset({"ukf_consistent"})
 #: The state layouts of the attitude filters that read the heading sensor (the others'
 #: is :data:`~ballbot_casadi.core.layout.ATTITUDE_FILTER_STATE`).
@@ -250,10 +256,8 @@ def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function
     else:
         attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True,
                                                                gate=True)
-    matched = estimator in MATCHED_VELOCITY
     velocity = (make_vukf if vel == "vukf" else make_vekf)(
-        wheel_speeds, midpoint=True, rate_covariance=matched, period_acceleration=matched,
-        gate=True)
+        wheel_speeds, midpoint=True, matched=estimator in MATCHED_VELOCITY, gate=True)
     return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
                            velocity, estimator, make_tilt_correction(), ode, wheel_speeds,
                            make_heading_sensor() if att in _HEADING_FILTERS else None)
@@ -397,10 +401,12 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                        Q=ca.reshape(sym["Qa"], nq, nq), R=ca.reshape(sym["Ra"], nr, nr), dt=Ts,
                        p=p_est, a=ca.vertcat(xv_prev[XV["a"]], 0), **gate_in["att"])
     xa = att["xhat_next"]
-    # a velocity filter with the body-rate covariance input predicts the encoders with the
-    # period's gyroscope reading and its noise covariance (the attitude filter's gyro
-    # block of Ra, plus a third of its rate process noise: the rate's change within the
-    # period); in a gyro dropout with the attitude filter's rate and covariance
+    # a velocity filter with the body-rate covariance input (the matched model) predicts the
+    # encoders with the period's gyroscope reading and its noise covariance (the attitude
+    # filter's gyro block of Ra, plus a third of its rate process noise: the rate's change
+    # within the period), the same covariance driving its accelerometer-offset walk
+    # (estimation.velocity.attitude_offset_noise); in a gyro dropout with the attitude
+    # filter's rate and covariance
     # (the rate block of its covariance: the tangent has one entry less than the state
     # on S^3, the additive chart of the QEKF none): estimation.velocity.encoder_rate
     r0 = XA.offset("omega") - (XA.size - na)
@@ -409,10 +415,14 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     xa_qw = xa if XA.size == ATTITUDE_FILTER_STATE.size else xa[:ATTITUDE_FILTER_STATE.size]
     rate, att_v = {}, xa_qw
     if "P_rate" in est.velocity.name_in():
-        g = slice(3, 6)  # the gyro rows of z_att = [acc, gyro, ...]; the rate block of Qa
+        if (nr, nq) != (ATTITUDE_MEAS.size, ATTITUDE_NOISE.size):
+            raise BuildError(f"{est.velocity.name()} with the gyro-rate input needs the attitude "
+                             f"filter's R and Q in the layouts {ATTITUDE_MEAS} and "
+                             f"{ATTITUDE_NOISE}, got {nr} x {nr} and {nq} x {nq}")
+        g, w = ATTITUDE_MEAS["gyro"], ATTITUDE_NOISE["omega"]  # Ra's gyro block, Qa's rate block
         w_enc, P_rate = encoder_rate(xa[XA["omega"]], att["P_next"][r0:r0 + 3, r0:r0 + 3], gyro,
                                      ca.reshape(sym["Ra"], nr, nr)[g, g],
-                                     ca.reshape(sym["Qa"], nq, nq)[g, g])
+                                     ca.reshape(sym["Qa"], nq, nq)[w, w])
         rate, att_v = {"P_rate": P_rate}, ca.vertcat(xa[XA["q"]], w_enc)
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
                        att=att_v, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),

@@ -123,3 +123,16 @@ def test_defaults_are_omitted_and_body_rates_cannot_be_written():
     sf = load_scenario_file(shipped_scenarios()["sine"])
     assert sf.to_file()["initial"] == sf.table["initial"]
     assert isinstance(sf.scenario.initial, InitialSection) and sf.scenario.initial.written is not None
+
+
+def test_acceleration_random_walk_per_axis_overrides_both_axes_in_any_order():
+    """``acc_process_var_x``/``_y`` set one diagonal entry of the velocity filter's Q
+    after ``acc_process_var`` (both axes), whatever the order of the keys."""
+    sc = Scenario("t", estimator="ukf_consistent", noise=False, duration=0.1,
+                  estimator_tuning={"acc_process_var_y": 3e-2, "acc_process_var": 1e-2,
+                                    "acc_process_var_x": 2e-2})
+    Qv = sc.estimation_inputs()["Qv"]
+    np.testing.assert_array_equal(np.diag(Qv)[2:4], [2e-2, 3e-2])
+    assert Qv[2, 3] == 0.0
+    table = sc.to_file()
+    assert _reread(table, "t").scenario == sc

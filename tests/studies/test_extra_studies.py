@@ -54,13 +54,27 @@ def test_consistency_study_reports_the_band_and_the_overconfident_velocity_filte
     for f in ("attitude", "velocity"):
         np.testing.assert_allclose(r[f]["band"], chi2_band(NIS_DIM, r[f]["n"]), rtol=1e-12)
     assert r["velocity"]["verdict"] == "overconfident" and r["velocity"]["mean_nis"] > 50
-    # the matched velocity filter beside it, with the random walk measured on the run
+    # the matched velocity filter beside it, with the random walk (x, y) measured on its run
     v = r["velocity_matched"]
-    assert 4.5 < v["mean_nis"] < 7.5 and 1e-3 < v["acc_process_var"] < 1e-1
+    assert 4.5 < v["mean_nis"] < 7.5 and all(1e-3 < q < 1e-1 for q in v["acc_process_var"])
     assert v["velocity_rms_mps"] < r["velocity"]["velocity_rms_mps"]
     assert not m["passed"]
     assert (tmp_path / "nis.png").is_file() and "| full_sine | velocity_matched |" in \
         (tmp_path / "report.md").read_text()
+
+
+def test_the_matched_velocity_filter_is_inside_the_band_on_full_sine(sim, tmp_path):
+    """The whole full_sine run (20 s): the matched filter with the acceleration random walk
+    of its own closed loop has its mean NIS inside the chi2 95 % band of 3800 samples
+    (measured 5.99 in [5.89, 6.11]; with the white attitude term J P_att J^T of (5.27-5.28)
+    kept in R beside the offset walk, counting the attitude error twice: 5.87, outside) and a
+    smaller velocity error than the thesis model's (measured 1.42 vs 2.16 mm/s)."""
+    m = run_consistency_study(tmp_path, plot=False, names=["full_sine"], sim=sim)
+    r = m["scenarios"]["full_sine"]
+    v = r["velocity_matched"]
+    assert v["verdict"] == "consistent", v
+    assert m["matched_passed"]
+    assert v["velocity_rms_mps"] < 0.8 * r["velocity"]["velocity_rms_mps"]
 
 
 def test_heading_study_short(tmp_path):

@@ -177,7 +177,8 @@ class Scenario:
         attitude filter's body-rate process noise per period, (rad/s)^2, thesis 4.39:
         1e-5), ``encoder_var`` (the velocity filter's encoder noise, ticks^2, thesis
         5.27: 1/9), ``acc_process_var`` (the velocity filter's acceleration random walk per
-        period, (m/s^2)^2, the predecessor's 1e-5) and ``acc_bias_process_var`` (the velocity
+        period, (m/s^2)^2, the predecessor's 1e-5; ``acc_process_var_x``, ``acc_process_var_y``
+        set one axis, applied after it) and ``acc_bias_process_var`` (the velocity
         filter's accelerometer-bias
         process noise per period, (m/s^2)^2, the predecessor's 1e-9; it sets how fast
         the velocity-aided tilt correction follows the attitude filter's slow error,
@@ -433,7 +434,8 @@ class Scenario:
         att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[self.estimator])
         cov = {"Qa": np.array(att.Q, float), "Ra": np.array(att.R, float),
                "Qv": np.array(vel.Q, float), "Rv": np.array(vel.R, float)}
-        for key, val in self.estimator_tuning.items():
+        for key in sorted(self.estimator_tuning, key=list(ESTIMATOR_TUNING_TARGETS).index):
+            val = self.estimator_tuning[key]  # in the targets' order: per-axis after both axes
             name, block = ESTIMATOR_TUNING_TARGETS[key]
             n = block.stop - block.start
             cov[name][block, block] = np.eye(n) * float(val)

@@ -72,6 +72,8 @@ ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
     "rate_process_var": ("Qa", slice(3, 6)),      # QUKF body rate (tangent [rotation, omega])
     "encoder_var": ("Rv", slice(0, 3)),           # VUKF encoder ticks
     "acc_process_var": ("Qv", slice(2, 4)),       # VUKF ball acceleration
+    "acc_process_var_x": ("Qv", slice(2, 3)),     # VUKF ball acceleration, x only
+    "acc_process_var_y": ("Qv", slice(3, 4)),     # VUKF ball acceleration, y only
     "acc_bias_process_var": ("Qv", slice(4, 7)),  # VUKF accelerometer bias
 })
 #: Keys of Scenario.estimator_tuning.
