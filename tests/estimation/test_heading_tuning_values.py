@@ -55,12 +55,12 @@ def test_true_attitude_advances_by_the_logged_body_rate():
 
 def test_gyro_bias_is_a_random_walk_with_the_sensor_density_and_readings_add_it():
     s = load_sensor_params()
-    n = 20000
+    n = 6000
     z, _, bias, _ = heading_readings(0, n, 11, s, np.array([0.0, 0.0, 0.01]))
     q, rate = heading_truth(0, n)
     assert bias[0, 2] == 0.01  # starts at bias0
     steps = np.diff(bias, axis=0) / np.sqrt(TS)
-    np.testing.assert_allclose(np.std(steps, axis=0), s.gyro_bias_rw, rtol=0.03)
+    np.testing.assert_allclose(np.std(steps, axis=0), s.gyro_bias_rw, rtol=0.05)
     noise = z[:, 3:6] - rate - bias
-    np.testing.assert_allclose(np.std(noise, axis=0), np.sqrt(s.gyro_noise_var), rtol=0.03)
+    np.testing.assert_allclose(np.std(noise, axis=0), np.sqrt(s.gyro_noise_var), rtol=0.05)
     assert np.all(np.abs(np.mean(noise, axis=0)) < 4 * np.sqrt(np.array(s.gyro_noise_var) / n))
