@@ -123,6 +123,9 @@ def test_gate_definition_is_checked():
         InnovationGate((("a", [0]),))
     with pytest.raises(ShapeError):
         InnovationGate((("a", (0, 7)),)).function(3)
+    with pytest.raises(ShapeError, match="index beyond the 3 measurements"):
+        InnovationGate((("a", (0, 3)),)).function(3)  # one past the last (indices 0..2)
+    assert InnovationGate((("a", (0, 2)),)).function(3).size1_in(1) == 3  # the last is fine
 
 
 # ----------------------------------------------------------------- the generic core
