@@ -101,3 +101,16 @@ def test_figure_eight_at_a_constant_offset_keeps_its_branch_through_the_crossing
     # at 0.5 m/s in 16 s), not only after a whole lap
     assert m["path_completed"] == 1.0
     assert m["path_progress_fraction"] == pytest.approx(8.0 / path.length, abs=1e-3)
+
+
+def test_a_run_starting_along_an_open_path_completes_when_it_reaches_the_end():
+    """The robot starts 0.3 m along the line and drives to its end: the path was followed
+    to its end (the progress, counted from the start, is only 3.7 m of the 4 m)."""
+    n = int(round(10.0 / TS)) + 1
+    t = np.round(np.arange(n) * TS, 12)
+    xy = np.column_stack([np.minimum(0.3 + 0.5 * t, 4.0), np.zeros(n)])
+    m = path_metrics(_log(xy, t, LINE))
+    assert m["path_completed"] == 1.0
+    assert m["path_progress_fraction"] == pytest.approx(3.7 / 4.0, abs=1e-6)
+    short = path_metrics(_log(xy[t <= 6.0], t[t <= 6.0], LINE))  # 3.3 m: 0.7 m short of the end
+    assert short["path_completed"] == 0.0
