@@ -64,3 +64,13 @@ def test_gyro_bias_is_a_random_walk_with_the_sensor_density_and_readings_add_it(
     noise = z[:, 3:6] - rate - bias
     np.testing.assert_allclose(np.std(noise, axis=0), np.sqrt(s.gyro_noise_var), rtol=0.05)
     assert np.all(np.abs(np.mean(noise, axis=0)) < 4 * np.sqrt(np.array(s.gyro_noise_var) / n))
+
+
+def test_heading_loss_window_is_half_open():
+    """``loss = (t0, t1)`` removes the readings in [t0, t1): the 10 Hz reading at t0 is gone,
+    the one at t1 is back."""
+    s = load_sensor_params()
+    z, _, _, _ = heading_readings(0, 300, 5, s, np.zeros(3), loss=(0.5, 1.0))
+    t = np.round(np.arange(300) * TS, 12)
+    have = np.isfinite(z[:, 6])
+    np.testing.assert_array_equal(t[have], [0.0, 0.1, 0.2, 0.3, 0.4, 1.0, 1.1, 1.2, 1.3, 1.4])
