@@ -72,6 +72,8 @@ def path_metrics(log: Any) -> dict[str, Any]:
         "path_longitudinal_lag_max_m": float(np.max(np.minimum(path.speed * ts, end) - (s - s[0]))),
         "path_min_clearance_m": float(np.min(clear)),
         "path_collision": float(np.min(clear) <= 0.0),
-        "path_completed": float(progress >= target - 0.1),
+        # an open path: its end reached (within 0.1 m) wherever the run started on it; a
+        # closed one: the progress of the run's time (or a lap) made
+        "path_completed": float((s[-1] if not path.closed else progress) >= target - 0.1),
         "path_progress_fraction": float(min(progress / path.length, 1.0 if not path.closed else math.inf)),
     }

@@ -105,3 +105,14 @@ def test_mistuned_R_is_outside_the_band(factor, verdict):
         res = check_consistency(e_nis, 1, skip=50)
         assert not res.inside and res.verdict == verdict
         assert check_consistency(e_nees, 2, skip=50).verdict == verdict
+
+
+def test_skip_drops_exactly_the_first_samples_and_non_finite_ones():
+    eps = np.array([10.0, 1.0, 2.0, np.nan, 3.0])
+    assert time_average(eps, skip=1) == pytest.approx(2.0, rel=1e-15)  # (1 + 2 + 3) / 3
+    assert time_average(eps) == pytest.approx(4.0, rel=1e-15)
+    res = check_consistency(eps, dim=2, skip=1)
+    assert (res.mean, res.n_samples, res.dim) == (pytest.approx(2.0), 3, 2)
+    assert (res.lo, res.hi) == pytest.approx(chi2_band(2, 3))
+    np.testing.assert_allclose(ensemble_average(np.array([[1.0, 2.0, 3.0], [3.0, 4.0, 5.0]])),
+                               [2.0, 3.0, 4.0], rtol=1e-15)

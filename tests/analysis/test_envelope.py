@@ -57,3 +57,10 @@ def test_bad_search_is_one_clear_error():
         largest_recovered(lambda a: True, 1.0, 1.0, 1e-3)
     with pytest.raises(ScenarioError, match="tolerance"):
         largest_recovered(lambda a: True, 0.0, 1.0, 0.0)
+
+
+def test_a_bracket_exactly_as_wide_as_the_tolerance_is_done():
+    """Widths 1, 1/2, 1/4 (exact binary fractions): with tol = 1/4 the search stops after two
+    bisections, at the bracket [1/2, 3/4] around the limit 0.6."""
+    res = largest_recovered(lambda a: a <= 0.6, 0.0, 1.0, 0.25)
+    assert (res.value, res.failed, res.n_evals, res.bracketed) == (0.5, 0.75, 4, True)

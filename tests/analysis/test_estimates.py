@@ -81,3 +81,28 @@ def test_estimation_metrics_of_a_heading_offset_and_counters():
     m4 = estimation_metrics({**log, "valid": np.hstack([valid, heading])})
     assert m4["missing_reading_fraction"] == pytest.approx(3 / 30, rel=1e-12)
     assert m["quat_norm_max_dev"] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_quaternion_component_errors_are_sign_aligned_and_the_rate_error_is_the_body_rate():
+    """Thesis §6.1's q2/q3 errors: an estimate stored as -q (the same attitude) counts by its
+    aligned sign.  The truth is turned by 30 deg of yaw (q3 = sin 15 deg), so a wrong
+    alignment shows in q3.  The rate error is the body rate of dq = 1/2 q o [0, omega]."""
+    n = 6
+    qt = _q(yaw_deg=30.0)
+    x = _state(n, qt)
+    qh = np.array([_q(pitch_deg=2.0, yaw_deg=30.0)] * 3 + [_q(yaw_deg=34.0)] * 3)
+    err = qh - qt  # aligned: every dot product with the truth is positive
+    qh[1] *= -1.0  # the other sign of the same attitude
+    qh[4] *= -1.0
+    xh = _state(n, qh)
+    w = np.array([0.1, -0.2, 0.3])  # rad/s in {B}
+    xh[:, STATE["dq"]] = [0.5 * Q.mul(q, np.r_[0.0, w]) for q in qh]
+    m = estimation_metrics({"x_hat": xh, "state": x, "nis": np.zeros((n, 2)),
+                            "repairs": np.zeros(n)})
+    assert m["estimator_q2_error_max"] == pytest.approx(np.abs(err[:, 2]).max(), rel=1e-12)
+    assert m["estimator_q3_error_max"] == pytest.approx(np.abs(err[:, 3]).max(), rel=1e-12)
+    # yaw 34 vs 30 deg: q3 = sin 17 deg - sin 15 deg
+    assert np.abs(err[3:, 3]).max() == pytest.approx(math.sin(math.radians(17)) - math.sin(math.radians(15)))
+    assert m["estimator_rate_rms_dps"] == pytest.approx(math.degrees(np.linalg.norm(w)), rel=1e-12)
+    assert m["estimator_tilt_max_deg"] == pytest.approx(2.0, rel=1e-9)
+    assert m["estimator_heading_max_deg"] == pytest.approx(4.0, rel=1e-9)

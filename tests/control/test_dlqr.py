@@ -23,3 +23,13 @@ def test_unstabilisable_model_is_refused_naming_the_loop():
     Bd = np.array([[0.0], [1.0]])
     with pytest.raises(ParameterError, match=r"^no gain for the test loop"):
         stabilising_dlqr(Ad, Bd, np.ones(2), np.ones(1), "no gain for the test loop")
+
+
+@pytest.mark.parametrize("pole", [1.0, -1.0])
+def test_a_marginally_stable_closed_loop_is_refused(pole):
+    # a mode on the unit circle that the input cannot reach and the cost does not weigh:
+    # the Riccati solution exists, the closed loop keeps the pole (spectral radius exactly 1)
+    Ad = np.diag([pole, 0.5])
+    Bd = np.array([[0.0], [1.0]])
+    with pytest.raises(ParameterError, match=r"^marginal loop: the closed loop has spectral radius 1 >= 1"):
+        stabilising_dlqr(Ad, Bd, np.array([0.0, 1.0]), np.ones(1), "marginal loop")

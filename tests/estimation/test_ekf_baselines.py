@@ -34,18 +34,21 @@ def _fd(fun, x, eps=1e-7):
     return np.stack(cols, axis=1)
 
 
-def test_qekf_step_equals_a_textbook_additive_ekf_with_renormalisation():
+# the thesis's Q (rotation block 1e-20) and one whose rotation noise shows in the
+# quaternion block: G(q) Q G(q)^T must be mapped at the filter's attitude (yaw 0.6 rad)
+@pytest.mark.parametrize("Qn", [TQ.Q, np.diag([1e-6, 2e-6, 3e-6, 1e-5, 1e-5, 1e-5])])
+def test_qekf_step_equals_a_textbook_additive_ekf_with_renormalisation(Qn):
     qekf = E.build_estimator("qekf")
     x = np.r_[Q.from_rpy(0.05, -0.03, 0.6), 0.3, -0.2, 0.1]
     rng = np.random.default_rng(4)
     G = rng.standard_normal((7, 7))
     P = 1e-5 * (G @ G.T) + 1e-8 * np.eye(7)
     z = np.r_[PAR.g * Q.rotate_inv(Q.from_rpy(0.06, -0.02, 0.6), [0, 0, 1]), 0.31, -0.18, 0.1]
-    out = qekf(x, P, z, TQ.Q, TQ.R, DT, PV)
+    out = qekf(x, P, z, Qn, TQ.R, DT, PV)
     Gm = tangent_map(x[:4])
     F = _fd(_f, x)
     xp = _f(x)
-    Pp = F @ P @ F.T + Gm @ TQ.Q @ Gm.T
+    Pp = F @ P @ F.T + Gm @ Qn @ Gm.T
     H = _fd(_h, xp)
     S = H @ Pp @ H.T + TQ.R
     K = Pp @ H.T @ np.linalg.inv(S)

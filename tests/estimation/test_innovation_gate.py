@@ -123,6 +123,9 @@ def test_gate_definition_is_checked():
         InnovationGate((("a", [0]),))
     with pytest.raises(ShapeError):
         InnovationGate((("a", (0, 7)),)).function(3)
+    with pytest.raises(ShapeError, match="index beyond the 3 measurements"):
+        InnovationGate((("a", (0, 3)),)).function(3)  # one past the last (indices 0..2)
+    assert InnovationGate((("a", (0, 2)),)).function(3).size1_in(1) == 3  # the last is fine
 
 
 # ----------------------------------------------------------------- the generic core
@@ -252,3 +255,27 @@ def test_velocity_filter_rejects_the_glitching_sensor_only(make):
 
 def test_default_max_rejections_is_a_tenth_of_a_second_at_the_thesis_period():
     assert GATE_MAX_REJECTIONS * 0.005 == pytest.approx(0.1)
+
+
+def test_group_names_label_the_sensor_whose_reading_glitched():
+    """The groups' names are what the logs, metrics and FMU outputs report: a glitch of
+    the accelerometer (z[0:3] of the attitude filter, z[3:6] of the velocity filter) must
+    be reported under "acc", of the gyroscope under "gyro", of the encoders under "enc"."""
+    F = make_qukf(compensate_acceleration=True, gate=True)
+    P0 = DEFAULT_TUNING["qukf"].P0
+    z = np.array([0.3, -0.2, G, 0.1, -0.05, 0.02])
+    for sensor, col, value in (("acc", 0, 1e20), ("gyro", 4, 1000.0)):
+        zg = z.copy()
+        zg[col] += value
+        rej = np.asarray(_attitude_run(F, P0, zg)["rejected"]).ravel()
+        assert rej[ATTITUDE_GATE.names.index(sensor)] == 1 and rej.sum() == 1, sensor
+    V = make_vukf(make_wheel_speeds(), midpoint=True, gate=True)
+    t = DEFAULT_TUNING["vukf"]
+    zv = np.array([3.0, -1.0, -2.0, 0.0, 0.0, G])
+    for sensor, col, value in (("enc", 1, 5000.0), ("acc", 5, 1e20)):
+        zg = zv.copy()
+        zg[col] += value
+        rej = np.asarray(V(xhat=[0.1, 0, 0, 0, 0, 0, 0], P=t.P0, z=zg, att=[1.0, 0, 0, 0, 0, 0, 0],
+                           P_att=1e-6 * np.eye(3), Q=t.Q, R=t.R, dt=0.005, p=P_VEC,
+                           n_rej=np.zeros(2))["rejected"]).ravel()
+        assert rej[VELOCITY_GATE.names.index(sensor)] == 1 and rej.sum() == 1, sensor

@@ -28,3 +28,18 @@ def test_an_asymmetric_pd_matrix_is_only_symmetrised():
     out, flag = make_spd_repair(3)(A)
     assert float(flag) == 0
     np.testing.assert_allclose(np.array(out), 0.5 * (A + A.T), rtol=0, atol=0)
+
+
+def test_when_the_pivot_shift_is_not_enough_the_gershgorin_shift_is_taken():
+    # the first pivot -1.266 fails; shifted by 1.266 the first diagonal entry is ~0 beside
+    # an off-diagonal -1.655: still indefinite, so the second rung is used.  Gershgorin
+    # row bounds A_ii - sum_j |A_ij|: -1.266 - 1.858 = -3.124, 1.261 - 1.828 = -0.567,
+    # 3.378 - 0.376 = 3.002; the shift is 3.124 + JITTER * |trace| / 3 (trace 3.373).
+    A = np.array([[-1.266, -1.655, 0.203], [-1.655, 1.261, -0.173], [0.203, -0.173, 3.378]])
+    first = A + (1.266 + JITTER * 3.373 / 3) * np.eye(3)
+    assert np.min(np.linalg.eigvalsh(first)) < 0  # the first rung alone would not do
+    out, flag = make_spd_repair(3)(A)
+    assert float(flag) == 1
+    shift = 3.124 + JITTER * 3.373 / 3
+    np.testing.assert_allclose(np.array(out), A + shift * np.eye(3), rtol=0, atol=1e-12)
+    assert np.min(np.linalg.eigvalsh(np.array(out))) > 0

@@ -164,3 +164,16 @@ def test_encoder_rate_takes_the_gyro_and_falls_back_in_a_dropout():
     r, Pr = f(args[0], args[1], [1.0, np.nan, 3.0], args[3], args[4])
     np.testing.assert_allclose(np.asarray(r).ravel(), [0.1, 0.2, 0.3], rtol=0, atol=0)
     np.testing.assert_allclose(np.asarray(Pr), np.eye(3) * 7.0, rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_encoder_rate_falls_back_when_any_one_gyro_component_is_missing(axis, bad):
+    w, P, g = ca.MX.sym("w", 3), ca.MX.sym("P", 3, 3), ca.MX.sym("g", 3)
+    S, Qr = ca.MX.sym("S", 3, 3), ca.MX.sym("Qr", 3, 3)
+    f = ca.Function("f", [w, P, g, S, Qr], list(encoder_rate(w, P, g, S, Qr)))
+    gyro = np.array([1.0, 2.0, 3.0])
+    gyro[axis] = bad
+    r, Pr = f([0.1, 0.2, 0.3], np.eye(3) * 7.0, gyro, np.eye(3) * 2.0, np.eye(3) * 3.0)
+    np.testing.assert_array_equal(np.asarray(r).ravel(), [0.1, 0.2, 0.3])
+    np.testing.assert_array_equal(np.asarray(Pr), np.eye(3) * 7.0)
