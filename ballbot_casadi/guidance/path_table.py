@@ -89,7 +89,8 @@ def _interp(values: Any, u: Any, n: int) -> Any:
     f = ca.interpolant("ballbot_path_table", "linear", [np.arange(n, dtype=float)], 2,
                        {"lookup_mode": ["exact"]})
     m = u.numel()
-    return f.map(m)(ca.reshape(u, 1, m), values) if m > 1 else f(u, values)
+    # the table is a shared (reduced) input of the map: not copied m times into the work vector
+    return f.map(m, [False, True], [False])(ca.reshape(u, 1, m), values) if m > 1 else f(u, values)
 
 
 def path_eval(P: PathSymbols, s: Any) -> dict[str, Any]:
