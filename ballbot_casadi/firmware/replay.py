@@ -31,14 +31,13 @@ from ballbot_casadi.firmware.sources import (
     FirmwareValues,
     default_guidance_path,
     firmware_function,
-    firmware_guidance,
     scenario_values,
 )
 from ballbot_casadi.firmware.toolchain import require
 from ballbot_casadi.guidance.paths import Path as GuidancePath
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.embedded import embedded_readings
-from ballbot_casadi.sim.guided import run_guided
+from ballbot_casadi.sim.guided import run_guided, scenario_law
 from ballbot_casadi.sim.path_following import path_scenario
 from ballbot_casadi.sim.scenario import Scenario
 
@@ -118,8 +117,9 @@ def record_guided_log(n_periods: int = 400, seed: int = 1, guidance: str = "mpc"
     if not isinstance(n_periods, int) or n_periods < 1:
         raise ScenarioError(f"n_periods must be an int >= 1, got {n_periods!r}")
     path = default_guidance_path() if path is None else path
-    law = firmware_guidance(guidance)
-    sc = path_scenario(path, n_periods * TS_CONTROL).replace(estimator="ukf", seed=seed)
+    sc = path_scenario(path, n_periods * TS_CONTROL).replace(estimator="ukf", seed=seed,
+                                                              guidance=guidance)
+    law = scenario_law(sc)  # the mission's own law for this scenario (not the firmware's)
     log = run_guided(path, law, sc.duration, scenario=sc)
     inp = sc.inputs()
     refs = np.hstack([inp["q_ref"], inp["dq_ref"], inp["ddq_ref"], inp["v_ref"]])
