@@ -3,6 +3,7 @@ replayed on the host build and in QEMU (Cortex-M7), the guidance data given at i
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -13,6 +14,7 @@ from ballbot_casadi.firmware.build import build_firmware, default_scenario
 from ballbot_casadi.firmware.replay import GUIDED_REPLAY_ATOL, record_guided_log, run_host, run_qemu
 from ballbot_casadi.firmware.sources import (
     FirmwareValues,
+    codegen_work,
     default_guidance_path,
     firmware_function,
     firmware_guidance,
@@ -44,6 +46,22 @@ def test_guided_period_is_the_missions_function_with_its_data_as_a_pointer():
     plain = generate_sources(firmware_function(), "double",
                              scenario_values(firmware_function(), default_scenario()))
     assert "#define BALLBOT_FW_GUIDANCE 0" in plain["ballbot_fw_config.h"]
+
+
+@pytest.mark.parametrize("guidance", [None, "mpc"])
+def test_context_work_vector_is_what_the_generated_c_uses(guidance):
+    # the context's work vector is sized by the generated C's own _work function (less
+    # than the Function's sz_w: the C reads inputs and constants in place), and every
+    # work offset the generated C writes is inside it
+    f = firmware_function("flc", "ukf", guidance)
+    law = firmware_guidance(guidance)
+    vals = scenario_values(f, default_scenario(), law, None if law is None else default_guidance_path())
+    files = generate_sources(f, "double", vals, guidance_every=EVERY if law else 0)
+    sz_arg, sz_res, sz_iw, sz_w = codegen_work(f, files["ballbot_fw_cg.c"])
+    assert f"#define BALLBOT_FW_SZ_W {sz_w}" in files["ballbot_fw_config.h"]
+    assert sz_w <= f.sz_w() and sz_iw <= f.sz_iw()
+    offsets = [int(m) for m in re.findall(r"\bw\+(\d+)", files["ballbot_fw_cg.c"])]
+    assert max(offsets) < sz_w
 
 
 def test_bad_guidance_refused():
