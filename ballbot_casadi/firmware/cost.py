@@ -36,6 +36,7 @@ import numpy as np
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.firmware.build import FirmwareBuild
 from ballbot_casadi.firmware.replay import ReplayResult
+from ballbot_casadi.firmware.sources import generated_work
 
 __all__ = ["CLOCK_HZ", "CLOCK_HZ_MAX", "IPC", "PERIOD_S", "FirmwareCost", "GuidedCost",
            "size_text_data", "section_sizes", "max_frame", "firmware_cost", "guided_cost",
@@ -77,11 +78,13 @@ def section_sizes(path) -> dict[str, int]:
     return {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\.\S+)\s+(\d+)", out, re.M)}
 
 
-def arm_workspace_bytes(f: ca.Function, real_bytes: int = 8) -> int:
-    """Work memory of one call of the generated ``f`` on the Cortex-M7: ``sz_w`` reals of
-    ``real_bytes``, ``sz_iw`` ints and ``sz_arg + sz_res`` pointers of 4 bytes (the
-    firmware generates with ``casadi_int = int``; 32-bit addresses)."""
-    return real_bytes * f.sz_w() + 4 * (f.sz_iw() + f.sz_arg() + f.sz_res())
+def arm_workspace_bytes(f: ca.Function, precision: str = "double") -> int:
+    """Work memory of one call of ``f``'s generated C on the Cortex-M7: the ``sz_w`` reals,
+    ``sz_iw`` ints and ``sz_arg + sz_res`` pointers its ``_work`` function declares
+    (:func:`~ballbot_casadi.firmware.sources.generated_work`), ints and pointers of 4 bytes
+    (the firmware generates with ``casadi_int = int``; 32-bit addresses)."""
+    sz_arg, sz_res, sz_iw, sz_w = generated_work(f, precision)
+    return (8 if precision == "double" else 4) * sz_w + 4 * (sz_iw + sz_arg + sz_res)
 
 
 def max_frame(build: FirmwareBuild) -> tuple[str, int]:

@@ -73,6 +73,7 @@ __all__ = [
     "scenario_values",
     "generate_sources",
     "codegen_work",
+    "generated_work",
     "csrc_path",
 ]
 
@@ -285,6 +286,11 @@ def codegen_work(f: ca.Function, c_src: str) -> tuple[int, int, int, int]:
     if m is None:
         raise BuildError(f"the generated C of {f.name()} declares no work sizes ({f.name()}_work)")
     return tuple(int(v) for v in m.groups())  # type: ignore[return-value]
+
+
+def generated_work(f: ca.Function, precision: str = "double") -> tuple[int, int, int, int]:
+    """:func:`codegen_work` of ``f`` generated alone as the firmware generates it."""
+    return codegen_work(f, _codegen(f, PRECISIONS[precision])[0])
 
 
 def _config_header(f: ca.Function, real: str, every: int, c_src: str) -> str:
