@@ -136,8 +136,8 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
     """
     if precision not in PRECISIONS:
         raise ScenarioError(f"unknown precision {precision!r}; allowed: {', '.join(PRECISIONS)}")
+    law = firmware_guidance(guidance, controller)  # refused before looking for the toolchain
     require(qemu=False)
-    law = firmware_guidance(guidance, controller)
     f = firmware_function(controller, estimator, guidance)
     if values is None:
         values = scenario_values(f, default_scenario(controller, estimator), law,
