@@ -40,11 +40,12 @@ fmu: $(STAMP)
 sil: $(STAMP)
 	$(PY) -m ballbot_casadi.cli fmu ssp --scenario full_sine --out build/fmu/BallbotSIL.ssp
 
-## Cortex-M7 firmware library of the embedded software (FLC + QUKF + VUKF), verified in QEMU
+## Cortex-M7 firmware library of the embedded software (FLC + QUKF + VUKF; and with the path MPC), verified in QEMU
 ## (needs gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm).
 firmware: $(STAMP)
 	$(PY) -m ballbot_casadi.cli firmware --precision double --verify 200
 	$(PY) -m ballbot_casadi.cli firmware --precision single --verify 200
+	$(PY) -m ballbot_casadi.cli firmware --precision double --guidance mpc --verify 200
 
 clean:
 	rm -rf build

@@ -19,7 +19,7 @@ import numpy as np
 
 from ballbot_casadi.bench.control import bench_control
 from ballbot_casadi.bench.estimation import bench_estimation
-from ballbot_casadi.bench.firmware import bench_firmware
+from ballbot_casadi.bench.firmware import bench_firmware, bench_firmware_mpc
 from ballbot_casadi.bench.fmu import bench_fmu
 from ballbot_casadi.bench.guidance import bench_mpc
 from ballbot_casadi.bench.montecarlo import bench_montecarlo
@@ -86,6 +86,7 @@ BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
     "estimation": bench_estimation,
     "montecarlo": bench_montecarlo,
     "firmware": bench_firmware,
+    "firmware_mpc": bench_firmware_mpc,
     "mpc": bench_mpc,
 })
 

@@ -12,10 +12,20 @@ import numpy as np
 
 from ballbot_casadi.core.files import check_output_dir
 from ballbot_casadi.firmware.build import build_firmware
-from ballbot_casadi.firmware.cost import firmware_cost
-from ballbot_casadi.firmware.replay import REPLAY_ATOL, record_log, replay_scenario, run_host, run_qemu
+from ballbot_casadi.firmware.cost import CLOCK_HZ_MAX, firmware_cost, guided_cost
+from ballbot_casadi.firmware.replay import (
+    GUIDED_REPLAY_ATOL,
+    REPLAY_ATOL,
+    record_guided_log,
+    record_log,
+    replay_scenario,
+    run_host,
+    run_qemu,
+)
+from ballbot_casadi.firmware.sources import firmware_guidance, guidance_every
 from ballbot_casadi.firmware.toolchain import PRECISIONS, ToolchainMissing
 from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS
+from ballbot_casadi.sim.guided import GUIDANCE_LAWS
 
 __all__ = ["add_parser"]
 
@@ -24,7 +34,7 @@ def _cmd_firmware(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_dir(args.out, "--out")
     try:
-        fw = build_firmware(args.controller, args.estimator, args.precision)
+        fw = build_firmware(args.controller, args.estimator, args.precision, guidance=args.guidance)
         print(f"{fw.library}  ({fw.status})\n  headers {fw.include}\n  example {fw.example_elf}")
         if args.out is not None:
             out = Path(args.out)
@@ -34,8 +44,11 @@ def _cmd_firmware(args: argparse.Namespace) -> int:
             print(f"  copied to {out}")
         if not args.verify:
             return 0
-        rec = record_log(replay_scenario(args.verify))
-        double = build_firmware(args.controller, args.estimator, "double")
+        if args.guidance is None:
+            rec = record_log(replay_scenario(args.verify))
+        else:
+            rec = record_guided_log(args.verify, guidance=args.guidance)
+        double = build_firmware(args.controller, args.estimator, "double", guidance=args.guidance)
         host = run_host(double, rec)
         qemu = run_qemu(fw, rec)
     except ToolchainMissing as exc:
@@ -43,6 +56,18 @@ def _cmd_firmware(args: argparse.Namespace) -> int:
         return 3
     err = float(np.max(np.abs(qemu.tau - host.tau)))
     tol = REPLAY_ATOL[args.precision]
+    if args.guidance is not None:
+        if args.precision == "double":
+            tol = GUIDED_REPLAY_ATOL
+        g = guided_cost(fw, qemu, guidance_every(firmware_guidance(args.guidance)),
+                        rec.values.guidance.size)
+        print(f"guidance {args.guidance}: max |v_ref_qemu - v_ref_host(double)| = "
+              f"{float(np.max(np.abs(qemu.v_ref - host.v_ref))):.3g} m/s; a period with a "
+              f"sample {g.solve_instructions_max:.0f} instructions (worst; median "
+              f"{g.solve_instructions_median:.0f}; the cold first {g.first_instructions:.0f}), "
+              f"{g.solve_ms(CLOCK_HZ_MAX):.1f} ms at 480 MHz and 1 IPC; without "
+              f"{g.hold_instructions_max:.0f}; RAM {g.ram_bytes} B (.data + .bss "
+              f"{g.static_ram_bytes}, stack {g.stack_bytes}); flash {g.flash_bytes} B")
     c = firmware_cost(fw, qemu)
     print(f"QEMU replay of {rec.n} periods: max |tau_qemu - tau_host(double)| = {err:.3g} N m "
           f"(tolerance {tol:g}); host replay vs compiled mission "
@@ -63,6 +88,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="filters (default ukf: QUKF + VUKF)")
     p.add_argument("--precision", default="double", choices=list(PRECISIONS),
                    help="casadi_real: double (fpv5-d16) or single (float, fpv5-sp-d16)")
+    p.add_argument("--guidance", choices=list(GUIDANCE_LAWS), default=None,
+                   help="put the guided mission's guidance block (10 Hz) in the period; "
+                   "--verify then replays the guided figure-eight")
     p.add_argument("--out", help="also copy the library, headers and example into this folder")
     p.add_argument("--verify", type=int, default=0, metavar="N",
                    help="replay N periods of a recorded mission in QEMU and compare with the host")

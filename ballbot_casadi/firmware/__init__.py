@@ -8,4 +8,6 @@ the static library, the QEMU replay program and the 200 Hz example (cached by ha
 :mod:`~ballbot_casadi.firmware.replay` replays a recorded sensor log in QEMU and on the
 host; :mod:`~ballbot_casadi.firmware.cost` measures flash, RAM and instructions per step;
 :mod:`~ballbot_casadi.firmware.single` runs the float build in the closed loop.
+With ``guidance="mpc"`` the period carries the guided mission's path-following MPC (issue 18;
+its path table and obstacles given at init by pointer), replayed from a guided mission.
 """

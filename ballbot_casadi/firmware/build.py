@@ -1,6 +1,7 @@
 """Cross-compile the firmware library for Cortex-M7 (cached by hash, verified before use).
 
-One build lives in ``<build>/firmware/<controller>_<estimator>_<precision>-<hash>/``:
+One build lives in ``<build>/firmware/<controller>_<estimator>[_<guidance>]_<precision>-<hash>/``
+(``guidance``: the period with the guided mission's path-following block, ``mpc``):
 
 * ``include/``: ``ballbot_fw.h`` (the stable API), ``ballbot_fw_config.h`` and the generated
   ``ballbot_fw_cg.h``; ``src/``: every C file;
@@ -32,8 +33,11 @@ from ballbot_casadi.firmware.sources import (
     CG_NAME,
     FirmwareValues,
     csrc_path,
+    default_guidance_path,
     firmware_function,
+    firmware_guidance,
     generate_sources,
+    guidance_every,
     scenario_values,
 )
 from ballbot_casadi.firmware.toolchain import ARM_CPU_FLAGS, PRECISIONS, require, tool_version
@@ -62,6 +66,7 @@ class FirmwareBuild:
     precision: str
     digest: str
     status: str = field(default="cached", compare=False)
+    guidance: str | None = None
 
     @property
     def library(self) -> Path:
@@ -101,14 +106,21 @@ def _cflags(precision: str, cpu: Sequence[str]) -> list[str]:
 
 def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: str = "double",
                    values: FirmwareValues | None = None, root: Path | None = None,
-                   lib_cpu_flags: Sequence[str] | None = None) -> FirmwareBuild:
+                   lib_cpu_flags: Sequence[str] | None = None,
+                   guidance: str | None = None) -> FirmwareBuild:
     """Generate and cross-compile the firmware of ``controller`` with ``estimator``.
 
     Parameters
     ----------
     values
         Default parameters and power-on state compiled into the library (default: those
-        of :func:`default_scenario`).
+        of :func:`default_scenario`; with guidance on
+        :func:`~ballbot_casadi.firmware.sources.default_guidance_path`, which is also the
+        library's default guidance data).
+    guidance
+        ``None`` (the embedded period alone) or a guidance law of the guided mission
+        (``mpc``, ``pursuit``) in the period's guidance slot
+        (:func:`~ballbot_casadi.firmware.sources.firmware_guidance`).
     lib_cpu_flags
         Replace the library's CPU/ABI flags (the programs keep the precision's): a test
         hook to build a deliberately mismatched library.
@@ -116,7 +128,7 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
     Raises
     ------
     ScenarioError
-        Unknown controller, estimator or precision.
+        Unknown controller, estimator, precision or guidance.
     ToolchainMissing
         ``arm-none-eabi-gcc`` is not installed (the message says how to install it).
     BuildError
@@ -124,10 +136,13 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
     """
     if precision not in PRECISIONS:
         raise ScenarioError(f"unknown precision {precision!r}; allowed: {', '.join(PRECISIONS)}")
+    law = firmware_guidance(guidance, controller)  # refused before looking for the toolchain
     require(qemu=False)
-    f = firmware_function(controller, estimator)
-    values = scenario_values(f, default_scenario(controller, estimator)) if values is None else values
-    files = generate_sources(f, precision, values)
+    f = firmware_function(controller, estimator, guidance)
+    if values is None:
+        values = scenario_values(f, default_scenario(controller, estimator), law,
+                                 None if law is None else default_guidance_path())
+    files = generate_sources(f, precision, values, 0 if law is None else guidance_every(law))
     files.update({n: csrc_path(n).read_text() for n in _TARGET_FILES})
     cpu = tuple(ARM_CPU_FLAGS[precision])
     lib_cpu = cpu if lib_cpu_flags is None else tuple(lib_cpu_flags)
@@ -139,8 +154,9 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
                         tool_version("arm-none-eabi-gcc"), tool_version(host_cc[0])]).encode())
     digest = h.hexdigest()[:16]
     out = (build_root() if root is None else Path(root)) / "firmware"
-    fw = FirmwareBuild(out / f"{controller}_{estimator}_{precision}-{digest}", controller, estimator,
-                       precision, digest)
+    tag = f"{controller}_{estimator}{'' if guidance is None else '_' + guidance}_{precision}"
+    fw = FirmwareBuild(out / f"{tag}-{digest}", controller, estimator, precision, digest,
+                       guidance=guidance)
     if check_manifest(fw.folder, _PRODUCTS) is None:
         return fw
     with build_lock(out / f".{fw.folder.name}.lock"):
@@ -157,7 +173,7 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
     return FirmwareBuild(fw.folder, controller, estimator, precision, digest,
-                         "built" if first else f"rebuilt: {problem}")
+                         "built" if first else f"rebuilt: {problem}", guidance)
 
 
 def _compile(tmp: Path, files: dict[str, str], precision: str, cpu: tuple[str, ...],

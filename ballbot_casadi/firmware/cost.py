@@ -14,6 +14,14 @@
   instructions) gives the instructions per tick (40).  An instruction count is a proxy
   for cycles (the M7 is dual-issue, but double-precision FPU operations, divisions,
   square roots and memory waits take several cycles): :data:`IPC` converts it to time.
+
+A build with a guidance block (:func:`guided_cost`) splits the periods into those that
+run a guidance sample (every ``every``-th; period 0 is the cold first sample, which
+re-linearises :data:`~ballbot_casadi.guidance.mpc.FIRST_SAMPLE_QPS` times) and those that
+only hold the reference; its RAM is what the linked 200 Hz example reserves statically
+(``.data + .bss``: the context and the library's state) plus the measured stack, and the
+guidance block's own work memory is counted from the generated Function with the
+target's sizes (:func:`arm_workspace_bytes`).
 """
 
 from __future__ import annotations
@@ -22,16 +30,22 @@ import re
 import subprocess
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.firmware.build import FirmwareBuild
 from ballbot_casadi.firmware.replay import ReplayResult
+from ballbot_casadi.firmware.sources import generated_work
 
-__all__ = ["CLOCK_HZ", "IPC", "PERIOD_S", "FirmwareCost", "size_text_data", "max_frame", "firmware_cost"]
+__all__ = ["CLOCK_HZ", "CLOCK_HZ_MAX", "IPC", "PERIOD_S", "FirmwareCost", "GuidedCost",
+           "size_text_data", "section_sizes", "max_frame", "firmware_cost", "guided_cost",
+           "arm_workspace_bytes"]
 
 #: The STM32H743's core clock.
 CLOCK_HZ = 400e6
+#: The STM32H743's highest core clock (silicon revision V; a datasheet figure).
+CLOCK_HZ_MAX = 480e6
 #: Assumed instructions per cycle to convert the instruction count to time (stated, not measured).
 IPC = 1.0
 #: The embedded software's period (200 Hz).
@@ -52,6 +66,25 @@ def size_text_data(path) -> tuple[int, int]:
             text += int(cols[0])
             data += int(cols[1]) + int(cols[2])
     return text, data
+
+
+def section_sizes(path) -> dict[str, int]:
+    """Section name -> bytes of an ELF (``arm-none-eabi-size -A``)."""
+    try:
+        out = subprocess.run(["arm-none-eabi-size", "-A", str(path)], capture_output=True,
+                             text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError) as exc:
+        raise BuildError(f"arm-none-eabi-size -A {path} failed: {exc}") from None
+    return {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\.\S+)\s+(\d+)", out, re.M)}
+
+
+def arm_workspace_bytes(f: ca.Function, precision: str = "double") -> int:
+    """Work memory of one call of ``f``'s generated C on the Cortex-M7: the ``sz_w`` reals,
+    ``sz_iw`` ints and ``sz_arg + sz_res`` pointers its ``_work`` function declares
+    (:func:`~ballbot_casadi.firmware.sources.generated_work`), ints and pointers of 4 bytes
+    (the firmware generates with ``casadi_int = int``; 32-bit addresses)."""
+    sz_arg, sz_res, sz_iw, sz_w = generated_work(f, precision)
+    return (8 if precision == "double" else 4) * sz_w + 4 * (sz_iw + sz_arg + sz_res)
 
 
 def max_frame(build: FirmwareBuild) -> tuple[str, int]:
@@ -107,3 +140,53 @@ def firmware_cost(build: FirmwareBuild, replay: ReplayResult) -> FirmwareCost:
     fn, frame = max_frame(build)
     return FirmwareCost(lib_text, lib_ram, ex_text + data, replay.ctx_bytes, replay.stack_bytes,
                         frame, fn, float(np.median(insn)), float(np.max(insn)))
+
+
+@dataclass(frozen=True)
+class GuidedCost:
+    """Instructions, RAM and flash of a build with a guidance block (module docstring).
+
+    Instructions per period: ``solve_*`` over the periods with a (warm, one-QP) guidance
+    sample after the first, ``first``: period 0 (the cold first sample), ``hold_*`` over the
+    periods without a sample.  ``ram_bytes``: ``.data + .bss`` of the linked example plus
+    the measured stack; ``flash_bytes``: its ``text + data`` (with the default guidance
+    data, ``guidance_data_bytes``, a constant table)."""
+
+    solve_instructions_max: float
+    solve_instructions_median: float
+    first_instructions: float
+    hold_instructions_max: float
+    hold_instructions_median: float
+    static_ram_bytes: int
+    stack_bytes: int
+    context_bytes: int
+    flash_bytes: int
+    guidance_data_bytes: int
+
+    @property
+    def ram_bytes(self) -> int:
+        """``.data + .bss`` of the example plus the worst measured stack."""
+        return self.static_ram_bytes + self.stack_bytes
+
+    def solve_ms(self, clock_hz: float = CLOCK_HZ_MAX) -> float:
+        """The worst warm sample's period at ``clock_hz`` and :data:`IPC`, milliseconds."""
+        return self.solve_instructions_max / IPC / clock_hz * 1e3
+
+
+def guided_cost(build: FirmwareBuild, replay: ReplayResult, every: int,
+                guidance_values: int) -> GuidedCost:
+    """The costs of a guided build from a QEMU ``replay`` whose guidance samples run every
+    ``every`` periods from period 0; ``guidance_values``: entries of the guidance data."""
+    if replay.ticks.size <= every:
+        raise BuildError(f"the guided replay needs more than {every} periods (two guidance "
+                         f"samples), got {replay.ticks.size}")
+    insn = replay.ticks * replay.instructions_per_tick
+    k = np.arange(insn.size)
+    solve, hold = insn[(k % every == 0) & (k > 0)], insn[k % every != 0]
+    sec = section_sizes(build.example_elf)
+    text, _ = size_text_data(build.example_elf)
+    return GuidedCost(float(solve.max()), float(np.median(solve)), float(insn[0]),
+                      float(hold.max()), float(np.median(hold)),
+                      sec.get(".data", 0) + sec.get(".bss", 0), replay.stack_bytes,
+                      replay.ctx_bytes, text + sec.get(".data", 0),
+                      guidance_values * replay.real_bytes)

@@ -8,6 +8,11 @@ input file (layout in ``csrc/replay_main.c``); the replay program steps the libr
 writes the torques back.  It runs in ``qemu-system-arm -M mps2-an500 -cpu cortex-m7`` with
 semihosting and ``-icount shift=0`` (one instruction = 1 ns of virtual time, read with
 SysTick: :mod:`~ballbot_casadi.firmware.cost`) and, built for this PC, as the host reference.
+
+A build with a guidance block replays a guided mission instead (:func:`record_guided_log`:
+the figure-eight of the path study, 4 m x 2 m at 0.5 m/s, with noise and QUKF + VUKF, the
+MPC in the compiled mission's period); the replay then also returns the velocity
+references the block gave.
 """
 
 from __future__ import annotations
@@ -22,29 +27,42 @@ import numpy as np
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.firmware.build import FirmwareBuild
-from ballbot_casadi.firmware.sources import FirmwareValues, firmware_function, scenario_values
+from ballbot_casadi.firmware.sources import (
+    FirmwareValues,
+    default_guidance_path,
+    firmware_function,
+    scenario_values,
+)
 from ballbot_casadi.firmware.toolchain import require
+from ballbot_casadi.guidance.paths import Path as GuidancePath
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.embedded import embedded_readings
+from ballbot_casadi.sim.guided import run_guided, scenario_law
+from ballbot_casadi.sim.path_following import path_scenario
 from ballbot_casadi.sim.scenario import Scenario
 
-__all__ = ["REPLAY_ATOL", "OUT_HEADER", "CALIB_LOOPS", "QEMU_COMMAND", "RecordedLog", "ReplayResult",
-           "replay_scenario", "record_log", "write_replay_input", "run_qemu", "run_host"]
+__all__ = ["REPLAY_ATOL", "GUIDED_REPLAY_ATOL", "OUT_HEADER", "CALIB_LOOPS", "QEMU_COMMAND",
+           "RecordedLog", "ReplayResult", "replay_scenario", "record_log", "record_guided_log",
+           "write_replay_input", "run_qemu", "run_host"]
 
 #: Largest torque difference (N m) of the QEMU replay from the host's double-precision
 #: torques: double, rounding differences of newlib's libm against glibc's carried through
 #: the filters; single, float rounding (the measured differences are in the README's
 #: firmware section).
 REPLAY_ATOL = {"double": 1e-12, "single": 2e-3}
+#: The same for a double build with the MPC (torque N m, velocity reference m/s): the
+#: fixed-iteration ADMM carries libm's last-bit differences (path table interpolation,
+#: filters) through 60 iterations a sample (the measured differences: README, firmware).
+GUIDED_REPLAY_ATOL = 1e-10
 #: Values in the output header of the replay program (csrc/replay_main.c).
-OUT_HEADER = 6
+OUT_HEADER = 7
 #: Iterations of the instruction-count calibration loop (1 + 2 n instructions).
 CALIB_LOOPS = 100_000
 #: The emulator: Cortex-M7 board, semihosting, one instruction per ns of virtual time.
 QEMU_COMMAND = ("qemu-system-arm", "-M", "mps2-an500", "-cpu", "cortex-m7", "-nographic",
                 "-monitor", "none", "-serial", "none", "-semihosting-config",
                 "enable=on,target=native", "-icount", "shift=0")
-_ROW = 5  # tau (3), ticks, return code
+_ROW = 5  # tau (3), ticks, return code (then the header's ROW_EXTRA values: v_ref_used)
 
 
 def replay_scenario(n_periods: int = 200, seed: int = 1) -> Scenario:
@@ -70,6 +88,7 @@ class RecordedLog:
     balance_only: bool
     values: FirmwareValues
     tau_mission: np.ndarray
+    v_ref_mission: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -89,16 +108,40 @@ def record_log(scenario: Scenario, sim: ClosedLoop | None = None) -> RecordedLog
                        scenario_values(f, scenario), np.asarray(log["tau"], float))
 
 
+def record_guided_log(n_periods: int = 400, seed: int = 1, guidance: str = "mpc",
+                      path: GuidancePath | None = None) -> RecordedLog:
+    """Run ``path`` (default: :func:`~ballbot_casadi.firmware.sources.default_guidance_path`,
+    the figure-eight at 0.5 m/s from its start) for ``n_periods`` as the compiled guided
+    mission with noisy sensors and QUKF + VUKF (seed ``seed``) and keep what the embedded
+    software saw, the torques and the velocity references the guidance gave."""
+    if not isinstance(n_periods, int) or n_periods < 1:
+        raise ScenarioError(f"n_periods must be an int >= 1, got {n_periods!r}")
+    path = default_guidance_path() if path is None else path
+    sc = path_scenario(path, n_periods * TS_CONTROL).replace(estimator="ukf", seed=seed,
+                                                              guidance=guidance)
+    law = scenario_law(sc)  # the mission's own law for this scenario (not the firmware's)
+    log = run_guided(path, law, sc.duration, scenario=sc)
+    inp = sc.inputs()
+    refs = np.hstack([inp["q_ref"], inp["dq_ref"], inp["ddq_ref"], inp["v_ref"]])
+    f = firmware_function(sc.controller, sc.estimator, guidance)
+    return RecordedLog(np.asarray(log["meas"], float), refs, not sc.cascade,
+                       scenario_values(f, sc, law, path), np.asarray(log["tau"], float),
+                       np.asarray(log["v_ref_used"], float))
+
+
 def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild) -> Path:
     """The binary input file of the replay program (little-endian doubles)."""
-    f = firmware_function(build.controller, build.estimator)
+    f = firmware_function(build.controller, build.estimator, build.guidance)
     flat = rec.values.flat_params(f)
     n_meas = embedded_readings(f).size
     if rec.meas.shape[1] != n_meas or rec.refs.shape != (rec.n, 15):
         raise BuildError(f"replay log has readings {rec.meas.shape} and references "
                          f"{rec.refs.shape}; expected (N, {n_meas}) and (N, 15)")
-    hdr = [rec.n, flat.size, rec.values.c0.size, float(rec.balance_only), CALIB_LOOPS]
-    data = np.concatenate([hdr, flat, rec.values.c0, np.hstack([rec.meas, rec.refs]).ravel()])
+    guid = np.zeros(0) if build.guidance is None else rec.values.guidance
+    if guid is None:
+        raise BuildError("the firmware has a guidance block; the replay log has no guidance data")
+    hdr = [rec.n, flat.size, rec.values.c0.size, float(rec.balance_only), CALIB_LOOPS, guid.size]
+    data = np.concatenate([hdr, flat, rec.values.c0, guid, np.hstack([rec.meas, rec.refs]).ravel()])
     path.write_bytes(data.astype("<f8").tobytes())
     return path
 
@@ -107,7 +150,8 @@ def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild) -> Pa
 class ReplayResult:
     """Output of one replay: torques (N, 3), SysTick ticks per step (N), return codes (N),
     the stack high-water mark of one step (bytes), the calibration (ticks, instructions),
-    ``sizeof(ballbot_fw_ctx)`` and ``sizeof(ballbot_fw_real)``."""
+    ``sizeof(ballbot_fw_ctx)``, ``sizeof(ballbot_fw_real)`` and, with a guidance block,
+    the velocity references it gave (N, 3; else N x 0)."""
 
     tau: np.ndarray
     ticks: np.ndarray
@@ -117,6 +161,7 @@ class ReplayResult:
     calib_instructions: float
     ctx_bytes: int
     real_bytes: int
+    v_ref: np.ndarray
 
     @property
     def instructions_per_tick(self) -> float:
@@ -126,12 +171,13 @@ class ReplayResult:
 
 def _read_output(path: Path, n: int) -> ReplayResult:
     data = np.frombuffer(path.read_bytes(), "<f8")
-    if data.size != OUT_HEADER + _ROW * n or int(data[0]) != n:
+    row = _ROW + (int(data[6]) if data.size >= OUT_HEADER else 0)
+    if data.size != OUT_HEADER + row * n or int(data[0]) != n:
         raise BuildError(f"replay output {path} has {data.size} values, expected "
-                         f"{OUT_HEADER + _ROW * n} (the program stopped early)")
-    h, rows = data[:OUT_HEADER], data[OUT_HEADER:].reshape(n, _ROW)
+                         f"{OUT_HEADER + row * n} (the program stopped early)")
+    h, rows = data[:OUT_HEADER], data[OUT_HEADER:].reshape(n, row)
     return ReplayResult(rows[:, :3].copy(), rows[:, 3].copy(), rows[:, 4].astype(int), int(h[1]),
-                        float(h[2]), float(h[3]), int(h[4]), int(h[5]))
+                        float(h[2]), float(h[3]), int(h[4]), int(h[5]), rows[:, _ROW:].copy())
 
 
 def _run(cmd: list[str], cwd: Path, what: str, timeout: float) -> None:

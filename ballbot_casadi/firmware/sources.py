@@ -17,6 +17,18 @@ to their float versions (``sqrtf``, ``sinf``, ...) and the build adds
 remains (the single-precision FPU has none).  The model's numerical guards ``DBL_MAX`` and
 ``1e-300`` (floors before divisions and square roots) are clamped to ``FLT_MAX`` and
 ``FLT_MIN`` (the smallest normal float), which keeps their meaning in float.
+
+Guidance (issue 18): ``firmware_function(..., guidance="mpc")`` is the same period with
+the path-following block of the guided mission in its guidance slot
+(:func:`~ballbot_casadi.sim.embedded.embedded_software` with the block of
+:func:`firmware_guidance`: the MPC's real-time iteration every
+``BALLBOT_FW_GUIDANCE_EVERY`` periods, 10 Hz inside the 200 Hz step).  Its data ``k_guid``
+(path table and obstacles, :func:`~ballbot_casadi.guidance.path_table.pack_path`) is
+not a parameter: the caller hands a pointer to it (``ballbot_fw_set_guidance``; it can
+stay in flash), and ``ballbot_fw_defaults.c`` holds a default path
+(:func:`default_guidance_path`) as a constant table.  The block's state ``guide`` is part
+of ``c`` (:func:`~ballbot_casadi.sim.embedded.software_layout`); its start depends on the
+path (the robot's projection onto it, :func:`scenario_values` with ``path``).
 """
 
 from __future__ import annotations
@@ -33,13 +45,17 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.errors import BuildError, ScenarioError
+from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.firmware.toolchain import PRECISIONS
+from ballbot_casadi.guidance.paths import Path as GuidancePath, figure_eight
 from ballbot_casadi.sim.embedded import (
     embedded_readings,
     embedded_software,
     initial_controller_state,
     software_layout,
 )
+from ballbot_casadi.sim.guided import GUIDANCE_EVERY, GUIDANCE_LAWS, GuidanceLaw, scenario_law
+from ballbot_casadi.sim.ports import GUIDANCE_CONSTANTS
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
@@ -47,18 +63,26 @@ __all__ = [
     "COVARIANCE_INPUTS",
     "HAND_WRITTEN",
     "CG_NAME",
+    "GUIDANCE_INPUT",
+    "firmware_guidance",
+    "guidance_every",
+    "default_guidance_path",
     "firmware_function",
     "param_inputs",
     "FirmwareValues",
     "scenario_values",
     "generate_sources",
+    "codegen_work",
+    "generated_work",
     "csrc_path",
 ]
 
 #: Inputs of the period that are references (ballbot_fw_references), in its order.
 REFERENCE_INPUTS = ("q_ref", "dq_ref", "ddq_ref", "v_ref")
-#: Inputs that are not parameters: state, readings, references, mode.
-_NOT_PARAMS = ("c", "meas", *REFERENCE_INPUTS, "cascade")
+#: The guidance block's data (path table and obstacles): a pointer given at init, not a parameter.
+GUIDANCE_INPUT = GUIDANCE_CONSTANTS[0]
+#: Inputs that are not parameters: state, readings, references, mode, guidance data.
+_NOT_PARAMS = ("c", "meas", *REFERENCE_INPUTS, "cascade", GUIDANCE_INPUT)
 #: Parameter inputs that are covariance matrices (column-major, diagonal >= 0).
 COVARIANCE_INPUTS = ("Qa", "Ra", "Qv", "Rv")
 #: Hand-written C files of the library (package data, csrc/).
@@ -74,17 +98,53 @@ def csrc_path(name: str) -> Path:
     return Path(str(resources.files("ballbot_casadi.firmware") / "csrc" / name))
 
 
-def firmware_function(controller: str = "flc", estimator: str = "ukf") -> ca.Function:
-    """The period ``ballbot_embedded_<controller>_<estimator>`` the compiled mission exports.
+def firmware_guidance(guidance: str | None, controller: str = "flc") -> GuidanceLaw | None:
+    """The guidance block of the firmware: the guided mission's law (``mpc``: the MPC
+    predicting the default velocity loop, as :func:`~ballbot_casadi.sim.guided.scenario_law`
+    builds it for a path scenario; ``pursuit``), or ``None``.
 
     Raises
     ------
     ScenarioError
-        Unknown controller or estimator (the message lists the allowed ones).
+        Unknown law, or a controller other than the FLC cascade (the one path following runs).
+    """
+    if guidance is None:
+        return None
+    if guidance not in GUIDANCE_LAWS:
+        raise ScenarioError(f"unknown guidance {guidance!r}; allowed: {', '.join(GUIDANCE_LAWS)} "
+                            "(or none)")
+    if controller != "flc":
+        raise ScenarioError(f"the firmware's guidance runs above the FLC cascade (controller "
+                            f"'flc'), got controller {controller!r}")
+    return scenario_law(Scenario(name="firmware_guidance", controller="flc", cascade=True,
+                                 duration=TS_CONTROL, guidance=guidance))
+
+
+def guidance_every(law: GuidanceLaw) -> int:
+    """Control periods per guidance sample of ``law`` (20: 10 Hz at 200 Hz)."""
+    return int(round(law.config.dt / TS_CONTROL)) if law.config is not None else GUIDANCE_EVERY
+
+
+def default_guidance_path() -> GuidancePath:
+    """The path compiled into the library as its default guidance data: the figure-eight
+    4 m x 2 m at 0.5 m/s of the path study, starting where the default robot stands."""
+    return figure_eight(4.0, 2.0, speed=0.5)
+
+
+def firmware_function(controller: str = "flc", estimator: str = "ukf",
+                      guidance: str | None = None) -> ca.Function:
+    """The period ``ballbot_embedded_<controller>_<estimator>`` the compiled mission exports
+    (with ``guidance``: the one the guided mission with that estimator runs).
+
+    Raises
+    ------
+    ScenarioError
+        Unknown controller, estimator or guidance (the message lists the allowed ones).
     """
     if estimator in ("true",) or not isinstance(estimator, str):
         raise ScenarioError(f"the firmware needs an estimator ('ukf' or 'ekf'), got {estimator!r}")
-    return embedded_software(controller, estimator)
+    law = firmware_guidance(guidance, controller)
+    return embedded_software(controller, estimator, guidance=None if law is None else law.function)
 
 
 def param_inputs(f: ca.Function) -> list[str]:
@@ -94,10 +154,12 @@ def param_inputs(f: ca.Function) -> list[str]:
 
 @dataclass(frozen=True)
 class FirmwareValues:
-    """Parameter values (input name -> flat array, column-major) and power-on state ``c0``."""
+    """Parameter values (input name -> flat array, column-major), power-on state ``c0``
+    and, with a guidance block, its data ``guidance`` (``k_guid``: path table, obstacles)."""
 
     params: Mapping[str, np.ndarray]
     c0: np.ndarray
+    guidance: np.ndarray | None = None
 
     def flat_params(self, f: ca.Function) -> np.ndarray:
         """The parameters as ``ballbot_fw_params`` lays them out (fields in the Function's order)."""
@@ -105,14 +167,17 @@ class FirmwareValues:
                                for n in param_inputs(f)])
 
 
-def scenario_values(f: ca.Function, scenario: Scenario) -> FirmwareValues:
+def scenario_values(f: ca.Function, scenario: Scenario, law: GuidanceLaw | None = None,
+                    path: GuidancePath | None = None) -> FirmwareValues:
     """The period's parameters and power-on state for ``scenario``, as the compiled mission
-    starts it (velocity controller, filters aligned with the initial state, COM observer).
+    starts it (velocity controller, filters aligned with the initial state, COM observer;
+    with a guidance block ``law`` on ``path``: its data and start state, as
+    :func:`~ballbot_casadi.sim.guided.run_guided` starts it).
 
     Raises
     ------
     ScenarioError
-        The scenario has no estimator in the loop.
+        The scenario has no estimator in the loop; a guided period without ``law`` and ``path``.
     BuildError
         A value's size differs from the Function's input.
     """
@@ -134,14 +199,26 @@ def scenario_values(f: ca.Function, scenario: Scenario) -> FirmwareValues:
             raise BuildError(f"{f.name()}: input {n} has {f.numel_in(f.index_in(n))} entries, "
                              f"the scenario gives {v.size}")
         params[n] = v
+    guided = GUIDANCE_INPUT in f.name_in()
+    if guided and (law is None or path is None):
+        raise ScenarioError(f"{f.name()} has a guidance block: give its law and the path")
     # the state at power-on: the Function the compiled mission and the controller FMU use
-    layout = software_layout(f, scenario.estimator)
+    n_guide = law.state.size + 1 if guided else 0  # the period counter first
+    layout = software_layout(f, scenario.estimator, n_guide)
     observer = "obs" in layout.fields
     n_bal = layout.size_of("bal") if "bal" in layout.fields else 0
     c0 = initial_controller_state(scenario.estimator, inp["x0"], inp["p_ctrl"], observer, n_bal)
+    data = None
+    if guided:
+        g0 = law.initial_state(path, inp["x0"], c0[layout["z"]])
+        data = law.parameters(path)
+        c0 = np.concatenate([c0[:layout.offset("guide")], g0, c0[layout.offset("guide"):]])
+        if data.size != f.numel_in(f.index_in(GUIDANCE_INPUT)):
+            raise BuildError(f"{f.name()}: guidance data of {f.numel_in(f.index_in(GUIDANCE_INPUT))} "
+                             f"entries, the law gives {data.size}")
     if c0.size != f.size1_in(0):
         raise BuildError(f"{f.name()}: state of {f.size1_in(0)} entries, the scenario gives {c0.size}")
-    return FirmwareValues(params, c0)
+    return FirmwareValues(params, c0, data)
 
 
 def _float_constant(m: re.Match) -> str:
@@ -192,8 +269,34 @@ def _fields(f: ca.Function, names: list[str] | tuple[str, ...], out: bool = Fals
     return " ".join(f"X({n}, {numel(index(n))})" for n in names)
 
 
-def _config_header(f: ca.Function, real: str) -> str:
+def codegen_work(f: ca.Function, c_src: str) -> tuple[int, int, int, int]:
+    """``(sz_arg, sz_res, sz_iw, sz_w)`` the generated C of ``f`` declares in its
+    ``<name>_work`` function: what the C needs, which can be less than the Function's
+    own ``sz_w()`` (the generated code reads inputs and constants in place where
+    CasADi's virtual machine copies them: 67,408 against 77,373 doubles with the MPC).
+
+    Raises
+    ------
+    BuildError
+        The generated C has no such function.
+    """
+    m = re.search(rf"int {re.escape(f.name())}_work\([^)]*\) {{\n"
+                  r"  if \(sz_arg\) \*sz_arg = (\d+);\n  if \(sz_res\) \*sz_res = (\d+);\n"
+                  r"  if \(sz_iw\) \*sz_iw = (\d+);\n  if \(sz_w\) \*sz_w = (\d+);", c_src)
+    if m is None:
+        raise BuildError(f"the generated C of {f.name()} declares no work sizes ({f.name()}_work)")
+    return tuple(int(v) for v in m.groups())  # type: ignore[return-value]
+
+
+def generated_work(f: ca.Function, precision: str = "double") -> tuple[int, int, int, int]:
+    """:func:`codegen_work` of ``f`` generated alone as the firmware generates it."""
+    return codegen_work(f, _codegen(f, PRECISIONS[precision])[0])
+
+
+def _config_header(f: ca.Function, real: str, every: int, c_src: str) -> str:
     params = param_inputs(f)
+    sz_arg, sz_res, sz_iw, sz_w = codegen_work(f, c_src)
+    n_guid = f.numel_in(f.index_in(GUIDANCE_INPUT)) if GUIDANCE_INPUT in f.name_in() else 0
     outputs = [n for n in f.name_out() if n != "c_next"]
     cov = [f"X({n}, {int(round(np.sqrt(f.numel_in(f.index_in(n)))))})" for n in COVARIANCE_INPUTS
            if n in params]
@@ -209,12 +312,18 @@ def _config_header(f: ca.Function, real: str) -> str:
         f"#define BALLBOT_FW_N_READINGS {M.size}",
         *(f"#define BALLBOT_FW_READING_{k.upper()} {M[k].start}" for k in M.fields),
         f"#define BALLBOT_FW_N_ENC {M['enc'].stop - M['enc'].start}",
-        f"#define BALLBOT_FW_SZ_ARG {f.sz_arg()}",
-        f"#define BALLBOT_FW_SZ_RES {f.sz_res()}",
-        f"#define BALLBOT_FW_SZ_IW {f.sz_iw()}",
-        f"#define BALLBOT_FW_SZ_W {f.sz_w()}",
+        "/* Work sizes of the generated C (its _work function). */",
+        f"#define BALLBOT_FW_SZ_ARG {sz_arg}",
+        f"#define BALLBOT_FW_SZ_RES {sz_res}",
+        f"#define BALLBOT_FW_SZ_IW {sz_iw}",
+        f"#define BALLBOT_FW_SZ_W {sz_w}",
         *(f"#define BALLBOT_FW_ARG_{n} {i}" for i, n in enumerate(f.name_in())),
         *(f"#define BALLBOT_FW_RES_{n} {i}" for i, n in enumerate(f.name_out())),
+        "/* The guidance block: 1 with one (its data: BALLBOT_FW_N_GUIDANCE values, a sample",
+        "   every BALLBOT_FW_GUIDANCE_EVERY periods), 0 without. */",
+        f"#define BALLBOT_FW_GUIDANCE {1 if n_guid else 0}",
+        f"#define BALLBOT_FW_N_GUIDANCE {n_guid}",
+        f"#define BALLBOT_FW_GUIDANCE_EVERY {every if n_guid else 0}",
         f"#define BALLBOT_FW_PARAM_FIELDS(X) {_fields(f, params)}",
         f"#define BALLBOT_FW_REFERENCE_FIELDS(X) {_fields(f, REFERENCE_INPUTS)}",
         f"#define BALLBOT_FW_OUTPUT_FIELDS(X) {_fields(f, outputs, out=True)}",
@@ -228,7 +337,9 @@ def _config_header(f: ca.Function, real: str) -> str:
         *(f"    ballbot_fw_real {n}[{f.numel_out(f.index_out(n))}];" for n in outputs),
         "} ballbot_fw_outputs;", "",
         "extern const ballbot_fw_params ballbot_fw_default_params_data;",
-        f"extern const ballbot_fw_real ballbot_fw_default_c0[{f.numel_in(0)}];", "",
+        f"extern const ballbot_fw_real ballbot_fw_default_c0[{f.numel_in(0)}];",
+        *((f"extern const ballbot_fw_real ballbot_fw_default_guidance_data[{n_guid}];",)
+          if n_guid else ()), "",
         "#endif", "",
     ]
     return "\n".join(lines)
@@ -240,16 +351,26 @@ def _c_array(v: np.ndarray) -> str:
 
 def _defaults_source(f: ca.Function, values: FirmwareValues) -> str:
     fields = ",\n    ".join(_c_array(values.params[n]) for n in param_inputs(f))
+    guidance = []
+    if GUIDANCE_INPUT in f.name_in():
+        if values.guidance is None or values.guidance.size != f.numel_in(f.index_in(GUIDANCE_INPUT)):
+            raise BuildError(f"{f.name()}: the default values have no guidance data of "
+                             f"{f.numel_in(f.index_in(GUIDANCE_INPUT))} entries")
+        guidance = [f"const ballbot_fw_real ballbot_fw_default_guidance_data"
+                    f"[{values.guidance.size}] = {_c_array(values.guidance)};", ""]
     return "\n".join([
         "/* ballbot_fw_defaults.c - generated default parameters and power-on state; do not edit. */",
         '#include "ballbot_fw_config.h"', "",
         f"const ballbot_fw_params ballbot_fw_default_params_data = {{\n    {fields}\n}};", "",
         f"const ballbot_fw_real ballbot_fw_default_c0[{f.numel_in(0)}] = {_c_array(values.c0)};", "",
+        *guidance,
     ])
 
 
-def generate_sources(f: ca.Function, precision: str, values: FirmwareValues) -> dict[str, str]:
-    """Every C file of the library: file name -> text (deterministic).
+def generate_sources(f: ca.Function, precision: str, values: FirmwareValues,
+                     guidance_every: int = 0) -> dict[str, str]:
+    """Every C file of the library: file name -> text (deterministic); ``guidance_every``:
+    periods per sample of the period's guidance block (if it has one).
 
     Raises
     ------
@@ -261,7 +382,7 @@ def generate_sources(f: ca.Function, precision: str, values: FirmwareValues) -> 
     real = PRECISIONS[precision]
     c_src, h_src = _codegen(f, real)
     files = {f"{CG_NAME}.c": c_src, f"{CG_NAME}.h": h_src,
-             "ballbot_fw_config.h": _config_header(f, real),
+             "ballbot_fw_config.h": _config_header(f, real, guidance_every, c_src),
              "ballbot_fw_defaults.c": _defaults_source(f, values)}
     for name in HAND_WRITTEN:
         files[name] = csrc_path(name).read_text()

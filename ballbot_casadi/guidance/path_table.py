@@ -88,8 +88,9 @@ def _interp(values: Any, u: Any, n: int) -> Any:
     coordinates ``u`` (a row, in samples): a 2 x len(u) matrix."""
     f = ca.interpolant("ballbot_path_table", "linear", [np.arange(n, dtype=float)], 2,
                        {"lookup_mode": ["exact"]})
-    m = u.numel()
-    return f.map(m)(ca.reshape(u, 1, m), values) if m > 1 else f(u, values)
+    # one call per point, each reading the one table (a map would copy it per point into
+    # its work vector: 2 x 21 x 4096 doubles for the MPC's horizon)
+    return ca.horzcat(*(f(u[i], values) for i in range(u.numel())))
 
 
 def path_eval(P: PathSymbols, s: Any) -> dict[str, Any]:

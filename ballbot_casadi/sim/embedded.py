@@ -492,11 +492,12 @@ def _balance(controller: str) -> ca.Function:
 
 @lru_cache(maxsize=None)
 def embedded_software(controller: str = "flc", estimator: str = "ukf",
-                      observer: bool = True) -> ca.Function:
+                      observer: bool = True, guidance: ca.Function | None = None) -> ca.Function:
     """The package's embedded software ``ballbot_embedded_<controller>_<estimator>``
-    (:func:`make_embedded_step`, with the COM observer unless ``observer`` is false),
-    built once per process: the compiled mission and the controller FMU use this one
-    Function, and asking for it builds no mission.
+    (:func:`make_embedded_step`, with the COM observer unless ``observer`` is false, and
+    the period's ``guidance`` block when given), built once per process and per block:
+    the compiled mission, the controller FMU and the firmware use this one Function, and
+    asking for it builds no mission.
 
     Raises
     ------
@@ -504,7 +505,7 @@ def embedded_software(controller: str = "flc", estimator: str = "ukf",
         Unknown controller or estimator (the message lists the allowed ones).
     """
     blocks, est = software_blocks(controller, estimator, observer)
-    return make_embedded_step(blocks.balance, blocks.velocity, est, blocks.observer)
+    return make_embedded_step(blocks.balance, blocks.velocity, est, blocks.observer, guidance)
 
 
 def make_initial_controller_state(estimator: str, observer: bool = True,

@@ -46,7 +46,7 @@ from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL
 from ballbot_casadi.model.dynamics import NP, make_ode, make_wheel_speeds
 from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs
-from ballbot_casadi.sim.embedded import software_blocks
+from ballbot_casadi.sim.embedded import embedded_software, software_blocks
 from ballbot_casadi.sim.log import PATH_KEY, SimulationLog
 from ballbot_casadi.sim.path_following import make_loop_state, path_scenario, velocity_loop_model
 from ballbot_casadi.sim.scenario import Scenario
@@ -184,9 +184,11 @@ def _simulator(function: ca.Function, estimator: str) -> ClosedLoop:
     if estimator == "true":
         step = make_closed_loop_step(blocks.balance, blocks.velocity, make_ode(), N_SUB,
                                      blocks.observer, function)
-    else:
+    else:  # the embedded software with the guidance block: the firmware's Function too
         step = make_estimating_step(blocks.balance, blocks.velocity, est.ode, make_wheel_speeds(),
-                                    est, N_SUB, observer=blocks.observer, guidance=function)
+                                    est, N_SUB,
+                                    embedded=embedded_software("flc", estimator, guidance=function),
+                                    observer=blocks.observer, guidance=function)
     return ClosedLoop(steps={"flc": step}, estimator=estimator,
                       library=f"{function.name()}_{estimator}")
 

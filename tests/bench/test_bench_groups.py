@@ -36,7 +36,8 @@ def _check(data: dict, keys: set[str]) -> None:
 
 
 def test_every_group_is_covered_here():
-    assert set(BENCHMARKS) == {"model", "fmu", "control", "estimation", "montecarlo", "firmware", "mpc"}
+    assert set(BENCHMARKS) == {"model", "fmu", "control", "estimation", "montecarlo", "firmware",
+                               "firmware_mpc", "mpc"}
 
 
 def test_model_group(monkeypatch):
@@ -173,3 +174,22 @@ def test_firmware_group():
     _check(BENCHMARKS["firmware"](n_periods=4),
            {"firmware_available", "firmware_step_instructions", "firmware_single_step_instructions",
             "firmware_ram_bytes", "firmware_flash_bytes", "firmware_step_instructions_target"})
+
+
+@pytest.mark.firmware
+@pytest.mark.slow
+def test_firmware_mpc_group():
+    # builds the guided mission and the firmware with the MPC (minutes the first time)
+    if missing_tools():
+        assert BENCHMARKS["firmware_mpc"](n_periods=21) == {"firmware_mpc_available": 0.0}
+        pytest.skip(f"firmware toolchain missing: {missing_tools()}")
+    data = BENCHMARKS["firmware_mpc"](n_periods=21)
+    _check(data, {"firmware_mpc_available", "firmware_mpc_instructions_max",
+                  "firmware_mpc_instructions_median", "firmware_mpc_first_instructions",
+                  "firmware_mpc_hold_instructions_max", "firmware_mpc_solve_ms_at_480mhz",
+                  "firmware_mpc_ram_bytes", "firmware_mpc_workspace_bytes",
+                  "firmware_mpc_flash_bytes", "firmware_mpc_workspace_bytes_target"})
+    # a sample costs more than holding the reference; the cold first sample (5 QPs) most
+    assert data["firmware_mpc_hold_instructions_max"] < data["firmware_mpc_instructions_max"]
+    assert data["firmware_mpc_instructions_max"] < data["firmware_mpc_first_instructions"]
+    assert data["firmware_mpc_workspace_bytes"] < data["firmware_mpc_guidance_workspace_bytes"]

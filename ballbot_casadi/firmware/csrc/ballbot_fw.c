@@ -62,8 +62,20 @@ int ballbot_fw_init(ballbot_fw_ctx *ctx, const ballbot_fw_params *params,
     if (c0 == NULL) c0 = ballbot_fw_default_c0;
     if (!all_finite(c0, BALLBOT_FW_NC)) return BALLBOT_FW_EPARAM;
     memcpy(ctx->c, c0, sizeof ctx->c);
+#if BALLBOT_FW_GUIDANCE
+    ctx->guidance = ballbot_fw_default_guidance_data;
+#endif
     return BALLBOT_FW_OK;
 }
+
+#if BALLBOT_FW_GUIDANCE
+int ballbot_fw_set_guidance(ballbot_fw_ctx *ctx, const ballbot_fw_real *data) {
+    if (ctx == NULL || data == NULL) return BALLBOT_FW_EARG;
+    if (!all_finite(data, BALLBOT_FW_N_GUIDANCE)) return BALLBOT_FW_EPARAM;
+    ctx->guidance = data;
+    return BALLBOT_FW_OK;
+}
+#endif
 
 int ballbot_fw_step(ballbot_fw_ctx *ctx, const ballbot_fw_real *readings,
                     const ballbot_fw_references *refs, ballbot_fw_real torques[3]) {
@@ -92,6 +104,9 @@ int ballbot_fw_step(ballbot_fw_ctx *ctx, const ballbot_fw_real *readings,
     BALLBOT_FW_OUTPUT_FIELDS(BALLBOT_FW_WIRE_RES)
 #undef BALLBOT_FW_WIRE_RES
     ctx->res[BALLBOT_FW_RES_c_next] = ctx->c_next;
+#if BALLBOT_FW_GUIDANCE
+    ctx->arg[BALLBOT_FW_ARG_k_guid] = ctx->guidance;
+#endif
     ctx->period++;
     if (BALLBOT_FW_EMBEDDED(ctx->arg, ctx->res, ctx->iw, ctx->w, 0) != 0 ||
         !all_finite(ctx->c_next, BALLBOT_FW_NC) || !all_finite(ctx->out.tau_lim, 3)) {

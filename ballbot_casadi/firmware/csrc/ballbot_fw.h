@@ -15,6 +15,16 @@
  *   ballbot_fw_default_params(&p);                 (or fill from flash/EEPROM)
  *   ballbot_fw_init(&ctx, &p, NULL);               (NULL: the default power-on state)
  *   every 5 ms: ballbot_fw_step(&ctx, readings, &refs, torques);
+ *
+ * With a guidance block (BALLBOT_FW_GUIDANCE 1: the path-following MPC of the guided
+ * mission, one sample every BALLBOT_FW_GUIDANCE_EVERY periods) the period computes the
+ * velocity reference itself (refs->v_ref[2], the heading rate, is still read) from its
+ * data: the path table and obstacles (BALLBOT_FW_N_GUIDANCE values, the layout of the
+ * package's path_table_layout), caller-owned and only read, so it can live in flash.
+ * ballbot_fw_init points the context at ballbot_fw_default_guidance_data;
+ *   ballbot_fw_set_guidance(&ctx, my_path_table);   (before the first step)
+ * gives another path; the power-on state c0 carries the robot's progress on the path
+ * (the default: the default path's start).
  */
 #ifndef BALLBOT_FW_H
 #define BALLBOT_FW_H
@@ -55,6 +65,9 @@ typedef struct ballbot_fw_ctx {
     ballbot_fw_real w[BALLBOT_FW_SZ_W + 1];
     unsigned long period;                   /* index of the next period */
     unsigned long faults;                   /* periods rejected with BALLBOT_FW_EFAULT */
+#if BALLBOT_FW_GUIDANCE
+    const ballbot_fw_real *guidance;        /* the guidance data (not copied) */
+#endif
 } ballbot_fw_ctx;
 
 /* The package's default parameters (the controller FMU's start values). */
@@ -73,6 +86,12 @@ int ballbot_fw_set_params(ballbot_fw_ctx *ctx, const ballbot_fw_params *params);
  * BALLBOT_FW_OK, PREDICT_ONLY, EFAULT (torques 0) or EARG.  torques are always finite. */
 int ballbot_fw_step(ballbot_fw_ctx *ctx, const ballbot_fw_real *readings,
                     const ballbot_fw_references *refs, ballbot_fw_real torques[3]);
+#if BALLBOT_FW_GUIDANCE
+/* Point the guidance block at its data (BALLBOT_FW_N_GUIDANCE values, kept by pointer: it
+ * must outlive the context).  BALLBOT_FW_OK, EPARAM (a value not finite: nothing changed)
+ * or EARG. */
+int ballbot_fw_set_guidance(ballbot_fw_ctx *ctx, const ballbot_fw_real *data);
+#endif
 
 #ifdef __cplusplus
 }

@@ -4,6 +4,11 @@
  * (read_imu, read_encoders, set_wheel_torques: replace them with the board's drivers).
  * Built for Cortex-M7 (links, never runs in the tests); SysTick stands in for the timer:
  * with a 400 MHz core clock, reload 400e6 / 200 - 1.
+ *
+ * With a guidance block (BALLBOT_FW_GUIDANCE) the context starts on the default path
+ * (ballbot_fw_default_guidance_data); the period that runs a guidance sample takes several
+ * 5 ms periods on this core (README, firmware), which the overrun counter below records:
+ * a real board would run the sample in a background task.
  */
 #include <math.h>
 #include <stdint.h>

@@ -4,13 +4,17 @@
  * (BALLBOT_FW_TARGET: semihosting files fw_replay_in.bin / fw_replay_out.bin in QEMU's
  * working directory, instruction counting with SysTick, stack high-water mark by painting).
  *
- * Input (little-endian doubles): n_steps, n_params, nc, balance_only, calib_loops; the
- * parameters (ballbot_fw_params as a flat array); the power-on state c0 (nc); per period
- * the readings (BALLBOT_FW_N_READINGS, NaN = missing) and the references q_ref, dq_ref,
- * ddq_ref, v_ref.
+ * Input (little-endian doubles): n_steps, n_params, nc, balance_only, calib_loops,
+ * n_guidance; the parameters (ballbot_fw_params as a flat array); the power-on state c0
+ * (nc); the guidance data (n_guidance = BALLBOT_FW_N_GUIDANCE values, none without a
+ * guidance block); per period the readings (BALLBOT_FW_N_READINGS, NaN = missing) and the
+ * references q_ref, dq_ref, ddq_ref, v_ref.
  * Output (doubles): a header of OUT_HEADER values (n_steps, stack bytes of one step,
  * SysTick ticks of the calibration loop, its instruction count, sizeof(ballbot_fw_ctx),
- * sizeof(ballbot_fw_real)); per period tau[3], the step's SysTick ticks, the return code.
+ * sizeof(ballbot_fw_real), ROW_EXTRA); per period tau[3], the step's SysTick ticks, the
+ * return code and, with a guidance block, the velocity reference it gave (v_ref_used, 3).
+ * The stack is painted before the first 8 periods and, with guidance, before the first 8
+ * periods that run a guidance sample.
  */
 #include <stdint.h>
 #include <stdio.h>
@@ -18,8 +22,15 @@
 
 #include "ballbot_fw.h"
 
-#define OUT_HEADER 6
+#define OUT_HEADER 7
+#define N_IN_HEADER 6
 #define N_REF 15
+#if BALLBOT_FW_GUIDANCE
+#define ROW_EXTRA 3
+static ballbot_fw_real guidance_data[BALLBOT_FW_N_GUIDANCE]; /* flash on a real board */
+#else
+#define ROW_EXTRA 0
+#endif
 #define N_PAR ((int)(sizeof(ballbot_fw_params) / sizeof(ballbot_fw_real)))
 
 static ballbot_fw_ctx ctx; /* the caller-owned context */
@@ -57,16 +68,17 @@ static int write_doubles(FILE *f, const double *v, int n) {
 }
 
 static int replay(FILE *in, FILE *out) {
-    double hdr[5], buf[BALLBOT_FW_NC > 64 ? BALLBOT_FW_NC : 64], oh[OUT_HEADER] = {0};
+    double hdr[N_IN_HEADER], buf[BALLBOT_FW_NC > 64 ? BALLBOT_FW_NC : 64], oh[OUT_HEADER] = {0};
     ballbot_fw_real c0[BALLBOT_FW_NC], meas[BALLBOT_FW_N_READINGS], tau[3];
     ballbot_fw_real *pflat = (ballbot_fw_real *)&params;
     ballbot_fw_references refs;
     long k, n;
     int i, rc;
     unsigned long stack_max = 0;
-    if (read_doubles(in, hdr, 5) || (int)hdr[1] != N_PAR || (int)hdr[2] != BALLBOT_FW_NC) {
-        fprintf(stderr, "replay: input header does not match the library (%d params, nc %d)\n",
-                N_PAR, BALLBOT_FW_NC);
+    if (read_doubles(in, hdr, N_IN_HEADER) || (int)hdr[1] != N_PAR || (int)hdr[2] != BALLBOT_FW_NC ||
+        (int)hdr[5] != BALLBOT_FW_N_GUIDANCE) {
+        fprintf(stderr, "replay: input header does not match the library (%d params, nc %d, "
+                "%d guidance values)\n", N_PAR, BALLBOT_FW_NC, BALLBOT_FW_N_GUIDANCE);
         return 2;
     }
     n = (long)hdr[0];
@@ -81,6 +93,17 @@ static int replay(FILE *in, FILE *out) {
         fprintf(stderr, "replay: ballbot_fw_init returned %d\n", rc);
         return 2;
     }
+#if BALLBOT_FW_GUIDANCE
+    for (i = 0; i < BALLBOT_FW_N_GUIDANCE; ++i) {
+        if (read_doubles(in, buf, 1)) return 2;
+        guidance_data[i] = (ballbot_fw_real)buf[0];
+    }
+    rc = ballbot_fw_set_guidance(&ctx, guidance_data);
+    if (rc != BALLBOT_FW_OK) {
+        fprintf(stderr, "replay: ballbot_fw_set_guidance returned %d\n", rc);
+        return 2;
+    }
+#endif
     refs.balance_only = hdr[3] != 0;
 #ifdef BALLBOT_FW_TARGET
     SYST_RVR = 0xFFFFFFu;
@@ -96,10 +119,12 @@ static int replay(FILE *in, FILE *out) {
     oh[0] = (double)n;
     oh[4] = (double)sizeof(ballbot_fw_ctx);
     oh[5] = (double)sizeof(ballbot_fw_real);
+    oh[6] = ROW_EXTRA;
     if (write_doubles(out, oh, OUT_HEADER)) return 3;
     for (k = 0; k < n; ++k) {
-        double row[5];
+        double row[5 + ROW_EXTRA];
         uint32_t t0, t1;
+        int paint = k < 8;
         if (read_doubles(in, buf, BALLBOT_FW_N_READINGS + N_REF)) return 2;
         for (i = 0; i < BALLBOT_FW_N_READINGS; ++i) meas[i] = (ballbot_fw_real)buf[i];
         for (i = 0; i < 4; ++i) {
@@ -108,16 +133,19 @@ static int replay(FILE *in, FILE *out) {
             refs.ddq_ref[i] = (ballbot_fw_real)buf[BALLBOT_FW_N_READINGS + 8 + i];
         }
         for (i = 0; i < 3; ++i) refs.v_ref[i] = (ballbot_fw_real)buf[BALLBOT_FW_N_READINGS + 12 + i];
+#if BALLBOT_FW_GUIDANCE
+        paint = paint || (k % BALLBOT_FW_GUIDANCE_EVERY == 0 && k < 8 * BALLBOT_FW_GUIDANCE_EVERY);
+#endif
 #ifdef BALLBOT_FW_TARGET
         uintptr_t sp = stack_pointer() - 16u, a;
-        if (k < 8)
+        if (paint)
             for (a = (uintptr_t)&__stack_bottom; a < sp; a += 4) *(volatile uint32_t *)a = PAINT;
 #endif
         t0 = ticks();
         rc = ballbot_fw_step(&ctx, meas, &refs, tau);
         t1 = ticks();
 #ifdef BALLBOT_FW_TARGET
-        if (k < 8) {
+        if (paint) {
             for (a = (uintptr_t)&__stack_bottom; a < sp; a += 4)
                 if (*(volatile uint32_t *)a != PAINT) break;
             if (sp - a > stack_max) stack_max = (unsigned long)(sp - a);
@@ -126,7 +154,11 @@ static int replay(FILE *in, FILE *out) {
         for (i = 0; i < 3; ++i) row[i] = (double)tau[i];
         row[3] = (double)elapsed(t0, t1);
         row[4] = (double)rc;
-        if (write_doubles(out, row, 5)) return 3;
+#if BALLBOT_FW_GUIDANCE
+        for (i = 0; i < 3; ++i) row[5 + i] = (double)ctx.out.v_ref_used[i];
+#endif
+        if (write_doubles(out, row, 5 + ROW_EXTRA)) return 3;
+        (void)paint;
     }
     oh[1] = (double)stack_max;
     if (fseek(out, 0, SEEK_SET) != 0 || write_doubles(out, oh, OUT_HEADER)) return 3;
