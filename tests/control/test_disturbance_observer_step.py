@@ -4,7 +4,6 @@ uses the *applied*, limited torque) and a carried, non-zero estimate."""
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 import pytest
 
