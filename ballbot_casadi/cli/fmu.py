@@ -88,8 +88,9 @@ def _cmd_ssp(args: argparse.Namespace) -> int:
     sc = source.scenario if args.duration is None else source.scenario.replace(
         duration=args.duration)
     path = write_sil_ssp(sc, out, plant, specs=source.specs, source=str(source.path))
-    print(f"{path}  (scenario {sc.name}: {sc.controller}, estimator {sc.estimator}, seed "
-          f"{sc.seed}, {sc.duration:g} s; plant {plant or 'BallbotPlant.fmu'})")
+    guided = f", path following ({sc.guidance})" if sc.route.build() is not None else ""
+    print(f"{path}  (scenario {sc.name}: {sc.controller}, estimator {sc.estimator}{guided}, "
+          f"seed {sc.seed}, {sc.duration:g} s; plant {plant or 'BallbotPlant.fmu'})")
     return 0
 
 
@@ -153,7 +154,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     s = fsub.add_parser("ssp", help="write the SIL system (plant + controller + reference FMUs, "
                         "connections, parameter set) as an SSP 1.0 archive")
     s.add_argument("--scenario", default="full_sine", help="scenario file or shipped name with "
-                   "an estimator (default full_sine: roll sine, noise, QUKF + VUKF)")
+                   "an estimator (default full_sine: roll sine, noise, QUKF + VUKF); one with a "
+                   "[path] gets the path-following controller FMU (e.g. path_fig8_mpc_ukf)")
     s.add_argument("--plant", default=None, help="your plant FMU with the variable names of "
                    "BallbotPlant.fmu (default: BallbotPlant.fmu)")
     s.add_argument("--duration", type=float, default=None, help="simulated time (s; default the "

@@ -12,6 +12,13 @@
  * Functions' argument positions (CTRL_<F>_ARG_<input>, CTRL_<F>_RES_<output>), which the
  * calls below set by name (fmu_casadi.h).
  *
+ * With CTRL_HAS_GUIDANCE (BallbotControllerPath, ballbot_casadi/fmi/controller/path.py)
+ * CTRL_EMBEDDED is the embedded software with the path-following MPC in its guidance
+ * slot (the compiled guided mission's Function): it reads the path table k_guid (FMU
+ * parameters, checked by check_path), its state c carries the guidance state c_guide_*,
+ * which initialize() starts with CTRL_GUIDE_INITIAL (ballbot_guidance_mpc_initial, the
+ * Function the mission starts from) at path_s0.
+ *
  * Period k runs at t_k = startTime + k Ts.  fmi2DoStep(t_k, n Ts) runs periods k..k+n-1:
  * the first on the readings latched at t_k, the others predict only (readings missing);
  * a step within CTRL_STEP_TOL Ts of n Ts counts as n periods, and n = 0 (a step far

@@ -11,6 +11,16 @@ layer is the plant's (``fmu/layer/fmi2_common.c`` and its parts), the table belo
 generates ``modelDescription.xml`` and the C
 headers.
 
+Path following: :func:`controller_spec` with a scenario that has a ``[path]`` builds
+``BallbotControllerPath`` (:mod:`~ballbot_casadi.fmi.controller.path`): the embedded
+software with the path-following MPC in its guidance slot, the Function the compiled
+guided mission calls (:func:`~ballbot_casadi.sim.guided.guided_software`); the path
+table, the obstacles and ``path_s0`` are parameters, the guidance state ``c_guide_*``
+starts at initialisation as the mission's (``GuidanceLaw.initial_function``), and the
+outputs ``v_ref_used_x, v_ref_used_y, yaw_rate_ref_used`` give the references the
+guidance handed the velocity controller.  The velocity inputs ``v_ref_x, v_ref_y`` are
+then unused (``yaw_rate_ref`` still is).
+
 Variants: :func:`controller_spec` builds any balance controller with any estimator;
 ``("flc", "ukf")`` (the thesis's system: QUKF + VUKF, FLC) is ``BallbotController``, the
 others are separate FMUs ``BallbotController_<ctrl>_<est>`` (e.g. the predecessor's SMC
