@@ -74,8 +74,12 @@ def _default_ssp() -> Path:
 def _cmd_build_controller(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_dir(args.out, "--out")
-    b = build_fmu_from_spec(controller_spec(args.controller, args.estimator), args.out,
-                            fmi_version=args.fmi_version)
+    if args.scenario is not None:  # the path-following variant of a scenario with a [path]
+        sc = load_scenario_file(resolve_scenario(args.scenario)).scenario
+        spec = controller_spec(path=sc)
+    else:
+        spec = controller_spec(args.controller, args.estimator)
+    b = build_fmu_from_spec(spec, args.out, fmi_version=args.fmi_version)
     print(f"{b.fmu}  (FMI {b.fmi_version}.0, GUID {b.guid}, cache {b.digest}, {b.status})")
     return 0
 
@@ -147,6 +151,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--controller", default="flc", help="balance controller: "
                    + ", ".join(f"{n} (default)" if n == "flc" else n for n in BALANCE_CONTROLLERS))
     c.add_argument("--estimator", default="ukf", help="estimators: ukf (default), ekf")
+    c.add_argument("--scenario", default=None, help="a scenario file or shipped name with a "
+                   "[path] (guidance mpc): build the path-following variant "
+                   "BallbotControllerPath with its path, obstacles and gains as start values "
+                   "(its controller and estimator replace --controller, --estimator)")
     c.add_argument("--out", default=None, help="output directory (default build/fmu, FMI 3.0: "
                    "build/fmu3)")
     _version_arg(c)

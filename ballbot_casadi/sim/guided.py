@@ -33,9 +33,7 @@ from ballbot_casadi.errors import BuildError, ScenarioError, SolverError
 from ballbot_casadi.guidance.blocks import (
     make_mpc_sample,
     make_pursuit_sample,
-    mpc_initial_state,
     mpc_state_layout,
-    pursuit_initial_state,
     pursuit_parameters,
     pursuit_state_layout,
 )
@@ -53,8 +51,8 @@ from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
 
 __all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "mpc_law", "pursuit_law",
-           "guided_software", "guided_simulator", "run_guided", "run_path_scenario", "scenario_law", "predictions",
-           "GUIDANCE_EVERY", "PURSUIT_GAINS"]
+           "guided_software", "guided_simulator", "run_guided", "run_path_scenario",
+           "scenario_law", "predictions", "GUIDANCE_EVERY", "PURSUIT_GAINS"]
 
 #: The guidance laws of the slot.
 GUIDANCE_LAWS = ("mpc", "pursuit")
@@ -125,12 +123,9 @@ class GuidanceLaw:
         X0 = np.asarray(make_loop_state()(x0, z0), float).reshape(NXL)
         s0 = path.project(X0[12:14])
         g0 = np.asarray(self.initial_function()(x0, z0, s0), float).reshape(-1)
-        # the Function packs what the sample's Python start packs (one layout)
-        ref = (mpc_initial_state(self.mpc_layout, path, X0) if self.name == "mpc"
-               else pursuit_initial_state(path, X0))
-        if g0.size != ref.size + 1:
+        if g0.size != self.state.size + 1:
             raise BuildError(f"{self.name} guidance: initial state of {g0.size} entries, the "
-                             f"sample's state has {ref.size} + 1")
+                             f"sample's state has {self.state.size} + 1")
         return g0
 
     def initial_function(self) -> ca.Function:
