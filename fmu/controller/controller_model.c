@@ -12,12 +12,8 @@
  * Functions' argument positions (CTRL_<F>_ARG_<input>, CTRL_<F>_RES_<output>), which the
  * calls below set by name (fmu_casadi.h).
  *
- * With CTRL_HAS_GUIDANCE (BallbotControllerPath, ballbot_casadi/fmi/controller/path.py)
- * CTRL_EMBEDDED is the embedded software with the path-following MPC in its guidance
- * slot (the compiled guided mission's Function): it reads the path table k_guid (FMU
- * parameters, checked by check_path), its state c carries the guidance state c_guide_*,
- * which initialize() starts with CTRL_GUIDE_INITIAL (ballbot_guidance_mpc_initial, the
- * Function the mission starts from) at path_s0.
+ * CTRL_HAS_GUIDANCE (BallbotControllerPath): CTRL_EMBEDDED has the path-following MPC in
+ * its guidance slot; controller_path.c is that variant's part (path table, guidance state).
  *
  * Period k runs at t_k = startTime + k Ts.  fmi2DoStep(t_k, n Ts) runs periods k..k+n-1:
  * the first on the readings latched at t_k, the others predict only (readings missing);
@@ -36,13 +32,17 @@
 #include "ctrl_vars.h"
 #include "fmi2_common.h"
 #include "fmu_casadi.h"
+#if CTRL_HAS_GUIDANCE
+#include "controller_path.h"
+#else /* no guidance: no path to check or pass, the state at power-on is CTRL_INITIAL's */
+#define ctrl_path_check(r, msg, len) 0
+#define ctrl_path_start(cg, r, scratch) fmu_casadi_call(cg, CTRL_INITIAL_FN)
+#define ctrl_path_args(arg, res, r) ((void)0)
+#endif
 
 typedef struct {
     fmu_casadi_work cg;
     double meas[CTRL_MEAS_N], c_next[CTRL_C_N], cascade, feedforward, com_observer;
-#if CTRL_HAS_GUIDANCE
-    double c0[CTRL_C_N - CTRL_C_GUIDE_N]; /* the state at power-on without the guidance's */
-#endif
 } ctrl_work;
 
 static int quat_ok(const double *q, double tol) {
@@ -65,90 +65,6 @@ static int check_cov(const double *r, size_t first, size_t n, const char *name, 
     return 0;
 }
 
-#if CTRL_HAS_GUIDANCE
-/* Point of the path table at arc length s (s in [0, L]): linear interpolation. */
-static void path_point(const double *k, double s, double *p) {
-    const double *pts = k + CTRL_K_GUID_POINTS;
-    double u = s / k[CTRL_K_GUID_LENGTH] * (double)(CTRL_PATH_SAMPLES - 1), f;
-    long i = (long)floor(u);
-    if (i < 0) i = 0;
-    if (i > CTRL_PATH_SAMPLES - 2) i = CTRL_PATH_SAMPLES - 2;
-    f = u - (double)i;
-    p[0] = (1.0 - f) * pts[2 * i] + f * pts[2 * i + 2];
-    p[1] = (1.0 - f) * pts[2 * i + 1] + f * pts[2 * i + 3];
-}
-
-/* The path table, its obstacles and path_s0 (module docstring of
- * ballbot_casadi/fmi/controller/path.py). */
-static int check_path(const double *r, char *msg, size_t len) {
-    const double *k = r + CTRL_K_GUID_IX, *ob = k + CTRL_K_GUID_OBSTACLES;
-    const double *pts = k + CTRL_K_GUID_POINTS, *tg = k + CTRL_K_GUID_TANGENTS;
-    const double L = k[CTRL_K_GUID_LENGTH], s0 = r[CTRL_IX_path_s0];
-    const double *x0 = r + CTRL_X0_IX + CTRL_X0_X;
-    double best = INFINITY, p[2], d;
-    size_t i, j;
-    for (i = 0; i < CTRL_K_GUID_N; ++i)
-        if (!isfinite(k[i])) {
-            snprintf(msg, len, "path parameter %lu of the path table (path_length .. obstacle*_r) "
-                     "is %g: every entry must be finite", (unsigned long)i, k[i]);
-            return 1;
-        }
-    if (!(L > 0.0) || !(k[CTRL_K_GUID_CLOSED] == 0.0 || k[CTRL_K_GUID_CLOSED] == 1.0) ||
-        !(k[CTRL_K_GUID_SPEED] > 0.0 && k[CTRL_K_GUID_SPEED] <= CTRL_V_MAX)) {
-        snprintf(msg, len, "path_length = %g, path_closed = %g, path_speed = %g: need a length "
-                 "> 0, closed 0 or 1 and a speed in (0, %g] m/s", L, k[CTRL_K_GUID_CLOSED],
-                 k[CTRL_K_GUID_SPEED], CTRL_V_MAX);
-        return 1;
-    }
-    for (i = 0; i < CTRL_PATH_SAMPLES; ++i) {
-        double n = sqrt(tg[2 * i] * tg[2 * i] + tg[2 * i + 1] * tg[2 * i + 1]);
-        double dx = pts[2 * i] - x0[0], dy = pts[2 * i + 1] - x0[1];
-        if (!(fabs(n - 1.0) <= CTRL_TANGENT_TOL)) {
-            snprintf(msg, len, "path_t%lu = [%g, %g] must be a unit vector (norm 1 within %g)",
-                     (unsigned long)i, tg[2 * i], tg[2 * i + 1], CTRL_TANGENT_TOL);
-            return 1;
-        }
-        if (dx * dx + dy * dy < best) best = dx * dx + dy * dy;
-    }
-    for (j = 0; j < CTRL_PATH_OBSTACLES; ++j) {
-        const double *o = ob + 3 * j;
-        const double *at[3];
-        const char *what[3] = {"the path's start (path_p0)", "the path's end", "the robot's start "
-                               "(x0_x, x0_y)"};
-        if (!(o[2] >= 0.0)) {
-            snprintf(msg, len, "obstacle%lu_r = %g must be >= 0 (0: no obstacle)", (unsigned long)j,
-                     o[2]);
-            return 1;
-        }
-        at[0] = pts;
-        at[1] = pts + 2 * (CTRL_PATH_SAMPLES - 1);
-        at[2] = x0;
-        for (i = 0; i < 3; ++i) {
-            double dx = at[i][0] - o[0], dy = at[i][1] - o[1];
-            if (o[2] > 0.0 && dx * dx + dy * dy < o[2] * o[2]) {
-                snprintf(msg, len, "obstacle%lu (radius %g m at [%g, %g]) covers %s [%g, %g]: the "
-                         "path cannot pass through it", (unsigned long)j, o[2], o[0], o[1],
-                         what[i], at[i][0], at[i][1]);
-                return 1;
-            }
-        }
-    }
-    if (!(s0 >= 0.0 && s0 <= L)) {
-        snprintf(msg, len, "path_s0 = %g must be in [0, path_length = %g]", s0, L);
-        return 1;
-    }
-    path_point(k, s0, p);
-    d = sqrt((p[0] - x0[0]) * (p[0] - x0[0]) + (p[1] - x0[1]) * (p[1] - x0[1]));
-    if (!(d <= sqrt(best) + CTRL_S0_TOL)) {
-        snprintf(msg, len, "path_s0 = %g puts the start %g m from the robot (x0_x, x0_y), the "
-                 "nearest path point is %g m away: path_s0 must be the start's projection on "
-                 "the path (within %g m)", s0, d, sqrt(best), CTRL_S0_TOL);
-        return 1;
-    }
-    return 0;
-}
-#endif
-
 /* The attitude to check: the restored estimate, or the robot's attitude at power-on. */
 static int check_initial(const fmu_values *v, int restored, char *msg, size_t len) {
     const double *r = v->r;
@@ -163,10 +79,7 @@ static int check_initial(const fmu_values *v, int restored, char *msg, size_t le
     return check_cov(r, CTRL_QA_IX, CTRL_NQA, "Qa", msg, len) ||
            check_cov(r, CTRL_RA_IX, CTRL_NRA, "Ra", msg, len) ||
            check_cov(r, CTRL_QV_IX, CTRL_NQV, "Qv", msg, len) ||
-#if CTRL_HAS_GUIDANCE
-           check_path(r, msg, len) ||
-#endif
-           check_cov(r, CTRL_RV_IX, 6, "Rv", msg, len);
+           check_cov(r, CTRL_RV_IX, 6, "Rv", msg, len) || ctrl_path_check(r, msg, len);
 }
 
 /* Outputs that decode the state: the estimate's attitude angles and body rate. */
@@ -187,27 +100,8 @@ static fmi2Status initialize(fmu_instance *inst, fmu_values *v, double t, char *
      * of the robot's state x0_* and the controllers' model ctrl_* */
     wk->cg.arg[CTRL_INITIAL_ARG_X0] = r + CTRL_X0_IX;
     wk->cg.arg[CTRL_INITIAL_ARG_P_CTRL] = r + CTRL_P_CTRL_IX;
-#if CTRL_HAS_GUIDANCE
-    /* the state without the guidance's, then the guidance's state g0 as the compiled
-     * guided mission starts it (CTRL_GUIDE_INITIAL: the law's initial Function of the
-     * robot's state x0_*, the velocity controller's state at power-on and path_s0) */
-    wk->cg.res[CTRL_INITIAL_RES_C0] = wk->c0;
-    if (fmu_casadi_call(&wk->cg, CTRL_INITIAL_FN) != 0) {
-        snprintf(msg, len, "the state at power-on from x0_* and ctrl_* could not be computed");
-        return fmi2Error;
-    }
-    memcpy(r + CTRL_C_IX, wk->c0, CTRL_C_GUIDE * sizeof(double));
-    memcpy(r + CTRL_C_IX + CTRL_C_GUIDE + CTRL_C_GUIDE_N, wk->c0 + CTRL_C_GUIDE,
-           (CTRL_C_N - CTRL_C_GUIDE - CTRL_C_GUIDE_N) * sizeof(double));
-    wk->cg.arg[CTRL_GUIDE_INITIAL_ARG_X0] = r + CTRL_X0_IX;
-    wk->cg.arg[CTRL_GUIDE_INITIAL_ARG_Z0] = c + CTRL_C_Z;
-    wk->cg.arg[CTRL_GUIDE_INITIAL_ARG_S0] = r + CTRL_IX_path_s0;
-    wk->cg.res[CTRL_GUIDE_INITIAL_RES_G0] = r + CTRL_C_IX + CTRL_C_GUIDE;
-    if (fmu_casadi_call(&wk->cg, CTRL_GUIDE_INITIAL_FN) != 0 || !fmu_all_finite(c, CTRL_C_N)) {
-#else
     wk->cg.res[CTRL_INITIAL_RES_C0] = r + CTRL_C_IX;
-    if (fmu_casadi_call(&wk->cg, CTRL_INITIAL_FN) != 0 || !fmu_all_finite(c, CTRL_C_N)) {
-#endif
+    if (ctrl_path_start(&wk->cg, r, wk->c_next) != 0 || !fmu_all_finite(c, CTRL_C_N)) {
         snprintf(msg, len, "the state at power-on from x0_* and ctrl_* is NaN or Inf");
         return fmi2Error;
     }
@@ -278,10 +172,7 @@ static int period(ctrl_work *wk, fmu_values *v, long k, int fresh) {
     arg[CTRL_EMBEDDED_ARG_K_OBS] = r + CTRL_K_OBS_IX;
     res[CTRL_EMBEDDED_RES_COM_HAT] = r + CTRL_COM_HAT_IX;
 #endif
-#if CTRL_HAS_GUIDANCE
-    arg[CTRL_EMBEDDED_ARG_K_GUID] = r + CTRL_K_GUID_IX;
-    res[CTRL_EMBEDDED_RES_V_REF_USED] = r + CTRL_V_REF_USED_IX;
-#endif
+    ctrl_path_args(arg, res, r);
     if (fmu_casadi_call(&wk->cg, CTRL_EMBEDDED_FN) != 0) return 1;
     if (!fmu_all_finite(wk->c_next, CTRL_C_N) || !fmu_all_finite(r + CTRL_TAU_IX, CTRL_TAU_N) ||
         !fmu_all_finite(r + CTRL_TAU_CMD_IX, CTRL_TAU_CMD_N) ||

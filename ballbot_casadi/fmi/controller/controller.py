@@ -110,6 +110,7 @@ from ballbot_casadi.fmi.controller.path import (
     path_parameter_values,
 )
 from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.package import fmu_source_dir
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.guidance.path_table import path_table_layout
 from ballbot_casadi.sim.embedded import (
@@ -626,6 +627,8 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf",
         functions=tuple(functions),
         model_source="controller/controller_model.c",
         cg_name="ballbot_controller_cg",
+        extra_sources=tuple(fmu_source_dir() / "controller" / f"controller_path.{x}"
+                            for x in ("c", "h")) if law is not None else (),
         interfaces=("cs",),
         defines=tuple((k, str(v)) for k, v in defines.items()),
         blocks=tuple(blocks),
