@@ -39,6 +39,7 @@ from ballbot_casadi.fmi.masters.ssp_run import run_ssp
 from ballbot_casadi.fmi.system.sil import SilRun
 from ballbot_casadi.fmi.system.sil_log import sil_log
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.guided import run_path_scenario
 from ballbot_casadi.sim.log import save_log
 from ballbot_casadi.studies.registry import Spec, evaluate_specs
 from ballbot_casadi.studies.study import OWNED_OUTPUTS, _report, _result, jsonable, plot_run
@@ -54,7 +55,8 @@ def mission_difference(run: SilRun, log_arrays: dict[str, np.ndarray]) -> dict[s
 
     ``libcosim`` (Jacobi) is compared with the compiled mission with ``actuation_delay`` (:func:`run_scenario`),
     ``gauss-seidel`` with the compiled mission itself (:func:`run_scenario`), over the
-    periods the run covers.  Returns ``reference``, ``state_max``, ``tau_max``,
+    periods the run covers; a scenario with a ``[path]`` with the compiled guided mission
+    (:func:`~ballbot_casadi.sim.guided.run_path_scenario`, with or without the delay).  Returns ``reference``, ``state_max``, ``tau_max``,
     ``tau_cmd_max``, ``x_hat_max`` and the per-period differences ``state_diff``,
     ``tau_diff`` (for the plot).
     """
@@ -63,11 +65,13 @@ def mission_difference(run: SilRun, log_arrays: dict[str, np.ndarray]) -> dict[s
         raise ScenarioError("the SSP carries no scenario to compare with")
     n = log_arrays["tau"].shape[0]
     sc = sc.replace(duration=n * sc.Ts) if sc.n_periods != n else sc
-    if run.master == "libcosim":
-        ref = run_scenario(sc, ClosedLoop(), actuation_delay=True).arrays
-        what = "compiled mission with one period of actuation delay (Jacobi)"
+    delay = run.master == "libcosim"
+    if sc.route.build() is not None:  # the guided mission (the path-following variant)
+        ref = run_path_scenario(sc, actuation_delay=delay).arrays
     else:
-        ref, what = run_scenario(sc, ClosedLoop()).arrays, "compiled mission"
+        ref = run_scenario(sc, ClosedLoop(), actuation_delay=delay).arrays
+    what = ("compiled mission with one period of actuation delay (Jacobi)" if delay
+            else "compiled mission")
     ds = np.max(np.abs(log_arrays["state"] - ref["state"]), axis=1)
     dt = np.max(np.abs(log_arrays["tau"] - ref["tau"]), axis=1)
     return {"reference": what, "state_max": float(ds.max()), "tau_max": float(dt.max()),

@@ -74,8 +74,12 @@ def _default_ssp() -> Path:
 def _cmd_build_controller(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_dir(args.out, "--out")
-    b = build_fmu_from_spec(controller_spec(args.controller, args.estimator), args.out,
-                            fmi_version=args.fmi_version)
+    if args.scenario is not None:  # the path-following variant of a scenario with a [path]
+        sc = load_scenario_file(resolve_scenario(args.scenario)).scenario
+        spec = controller_spec(path=sc)
+    else:
+        spec = controller_spec(args.controller, args.estimator)
+    b = build_fmu_from_spec(spec, args.out, fmi_version=args.fmi_version)
     print(f"{b.fmu}  (FMI {b.fmi_version}.0, GUID {b.guid}, cache {b.digest}, {b.status})")
     return 0
 
@@ -88,8 +92,9 @@ def _cmd_ssp(args: argparse.Namespace) -> int:
     sc = source.scenario if args.duration is None else source.scenario.replace(
         duration=args.duration)
     path = write_sil_ssp(sc, out, plant, specs=source.specs, source=str(source.path))
-    print(f"{path}  (scenario {sc.name}: {sc.controller}, estimator {sc.estimator}, seed "
-          f"{sc.seed}, {sc.duration:g} s; plant {plant or 'BallbotPlant.fmu'})")
+    guided = f", path following ({sc.guidance})" if sc.route.build() is not None else ""
+    print(f"{path}  (scenario {sc.name}: {sc.controller}, estimator {sc.estimator}{guided}, "
+          f"seed {sc.seed}, {sc.duration:g} s; plant {plant or 'BallbotPlant.fmu'})")
     return 0
 
 
@@ -146,6 +151,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--controller", default="flc", help="balance controller: "
                    + ", ".join(f"{n} (default)" if n == "flc" else n for n in BALANCE_CONTROLLERS))
     c.add_argument("--estimator", default="ukf", help="estimators: ukf (default), ekf")
+    c.add_argument("--scenario", default=None, help="a scenario file or shipped name with a "
+                   "[path] (guidance mpc): build the path-following variant "
+                   "BallbotControllerPath with its path, obstacles and gains as start values "
+                   "(its controller and estimator replace --controller, --estimator)")
     c.add_argument("--out", default=None, help="output directory (default build/fmu, FMI 3.0: "
                    "build/fmu3)")
     _version_arg(c)
@@ -153,7 +162,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     s = fsub.add_parser("ssp", help="write the SIL system (plant + controller + reference FMUs, "
                         "connections, parameter set) as an SSP 1.0 archive")
     s.add_argument("--scenario", default="full_sine", help="scenario file or shipped name with "
-                   "an estimator (default full_sine: roll sine, noise, QUKF + VUKF)")
+                   "an estimator (default full_sine: roll sine, noise, QUKF + VUKF); one with a "
+                   "[path] gets the path-following controller FMU (e.g. path_fig8_mpc_ukf)")
     s.add_argument("--plant", default=None, help="your plant FMU with the variable names of "
                    "BallbotPlant.fmu (default: BallbotPlant.fmu)")
     s.add_argument("--duration", type=float, default=None, help="simulated time (s; default the "

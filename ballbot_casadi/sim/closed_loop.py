@@ -95,6 +95,10 @@ class ClosedLoop:
         software runs (``"ukf"``, ``"ekf"``).
     library
         Name of the compiled library of custom ``steps``.
+    actuation_delay
+        Custom ``steps`` hold the torque one period (built with ``actuation_delay``,
+        :func:`~ballbot_casadi.sim.steps.make_estimating_step`): missions of them are run
+        with ``actuation_delay=True``.
 
     Notes
     -----
@@ -111,6 +115,7 @@ class ClosedLoop:
         use_driver: bool = True,
         estimator: str = "true",
         library: str = "ballbot_closed_loop_custom",
+        actuation_delay: bool = False,
     ) -> None:
         if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
             raise ScenarioError(f"n_sub must be an int >= 1, got {n_sub!r}")
@@ -125,8 +130,8 @@ class ClosedLoop:
             if compiled:
                 funcs = [g for f in steps.values() for g in (f, make_chunk(f))]
                 lib = build_library(library, funcs, root)
-            self._variants[(self.n_sub, estimator, False)] = MissionVariant(steps, lib,
-                                                                            self.use_driver)
+            self._variants[(self.n_sub, estimator, bool(actuation_delay))] = MissionVariant(
+                steps, lib, self.use_driver)
         else:
             self._variant(self.n_sub)
 

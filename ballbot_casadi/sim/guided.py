@@ -33,9 +33,7 @@ from ballbot_casadi.errors import BuildError, ScenarioError, SolverError
 from ballbot_casadi.guidance.blocks import (
     make_mpc_sample,
     make_pursuit_sample,
-    mpc_initial_state,
     mpc_state_layout,
-    pursuit_initial_state,
     pursuit_parameters,
     pursuit_state_layout,
 )
@@ -53,8 +51,9 @@ from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
 
 __all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "mpc_law", "pursuit_law",
-           "guided_simulator", "run_guided", "run_path_scenario", "scenario_law", "predictions",
-           "GUIDANCE_EVERY", "PURSUIT_GAINS", "path_metadata", "PATH_LOG_SPACING"]
+           "guided_software", "guided_simulator", "run_guided", "run_path_scenario",
+           "scenario_law", "predictions", "GUIDANCE_EVERY", "PURSUIT_GAINS", "path_metadata",
+           "PATH_LOG_SPACING"]
 
 #: The guidance laws of the slot.
 GUIDANCE_LAWS = ("mpc", "pursuit")
@@ -122,13 +121,26 @@ class GuidanceLaw:
         return pursuit_parameters(path, **dict(self.options))
 
     def initial_state(self, path: Path, x0: np.ndarray, z0: np.ndarray) -> np.ndarray:
-        """``g0``: period counter 0 and the sample's initial state at ``x0``, ``z0``."""
+        """``g0``: period counter 0 and the sample's initial state at ``x0``, ``z0``
+        (:meth:`initial_function` at the projection of the position onto ``path``)."""
         X0 = np.asarray(make_loop_state()(x0, z0), float).reshape(NXL)
-        if self.name == "mpc":
-            g = mpc_initial_state(self.mpc_layout, path, X0)
-        else:
-            g = pursuit_initial_state(path, X0)
-        return np.r_[0.0, g]
+        s0 = path.project(X0[12:14])
+        g0 = np.asarray(self.initial_function()(x0, z0, s0), float).reshape(-1)
+        if g0.size != self.state.size + 1:
+            raise BuildError(f"{self.name} guidance: initial state of {g0.size} entries, the "
+                             f"sample's state has {self.state.size} + 1")
+        return g0
+
+    def initial_function(self) -> ca.Function:
+        """``ballbot_guidance_<name>_initial(x0[12], z0, s0) -> g0``: the block's state
+        before the first period (counter 0; no velocity reference yet; the MPC: ``first =
+        1`` and its state at the loop state of ``x0``, ``z0`` with progress ``s0``, the
+        rest zero; pure pursuit: the projection ``s0``), from the robot's state at power-on
+        ``x0``, the velocity controller's state ``z0`` and ``s0``, the arc length of the
+        path point nearest the start (:meth:`Path.project
+        <ballbot_casadi.guidance.paths.Path.project>`).  The compiled mission and the
+        path-following controller FMU start from it."""
+        return _initial_function(self.name, self.state)
 
 
 class _Key:
@@ -178,7 +190,42 @@ def pursuit_law(lookahead: float = PURSUIT_GAINS[0], k_lat: float = PURSUIT_GAIN
 
 
 @lru_cache(maxsize=None)
-def _simulator(function: ca.Function, estimator: str) -> ClosedLoop:
+def _initial_function(name: str, state: Layout) -> ca.Function:
+    x0, s0 = ca.SX.sym("x0", 12), ca.SX.sym("s0")
+    loop_state = make_loop_state()
+    z0 = ca.SX.sym("z0", loop_state.numel_in(1))
+    X0 = loop_state(x0, z0)
+    if name == "mpc":
+        parts = {"first": ca.DM(1.0), "x0": ca.vertcat(X0, s0, 0.0)}
+    else:
+        parts = {"s": s0}
+    g = ca.vertcat(*(parts.get(f, ca.DM.zeros(state.size_of(f))) for f in state.fields))
+    return ca.Function(f"ballbot_guidance_{name}_initial", [x0, z0, s0], [ca.vertcat(0.0, g)],
+                       ["x0", "z0", "s0"], ["g0"])
+
+
+@lru_cache(maxsize=None)
+def guided_software(law: GuidanceLaw, estimator: str = "ukf") -> ca.Function:
+    """The embedded software with ``law`` in its guidance slot,
+    ``ballbot_embedded_<...>_<estimator>`` (inputs end with ``k_guid``, outputs with
+    ``v_ref_used``, its state ``c`` carries ``guide``), built once per process: the
+    compiled guided mission calls this Function and the path-following controller FMU
+    is generated from it.
+
+    Raises
+    ------
+    ScenarioError
+        ``estimator`` is not one the embedded software runs (``ukf``, ``ekf``).
+    """
+    if estimator not in ("ukf", "ekf"):
+        raise ScenarioError(f"the embedded software with guidance reads sensors: estimator "
+                            f"{estimator!r} not allowed; allowed: ukf, ekf")
+    return embedded_software("flc", estimator, guidance=law.function)
+
+
+@lru_cache(maxsize=None)
+def _simulator(function: ca.Function, estimator: str, actuation_delay: bool = False
+               ) -> ClosedLoop:
     blocks, est = (software_blocks("flc", estimator) if estimator != "true"
                    else software_blocks("flc", "ukf"))
     if estimator == "true":
@@ -188,23 +235,32 @@ def _simulator(function: ca.Function, estimator: str) -> ClosedLoop:
         step = make_estimating_step(blocks.balance, blocks.velocity, est.ode, make_wheel_speeds(),
                                     est, N_SUB,
                                     embedded=embedded_software("flc", estimator, guidance=function),
-                                    observer=blocks.observer, guidance=function)
-    return ClosedLoop(steps={"flc": step}, estimator=estimator,
-                      library=f"{function.name()}_{estimator}")
+                                    observer=blocks.observer, guidance=function,
+                                    actuation_delay=actuation_delay)
+    name = f"{function.name()}_{estimator}{'_delayed' if actuation_delay else ''}"
+    return ClosedLoop(steps={"flc": step}, estimator=estimator, library=name,
+                      actuation_delay=actuation_delay)
 
 
-def guided_simulator(law: GuidanceLaw, estimator: str = "true") -> ClosedLoop:
+def guided_simulator(law: GuidanceLaw, estimator: str = "true",
+                     actuation_delay: bool = False) -> ClosedLoop:
     """The compiled closed loop (FLC cascade, the guidance block in the period) reading
     the true state or, with ``estimator`` ``ukf`` / ``ekf``, the embedded software's
-    estimate (built and compiled once per process, cached by hash on disk)."""
+    estimate (:func:`guided_software`; built and compiled once per process, cached by
+    hash on disk).  ``actuation_delay`` (an estimator only): the torque of period ``k``
+    acts in period ``k + 1`` (the loop of a Jacobi co-simulation master)."""
     if estimator not in ("true", "ukf", "ekf"):
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, ukf, ekf")
-    return _simulator(law.function, estimator)
+    if actuation_delay and estimator == "true":
+        raise ScenarioError("actuation_delay needs an estimator (the loop of the controller "
+                            "FMU): ukf or ekf")
+    return _simulator(law.function, estimator, bool(actuation_delay))
 
 
 def run_guided(path: Path, law: GuidanceLaw, duration: float, estimator: str = "true",
                seed: int = 0, sim: ClosedLoop | None = None,
-               scenario: Scenario | None = None) -> dict[str, np.ndarray]:
+               scenario: Scenario | None = None,
+               actuation_delay: bool = False) -> dict[str, np.ndarray]:
     """Follow ``path`` for ``duration`` s in one compiled mission (standing at its start,
     or as ``scenario`` says: its initial state, disturbances, estimator, seed, ...).
 
@@ -225,10 +281,11 @@ def run_guided(path: Path, law: GuidanceLaw, duration: float, estimator: str = "
     inp = sc.inputs()
     if sc.estimator != "true":
         inp = power_on_inputs(sc.estimator, inp)
-    sim = guided_simulator(law, sc.estimator) if sim is None else sim
+    sim = guided_simulator(law, sc.estimator, actuation_delay) if sim is None else sim
     g0 = law.initial_state(path, inp["x0"], inp["z0"])
     try:
-        return sim.simulate("flc", **inp, n_sub=sc.n_sub, k_guid=law.parameters(path), g0=g0)
+        return sim.simulate("flc", **inp, n_sub=sc.n_sub, k_guid=law.parameters(path), g0=g0,
+                            actuation_delay=actuation_delay)
     except BuildError as exc:
         raise SolverError(f"path following stopped: a {law.name} guidance sample failed in "
                           f"the generated C (a QP that did not converge): {exc}") from None
@@ -242,13 +299,17 @@ def scenario_law(scenario: Scenario) -> GuidanceLaw:
     return mpc_law(inp["p_ctrl"], inp["k_vel"])
 
 
-def run_path_scenario(scenario: Scenario, sim: ClosedLoop | None = None) -> SimulationLog:
+def run_path_scenario(scenario: Scenario, sim: ClosedLoop | None = None,
+                      actuation_delay: bool = False) -> SimulationLog:
     """Run a scenario with a ``[path]`` (:mod:`~ballbot_casadi.sim.scenario.path_section`)
-    as a :class:`~ballbot_casadi.sim.log.SimulationLog` (arrays of :func:`run_guided`)."""
+    as a :class:`~ballbot_casadi.sim.log.SimulationLog` (arrays of :func:`run_guided`;
+    ``actuation_delay``: the torque held one period, as under a Jacobi co-simulation
+    master)."""
     path = scenario.route.build()
     if path is None:
         raise ScenarioError(f"scenario {scenario.name!r} has no [path] to follow", key="path")
-    log = run_guided(path, scenario_law(scenario), scenario.duration, sim=sim, scenario=scenario)
+    log = run_guided(path, scenario_law(scenario), scenario.duration, sim=sim, scenario=scenario,
+                     actuation_delay=actuation_delay)
     log.pop("xz_final", None)
     return SimulationLog(arrays=log, scenario=scenario.to_dict(), params=scenario.plant_params(),
                          ctrl_params=scenario.controller_params(),

@@ -12,6 +12,9 @@
  * Functions' argument positions (CTRL_<F>_ARG_<input>, CTRL_<F>_RES_<output>), which the
  * calls below set by name (fmu_casadi.h).
  *
+ * CTRL_HAS_GUIDANCE (BallbotControllerPath): CTRL_EMBEDDED has the path-following MPC in
+ * its guidance slot; controller_path.c is that variant's part (path table, guidance state).
+ *
  * Period k runs at t_k = startTime + k Ts.  fmi2DoStep(t_k, n Ts) runs periods k..k+n-1:
  * the first on the readings latched at t_k, the others predict only (readings missing);
  * a step within CTRL_STEP_TOL Ts of n Ts counts as n periods, and n = 0 (a step far
@@ -29,6 +32,13 @@
 #include "ctrl_vars.h"
 #include "fmi2_common.h"
 #include "fmu_casadi.h"
+#if CTRL_HAS_GUIDANCE
+#include "controller_path.h"
+#else /* no guidance: no path to check or pass, the state at power-on is CTRL_INITIAL's */
+#define ctrl_path_check(r, msg, len) 0
+#define ctrl_path_start(cg, r, scratch) fmu_casadi_call(cg, CTRL_INITIAL_FN)
+#define ctrl_path_args(arg, res, r) ((void)0)
+#endif
 
 typedef struct {
     fmu_casadi_work cg;
@@ -69,7 +79,7 @@ static int check_initial(const fmu_values *v, int restored, char *msg, size_t le
     return check_cov(r, CTRL_QA_IX, CTRL_NQA, "Qa", msg, len) ||
            check_cov(r, CTRL_RA_IX, CTRL_NRA, "Ra", msg, len) ||
            check_cov(r, CTRL_QV_IX, CTRL_NQV, "Qv", msg, len) ||
-           check_cov(r, CTRL_RV_IX, 6, "Rv", msg, len);
+           check_cov(r, CTRL_RV_IX, 6, "Rv", msg, len) || ctrl_path_check(r, msg, len);
 }
 
 /* Outputs that decode the state: the estimate's attitude angles and body rate. */
@@ -91,7 +101,7 @@ static fmi2Status initialize(fmu_instance *inst, fmu_values *v, double t, char *
     wk->cg.arg[CTRL_INITIAL_ARG_X0] = r + CTRL_X0_IX;
     wk->cg.arg[CTRL_INITIAL_ARG_P_CTRL] = r + CTRL_P_CTRL_IX;
     wk->cg.res[CTRL_INITIAL_RES_C0] = r + CTRL_C_IX;
-    if (fmu_casadi_call(&wk->cg, CTRL_INITIAL_FN) != 0 || !fmu_all_finite(c, CTRL_C_N)) {
+    if (ctrl_path_start(&wk->cg, r, wk->c_next) != 0 || !fmu_all_finite(c, CTRL_C_N)) {
         snprintf(msg, len, "the state at power-on from x0_* and ctrl_* is NaN or Inf");
         return fmi2Error;
     }
@@ -162,6 +172,7 @@ static int period(ctrl_work *wk, fmu_values *v, long k, int fresh) {
     arg[CTRL_EMBEDDED_ARG_K_OBS] = r + CTRL_K_OBS_IX;
     res[CTRL_EMBEDDED_RES_COM_HAT] = r + CTRL_COM_HAT_IX;
 #endif
+    ctrl_path_args(arg, res, r);
     if (fmu_casadi_call(&wk->cg, CTRL_EMBEDDED_FN) != 0) return 1;
     if (!fmu_all_finite(wk->c_next, CTRL_C_N) || !fmu_all_finite(r + CTRL_TAU_IX, CTRL_TAU_N) ||
         !fmu_all_finite(r + CTRL_TAU_CMD_IX, CTRL_TAU_CMD_N) ||

@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from ballbot_casadi.guidance.blocks import mpc_initial_state, pursuit_initial_state
 from ballbot_casadi.guidance.mpc import PathMPC
 from ballbot_casadi.guidance.path_table import PathSymbols, pack_path, path_eval
 from ballbot_casadi.guidance.paths import figure_eight, line_path, waypoint_path
@@ -20,7 +21,12 @@ from ballbot_casadi.sim.guided import (
     pursuit_law,
     run_guided,
 )
-from ballbot_casadi.sim.path_following import path_scenario, run_path, velocity_loop_model
+from ballbot_casadi.sim.path_following import (
+    make_loop_state,
+    path_scenario,
+    run_path,
+    velocity_loop_model,
+)
 
 DURATION = 3.0
 
@@ -114,3 +120,18 @@ def test_pure_pursuit_with_noise_and_the_ukfs_follows_the_figure_eight():
         lat.append(np.linalg.norm(p.point(s) - q))
     assert max(lat) < 0.10
     assert np.linalg.norm(log["state"][-1, :2] - log["state"][0, :2]) > 1.0
+
+
+def test_the_initial_function_starts_the_guidance_as_the_python_samples(path, inputs, law):
+    # g0 of the mission and of the path-following controller FMU (one Function) packs what
+    # the sample's Python start packs, at a position off the path and a moving start
+    x0 = np.array(inputs["x0"], float).reshape(-1)
+    x0[0:2], x0[6:8] = (0.4, 0.25), (0.1, -0.05)
+    z0 = np.linspace(0.01, 0.08, make_loop_state().numel_in(1))
+    X0 = np.asarray(make_loop_state()(x0, z0), float).reshape(-1)
+    for lw, ref in ((law, mpc_initial_state(law.mpc_layout, path, X0)),
+                    (pursuit_law(), pursuit_initial_state(path, X0))):
+        g0 = lw.initial_state(path, x0, z0)
+        assert g0[0] == 0.0
+        np.testing.assert_array_equal(g0[1:], ref)
+        assert lw.initial_function().name() == f"ballbot_guidance_{lw.name}_initial"

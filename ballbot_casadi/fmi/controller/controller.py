@@ -11,6 +11,16 @@ layer is the plant's (``fmu/layer/fmi2_common.c`` and its parts), the table belo
 generates ``modelDescription.xml`` and the C
 headers.
 
+Path following: :func:`controller_spec` with a scenario that has a ``[path]`` builds
+``BallbotControllerPath`` (:mod:`~ballbot_casadi.fmi.controller.path`): the embedded
+software with the path-following MPC in its guidance slot, the Function the compiled
+guided mission calls (:func:`~ballbot_casadi.sim.guided.guided_software`); the path
+table, the obstacles and ``path_s0`` are parameters, the guidance state ``c_guide_*``
+starts at initialisation as the mission's (``GuidanceLaw.initial_function``), and the
+outputs ``v_ref_used_x, v_ref_used_y, yaw_rate_ref_used`` give the references the
+guidance handed the velocity controller.  The velocity inputs ``v_ref_x, v_ref_y`` are
+then unused (``yaw_rate_ref`` still is).
+
 Variants: :func:`controller_spec` builds any balance controller with any estimator;
 ``("flc", "ukf")`` (the thesis's system: QUKF + VUKF, FLC) is ``BallbotController``, the
 others are separate FMUs ``BallbotController_<ctrl>_<est>`` (e.g. the predecessor's SMC
@@ -90,8 +100,19 @@ from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
 from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_GAIN_NAMES
+from ballbot_casadi.fmi.controller.path import (
+    PATH_MODEL_IDENTIFIER,
+    S0_NAME,
+    path_c_defines,
+    path_law,
+    path_parameter_descriptions,
+    path_parameter_names,
+    path_parameter_values,
+)
 from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.package import fmu_source_dir
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
+from ballbot_casadi.guidance.path_table import path_table_layout
 from ballbot_casadi.sim.embedded import (
     GATE_GROUPS,
     MEAS_HEADING,
@@ -100,9 +121,12 @@ from ballbot_casadi.sim.embedded import (
     readings_layout,
     software_layout,
 )
+from ballbot_casadi.sim.guided import GuidanceLaw, guided_software
 from ballbot_casadi.sim.ports import (
     EMBEDDED_INPUTS,
     EMBEDDED_OUTPUTS,
+    GUIDANCE_CONSTANTS,
+    GUIDANCE_OUTPUTS,
     MODEL_CONSTANTS,
     OBSERVER_CONSTANTS,
     OBSERVER_OUTPUTS,
@@ -124,6 +148,8 @@ __all__ = [
     "controller_state_layout",
     "initial_state_function",
     "X0_NAMES",
+    "V_REF_USED_NAMES",
+    "path_embedded_function",
     "controller_variables",
     "controller_values",
     "controller_spec",
@@ -158,6 +184,8 @@ XHAT_NAMES = ("pos_hat_x", "pos_hat_y", "q_hat0", "q_hat1", "q_hat2", "q_hat3", 
 #: The innovation-gate rejections of the last period (outputs, 1 = rejected), one per
 #: measurement group of :data:`~ballbot_casadi.sim.embedded.GATE_GROUPS`.
 REJECTION_NAMES = tuple(f"rejected_{g}" for g in GATE_GROUPS.fields)
+#: The velocity reference the guidance block gave the velocity controller (path variant outputs).
+V_REF_USED_NAMES = ("v_ref_used_x", "v_ref_used_y", "yaw_rate_ref_used")
 #: The robot's state at power-on (parameters): ``x0_<state name>``.
 X0_NAMES = tuple(f"x0_{n}" for n in STATE.names)
 _XHAT_UNITS = ("m", "m", "1", "1", "1", "1", "m/s", "m/s", "1/s", "1/s", "1/s", "1/s")
@@ -217,14 +245,41 @@ def embedded_function(controller: str = "flc", estimator: str = "ukf") -> ca.Fun
     return f
 
 
+def path_embedded_function(law: GuidanceLaw, estimator: str = "ukf") -> ca.Function:
+    """The embedded software with the guidance ``law`` in its slot
+    (:func:`~ballbot_casadi.sim.guided.guided_software`: the Function the compiled guided
+    mission calls), checked against what the per-model C reads.
+
+    Raises
+    ------
+    BuildError
+        The Function's inputs or outputs are not the ones the per-model C reads.
+    """
+    f = guided_software(law, estimator)
+    ins, outs = tuple(f.name_in()), tuple(f.name_out())
+    want_in = (*EMBEDDED_INPUTS, *OBSERVER_CONSTANTS, *GUIDANCE_CONSTANTS)
+    want_out = (*EMBEDDED_OUTPUTS, *OBSERVER_OUTPUTS, *GUIDANCE_OUTPUTS)
+    if ins != want_in or outs != want_out:
+        raise BuildError(f"{f.name()} has inputs {ins} and outputs {outs}; the path-following "
+                         f"controller FMU reads {want_in} -> {want_out}")
+    return f
+
+
 def _has_observer(embedded: ca.Function) -> bool:
     return OBSERVER_CONSTANTS[0] in embedded.name_in()
 
 
-def controller_state_layout(embedded: ca.Function, estimator: str) -> Layout:
+def _has_guidance(embedded: ca.Function) -> bool:
+    return GUIDANCE_CONSTANTS[0] in embedded.name_in()
+
+
+def controller_state_layout(embedded: ca.Function, estimator: str,
+                            law: GuidanceLaw | None = None) -> Layout:
     """Layout of the embedded software's state ``c``
-    (:func:`~ballbot_casadi.sim.embedded.software_layout`)."""
-    return software_layout(embedded, estimator)
+    (:func:`~ballbot_casadi.sim.embedded.software_layout`; with the guidance ``law`` its
+    state ``guide``)."""
+    return software_layout(embedded, estimator,
+                           law.function.numel_in(2) if law is not None else 0)
 
 
 def default_scenario(controller: str = "flc", estimator: str = "ukf") -> Scenario:
@@ -255,8 +310,8 @@ def _side(embedded: ca.Function, arg: str) -> int:
     return int(round(np.sqrt(embedded.size1_in(embedded.index_in(arg)))))
 
 
-def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
-                      ) -> list[tuple[str, list[str]]]:
+def _parameter_groups(embedded: ca.Function, controller: str, estimator: str,
+                      law: GuidanceLaw | None = None) -> list[tuple[str, list[str]]]:
     """``(Function input, [FMU parameter names])`` of every vector parameter, in the
     Function's element order."""
     nv = int(round(np.sqrt(embedded.size1_in(EMBEDDED_INPUTS.index("Qv")))))
@@ -272,6 +327,10 @@ def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
     ]
     if _has_observer(embedded):
         groups.append(("k_obs", [f"k_obs_{n}" for n in COM_OBSERVER_GAIN_NAMES]))
+    if _has_guidance(embedded):
+        if law is None:
+            raise BuildError(f"{embedded.name()} has a guidance block: give its law")
+        groups.append(("k_guid", list(path_parameter_names(law))))
     for arg, names in groups:
         if len(names) != embedded.size1_in(embedded.index_in(arg)):
             raise BuildError(f"{embedded.name()}: input {arg} has "
@@ -280,33 +339,40 @@ def _parameter_groups(embedded: ca.Function, controller: str, estimator: str
     return groups
 
 
-def initial_state_function(embedded: ca.Function, estimator: str) -> ca.Function:
+def initial_state_function(embedded: ca.Function, estimator: str,
+                           law: GuidanceLaw | None = None) -> ca.Function:
     """The power-on state Function of the embedded software ``embedded``
     (:func:`~ballbot_casadi.sim.embedded.initial_controller_state_function`, with the COM
-    observer's part when ``embedded`` has the observer), checked against its state.
+    observer's part when ``embedded`` has the observer), checked against its state (with
+    the guidance ``law``: all but the guidance state ``guide``, which the FMU starts with
+    the law's own initial Function).
 
     Raises
     ------
     BuildError
         The Function's output is not the embedded software's state.
     """
-    layout = software_layout(embedded, estimator)
+    n_guide = law.function.numel_in(2) if law is not None else 0
+    layout = software_layout(embedded, estimator, n_guide)
     n_bal = layout.size_of("bal") if "bal" in layout.fields else 0
     f = initial_controller_state_function(estimator, _has_observer(embedded), n_bal)
-    if f.size1_out(0) != embedded.size1_in(0):
+    if f.size1_out(0) + n_guide != embedded.size1_in(0):
         raise BuildError(f"{f.name()} gives {f.size1_out(0)} entries, {embedded.name()}'s state "
                          f"has {embedded.size1_in(0)}")
     return f
 
 
-def controller_values(scenario: Scenario, embedded: ca.Function | None = None
-                      ) -> dict[str, float | bool]:
+def controller_values(scenario: Scenario, embedded: ca.Function | None = None,
+                      law: GuidanceLaw | None = None) -> dict[str, float | bool]:
     """Values of the controller FMU's parameters for ``scenario`` (FMU name -> value).
 
     The scenario's controller model (``ctrl_*``), filter model (``est_*``), gains,
     feed-forward mode, filter tuning, COM observer and the robot's state at power-on
     (``x0_*``, from which the FMU starts the velocity controller, filters and observer as
-    the compiled mission starts them).  Booleans are Python ``bool``.
+    the compiled mission starts them); with the guidance ``law`` (the path-following
+    variant, ``embedded`` from :func:`path_embedded_function`) the path table and
+    ``path_s0`` (:func:`~ballbot_casadi.fmi.controller.path.path_parameter_values`).
+    Booleans are Python ``bool``.
 
     Raises
     ------
@@ -324,26 +390,36 @@ def controller_values(scenario: Scenario, embedded: ca.Function | None = None
                "k_vel": inp["k_vel"], "Qa": est["Qa"], "Ra": est["Ra"], "Qv": est["Qv"],
                "Rv": est["Rv"], "k_obs": inp.get("k_obs")}
     out: dict[str, float | bool] = {"Ts": float(inp["Ts"]), "feedforward": bool(inp["feedforward"])}
-    for arg, names in _parameter_groups(embedded, scenario.controller, scenario.estimator):
+    path_values = path_parameter_values(scenario, law) if law is not None else {}
+    for arg, names in _parameter_groups(embedded, scenario.controller, scenario.estimator, law):
+        if arg == "k_guid":
+            out.update({n: path_values[n] for n in names})
+            continue
         vals = np.asarray(vectors[arg], float).ravel(order="F")
         out.update({n: float(v) for n, v in zip(names, vals, strict=True)})
     if _has_observer(embedded):
         out["com_observer"] = bool(inp["com_observer"])
     out.update({n: float(v) for n, v in zip(X0_NAMES, np.asarray(inp["x0"], float).ravel(),
                                             strict=True)})
+    if law is not None:
+        out[S0_NAME] = path_values[S0_NAME]
     return out
 
 
 def controller_variables(embedded: ca.Function, controller: str, estimator: str,
-                         start: Mapping[str, float | bool] | None = None) -> tuple[FmuVar, ...]:
+                         start: Mapping[str, float | bool] | None = None,
+                         law: GuidanceLaw | None = None) -> tuple[FmuVar, ...]:
     """The variable table of the controller FMU (module docstring), ordered by VR.
 
     ``start`` gives the parameters' start values (default :func:`controller_values` of
-    :func:`default_scenario`).
+    :func:`default_scenario`; the path-following variant, with ``law``, needs them).
     """
+    if start is None and law is not None:
+        raise BuildError("the path-following controller FMU's start values come from a path "
+                         "scenario: give start")
     start = controller_values(default_scenario(controller, estimator), embedded) \
         if start is None else start
-    layout = controller_state_layout(embedded, estimator)
+    layout = controller_state_layout(embedded, estimator, law)
     t = VarTable()
     for name in reading_names(estimator):
         group = name.removeprefix("sensor_").rstrip("xyz012_")
@@ -400,11 +476,21 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
         for c in "xy":
             t.add(f"com_hat_{c}", "discrete_output", f"COM offset estimate along body {c}",
                   unit="m")
+    if law is not None:
+        for name, what, unit in zip(V_REF_USED_NAMES, ("ball velocity reference along x",
+                                                       "ball velocity reference along y",
+                                                       "heading-rate reference"),
+                                    ("m/s", "m/s", "rad/s"), strict=True):
+            t.add(name, "discrete_output", f"{what} the path-following guidance gave the "
+                  "velocity controller in the last period", unit=unit)
     t.add("Ts", "parameter", "period of the embedded software; a communication step must be a "
           "whole number of periods", start=float(start["Ts"]), unit="s", rule="pos")
-    for arg, names in _parameter_groups(embedded, controller, estimator):
+    path_desc = path_parameter_descriptions(law) if law is not None else {}
+    for arg, names in _parameter_groups(embedded, controller, estimator, law):
         for n in names:
             unit, rule, desc = None, None, f"{arg} entry {n}"
+            if n in path_desc:
+                desc, unit = path_desc[n]
             if arg in MODEL_CONSTANTS:
                 base = n.split("_", 1)[1]
                 unit, pdesc, rule = PARAM_INFO[base]
@@ -421,6 +507,9 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
         t.add(name, "parameter", f"robot state {name[3:]} at power-on: the embedded software "
               "starts aligned with it (start-up calibration at rest)", start=float(start[name]),
               unit=unit)
+    if law is not None:
+        desc, unit = path_desc[S0_NAME]
+        t.add(S0_NAME, "parameter", desc, start=float(start[S0_NAME]), unit=unit)
     for f in layout.fields:
         n = layout.size_of(f)
         for name in _element_names(f"c_{f}", n):
@@ -438,12 +527,36 @@ def _rpy_function() -> ca.Function:
     return ca.Function("bbc_rpy", [q], [Q.to_rpy(q)], ["q"], ["rpy"])
 
 
-def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
-    """The controller FMU of ``controller`` with ``estimator`` (Co-Simulation only)."""
-    embedded = embedded_function(controller, estimator)
-    initial = initial_state_function(embedded, estimator)
-    rows = controller_variables(embedded, controller, estimator)
-    layout = controller_state_layout(embedded, estimator)
+def controller_spec(controller: str = "flc", estimator: str = "ukf",
+                    path: Scenario | None = None) -> FmuSpec:
+    """The controller FMU of ``controller`` with ``estimator`` (Co-Simulation only).
+
+    With ``path`` (a scenario with a ``[path]``; its controller and estimator replace the
+    arguments) the path-following variant ``BallbotControllerPath[_ekf]``: the embedded
+    software with the scenario's MPC guidance (:func:`path_embedded_function`), the path
+    table and ``path_s0`` as parameters (start values from the scenario,
+    :mod:`~ballbot_casadi.fmi.controller.path`), the outputs :data:`V_REF_USED_NAMES`,
+    and the guidance state started at initialisation by the Function the compiled guided
+    mission starts from (:meth:`GuidanceLaw.initial_function
+    <ballbot_casadi.sim.guided.GuidanceLaw.initial_function>`).  The MPC predicts with
+    the scenario's controller model and velocity gains (built in).
+
+    Raises
+    ------
+    ScenarioError
+        ``path`` cannot run in the FMU (:func:`~ballbot_casadi.fmi.controller.path.path_law`).
+    """
+    law = path_law(path) if path is not None else None
+    if law is not None:
+        controller, estimator = path.controller, path.estimator
+        embedded = path_embedded_function(law, estimator)
+        rows = controller_variables(embedded, controller, estimator,
+                                    controller_values(path, embedded, law), law)
+    else:
+        embedded = embedded_function(controller, estimator)
+        rows = controller_variables(embedded, controller, estimator)
+    initial = initial_state_function(embedded, estimator, law)
+    layout = controller_state_layout(embedded, estimator, law)
     has_obs = _has_observer(embedded)
 
     def field_names(prefix: str) -> tuple[str, ...]:
@@ -455,7 +568,7 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
         if layout[f].stop - layout[f].start != sub.size:
             raise BuildError(f"{embedded.name()}: field {f} of the controller state has "
                              f"{layout[f].stop - layout[f].start} entries, the {sub.name} {sub.size}")
-    groups = dict(_parameter_groups(embedded, controller, estimator))
+    groups = dict(_parameter_groups(embedded, controller, estimator, law))
     blocks = [
         FmuBlock("c", layout, field_names("c")),
         FmuBlock("x0", STATE, X0_NAMES),
@@ -473,10 +586,18 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
         FmuBlock("diag", None, tuple(f"diag_{n}" for n in BALANCE_DIAG_NAMES)),
         FmuBlock("nis", None, ("nis_attitude", "nis_velocity")),
         FmuBlock("rejections", None, REJECTION_NAMES),
-        *(FmuBlock(a, None, tuple(n)) for a, n in groups.items()),
+        *(FmuBlock(a, path_table_layout(law.config.n_obstacles) if a == "k_guid" else None,
+                   tuple(n)) for a, n in groups.items()),
     ]
     if has_obs:
         blocks.append(FmuBlock("com_hat", None, ("com_hat_x", "com_hat_y")))
+    functions = [embedded, initial, _rpy_function()]
+    aliases = [(embedded.name(), "EMBEDDED"), (initial.name(), "INITIAL")]
+    if law is not None:
+        blocks.append(FmuBlock("v_ref_used", None, V_REF_USED_NAMES))
+        guide0 = law.initial_function()
+        functions.append(guide0)
+        aliases.append((guide0.name(), "GUIDE_INITIAL"))
     defines: dict[str, Any] = {
         "NQV": int(round(np.sqrt(len(groups["Qv"])))),
         "NQA": int(round(np.sqrt(len(groups["Qa"])))),
@@ -487,21 +608,30 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf") -> FmuSpec:
         "PERIOD_MAX": repr(float(INT32_MAX)),
         "QUAT_TOL": repr(QUAT_TOL),
         "QUAT_TOL_RESTORED": repr(QUAT_TOL_RESTORED),
+        "HAS_GUIDANCE": int(law is not None),
+        **(path_c_defines(law) if law is not None else {}),
     }
     title = f"{controller.upper()} with the {'QUKF + VUKF' if estimator == 'ukf' else 'QEKF + VEKF'}"
+    ident = model_identifier(controller, estimator)
+    what = "velocity LQR cascade"
+    if law is not None:
+        ident = PATH_MODEL_IDENTIFIER + ("" if estimator == "ukf" else f"_{estimator}")
+        what = "path-following MPC guidance at 10 Hz above the velocity LQR cascade"
     return FmuSpec(
-        model_identifier=model_identifier(controller, estimator),
-        description=f"ballbot embedded software at 200 Hz ({title}, velocity LQR cascade, "
+        model_identifier=ident,
+        description=f"ballbot embedded software at 200 Hz ({title}, {what}, "
         "torque limit; Roche and Borja, AAU 2020) generated with CasADi from the compiled "
         "mission's Function: sensor readings in, wheel torques, estimate and diagnostics out",
         prefix="ctrl",
         variables=rows,
-        functions=(embedded, initial, _rpy_function()),
+        functions=tuple(functions),
         model_source="controller/controller_model.c",
         cg_name="ballbot_controller_cg",
+        extra_sources=tuple(fmu_source_dir() / "controller" / f"controller_path.{x}"
+                            for x in ("c", "h")) if law is not None else (),
         interfaces=("cs",),
         defines=tuple((k, str(v)) for k, v in defines.items()),
         blocks=tuple(blocks),
-        function_aliases=((embedded.name(), "EMBEDDED"), (initial.name(), "INITIAL")),
+        function_aliases=tuple(aliases),
         default_experiment=(0.0, 5.0, TS_CONTROL),
     )

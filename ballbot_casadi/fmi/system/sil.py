@@ -7,6 +7,10 @@ The system (:func:`sil_system`, written by :func:`write_sil_ssp`, ``make sil``):
   Integer in the FMU), internal step ``Ts / n_sub`` and sensor period ``Ts``;
 * ``controller`` - ``BallbotController.fmu`` (:mod:`~ballbot_casadi.fmi.controller.controller`)
   with the scenario's controller and filter models, gains, tuning and state at power-on;
+  a scenario with a ``[path]`` (and ``[[obstacle]]`` rows) gets the path-following
+  variant ``BallbotControllerPath.fmu`` (built per scenario under ``<fmu>/path/<name>/``:
+  its MPC predicts with the scenario's controller model) with the path table, the
+  obstacles and ``path_s0`` in the parameter set (:mod:`~ballbot_casadi.fmi.controller.path`);
 * ``reference`` - ``BallbotReference.fmu`` (:mod:`~ballbot_casadi.fmi.reference_player.player`),
   the scenario's per-period references and wheel-torque disturbance;
 * connections ``plant.sensor_* -> controller.sensor_*``, ``controller.tau0..2 ->
@@ -40,17 +44,21 @@ from ballbot_casadi.control import BALANCE_DIAG_NAMES
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.core.sensor_params import SENSOR_VECTOR_NAMES
+from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.errors import BallbotError, BuildError, FileFormatError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.controller.controller import (
     READING_NAMES,
     REFERENCE_NAMES,
     REJECTION_NAMES,
+    V_REF_USED_NAMES,
     XHAT_NAMES,
     controller_spec,
     controller_values,
     embedded_function,
+    path_embedded_function,
 )
+from ballbot_casadi.fmi.controller.path import path_law
 from ballbot_casadi.fmi.package import build_fmu_from_spec
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES, X0_PREFIX
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_player_spec
@@ -85,7 +93,7 @@ CONTROLLER_RECORDED = (
     *(f"omega_hat_{c}" for c in "xyz"),
     *(f"{w}_ref_used{i}" for w in ("q", "dq", "ddq") for i in range(4)),
     *(f"diag_{n}" for n in BALANCE_DIAG_NAMES), "nis_attitude", "nis_velocity", "repairs",
-    *REJECTION_NAMES,
+    *REJECTION_NAMES, *V_REF_USED_NAMES,
 )
 
 
@@ -213,13 +221,25 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     if missing:
         raise BuildError(f"plant FMU {plant} lacks {', '.join(missing)}; a plant for the SIL needs "
                          "the inputs tau0..2 and the outputs sensor_acc_x .. sensor_enc2 (Real)")
-    embedded = embedded_function(scenario.controller, scenario.estimator)
-    ctrl = build_fmu_from_spec(controller_spec(scenario.controller, scenario.estimator), out)
-    ref_dir = (out if out is not None else Path(ctrl.fmu).parent) / "reference" / scenario.name
+    if scenario.route.build() is not None:
+        # the path-following variant (its MPC predicts with this scenario's controller
+        # model and gains): one FMU per scenario, like the reference player
+        law = path_law(scenario)
+        embedded = path_embedded_function(law, scenario.estimator)
+        ctrl_dir = (out if out is not None else build_root() / "fmu") / "path" / scenario.name
+        ctrl = build_fmu_from_spec(controller_spec(path=scenario), ctrl_dir)
+        values = controller_values(scenario, embedded, law)
+        fmu_dir = ctrl_dir.parent.parent
+    else:
+        embedded = embedded_function(scenario.controller, scenario.estimator)
+        ctrl = build_fmu_from_spec(controller_spec(scenario.controller, scenario.estimator), out)
+        values = controller_values(scenario, embedded)
+        fmu_dir = Path(ctrl.fmu).parent
+    ref_dir = (out if out is not None else fmu_dir) / "reference" / scenario.name
     ref = build_fmu_from_spec(reference_player_spec(scenario), ref_dir)
     components = [
         SspComponent(PLANT, plant, plant_parameters(scenario, names)),
-        SspComponent(CONTROLLER, ctrl.fmu, controller_values(scenario, embedded)),
+        SspComponent(CONTROLLER, ctrl.fmu, values),
         SspComponent(REFERENCE, ref.fmu, {"Ts": float(scenario.Ts)}),
     ]
     return components, sil_connections(names)

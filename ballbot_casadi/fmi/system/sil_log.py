@@ -14,6 +14,7 @@ from ballbot_casadi.fmi.controller.controller import (
     READING_NAMES,
     REFERENCE_NAMES,
     REJECTION_NAMES,
+    V_REF_USED_NAMES,
     XHAT_NAMES,
 )
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
@@ -33,7 +34,7 @@ def sil_log(run: SilRun, scenario: Scenario | None = None) -> SimulationLog:
     ``meas`` at ``t_k``, ``tau`` the torque acting on the plant in it (its inputs
     saturated at the plant's ``tau_max``, plus the disturbance), ``tau_cmd``, ``x_hat``,
     the references used, ``diag``, ``nis``, ``repairs`` and ``rejections`` of the controller's period
-    ``k`` (its outputs at ``t_k+1``).
+    ``k`` (its outputs at ``t_k+1``; the path-following variant's ``v_ref_used`` too).
     """
     sc = scenario if scenario is not None else run.scenario
     if sc is None:
@@ -67,6 +68,8 @@ def sil_log(run: SilRun, scenario: Scenario | None = None) -> SimulationLog:
     w[:, 3:6] = dist
     arrays = {"time": run.time - run.time[0], "state": cols(PLANT, STATE.names),
               "tau": tau, "meas": meas, "v_ref": inp_v, "w": w, **ctrl}
+    if all(f"{CONTROLLER}.{m}" in s for m in V_REF_USED_NAMES):  # the path-following variant
+        arrays["v_ref_used"] = cols(CONTROLLER, V_REF_USED_NAMES)[1:]
     if all(f"{PLANT}.{m}" in s for m in WHEEL_ANGLE_NAMES):
         arrays["phi"] = cols(PLANT, WHEEL_ANGLE_NAMES)
     return SimulationLog(arrays=arrays, scenario=sc.to_dict(), params=params,

@@ -1,0 +1,152 @@
+"""The path-following controller FMU's path: the guidance block's parameter table as FMU parameters.
+
+The path-following variant of the controller FMU (``BallbotControllerPath``,
+:func:`~ballbot_casadi.fmi.controller.controller.controller_spec` with a scenario that has
+a ``[path]``) runs the embedded software with the path-following MPC in its guidance
+slot: the Function :func:`~ballbot_casadi.sim.guided.guided_software` that the compiled
+guided mission calls.  Its path and obstacles are the guidance block's parameter vector
+``k_guid`` (:func:`~ballbot_casadi.guidance.path_table.path_table_layout`: a path of any
+kind, waypoints, line, arc or figure-eight, resolved to a table of
+:data:`~ballbot_casadi.guidance.path_table.PATH_SAMPLES` points and unit tangents at
+equal arc-length steps), one FMU parameter per entry (:func:`path_parameter_names`):
+
+* ``path_length`` (m), ``path_closed`` (0 or 1), ``path_speed`` (m/s, ``0 < speed <=
+  v_max`` of thesis §7.1);
+* ``path_p<i>_x``, ``path_p<i>_y`` (m): table point ``i`` (``s_i = i L / (n - 1)``);
+* ``path_t<i>_x``, ``path_t<i>_y``: the unit tangent there;
+* ``obstacle<j>_x``, ``obstacle<j>_y``, ``obstacle<j>_r`` (m): circular obstacle ``j``
+  (radius 0: an empty slot);
+* ``path_s0`` (m): the arc length of the path point nearest the robot's position at
+  power-on (``x0_x``, ``x0_y``), where the MPC's progress starts (the mission computes it
+  with :meth:`Path.project <ballbot_casadi.guidance.paths.Path.project>`; the FMU checks
+  it is no farther from the start than the nearest table point plus
+  :data:`S0_TOL`).
+
+:func:`path_parameter_values` gives their values for a scenario (the SSP's parameter set
+and the FMU's start values).  The FMU refuses (logged, ``fmi2Error``) a NaN or Inf
+entry, a non-positive length, ``closed`` not 0 or 1, a speed outside ``(0, v_max]``, a
+tangent that is not a unit vector (within :data:`TANGENT_TOL`), a negative radius, an
+obstacle covering the path's start, its end or the robot's start, and a ``path_s0``
+that is not the start's projection.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ballbot_casadi.core.constants import THESIS_LIMITS
+from ballbot_casadi.core.layout import Layout
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.guidance.path_table import PATH_SAMPLES, path_table_layout
+from ballbot_casadi.guidance.prediction import NXL
+from ballbot_casadi.sim.closed_loop import power_on_inputs
+from ballbot_casadi.sim.guided import GuidanceLaw, make_loop_state, scenario_law
+from ballbot_casadi.sim.scenario import Scenario
+
+__all__ = ["PATH_MODEL_IDENTIFIER", "S0_NAME", "S0_TOL", "TANGENT_TOL", "V_MAX",
+           "path_law", "path_parameter_names", "path_parameter_descriptions",
+           "path_parameter_values"]
+
+#: Model identifier of the path-following controller FMU (QUKF + VUKF; ``_ekf`` with the EKFs).
+PATH_MODEL_IDENTIFIER = "BallbotControllerPath"
+#: The parameter giving the arc length where the progress starts.
+S0_NAME = "path_s0"
+#: ``path_s0`` may put the start at most this much (m) farther from the robot than the
+#: nearest table point (the table's spacing is ~1 cm; the projection is exact on the spline).
+S0_TOL = 0.01
+#: Largest deviation of a tangent's norm from 1.
+TANGENT_TOL = 1e-6
+#: Highest reference speed (m/s), thesis §7.1.
+V_MAX = THESIS_LIMITS["v_max"]
+
+
+def path_law(scenario: Scenario) -> GuidanceLaw:
+    """The guidance law of a path scenario the FMU can run (the MPC).
+
+    Raises
+    ------
+    ScenarioError
+        No ``[path]``, guidance other than the MPC, a controller other than the FLC
+        cascade, or no estimator (one line naming the key).
+    """
+    if scenario.route.build() is None:
+        raise ScenarioError(f"scenario {scenario.name!r} has no [path]: the path-following "
+                            "controller FMU needs one", key="path")
+    if scenario.guidance != "mpc":
+        raise ScenarioError(f"scenario {scenario.name!r}: the path-following controller FMU runs "
+                            f"the MPC guidance, got guidance = {scenario.guidance!r}; allowed: mpc",
+                            key="guidance")
+    if scenario.controller != "flc" or not scenario.cascade:
+        raise ScenarioError(f"scenario {scenario.name!r}: path following runs the FLC cascade "
+                            f"(controller 'flc', cascade = true), got {scenario.controller!r}",
+                            key="controller")
+    if scenario.estimator not in ("ukf", "ekf"):
+        raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU needs an estimator "
+                            f"(ukf or ekf), got {scenario.estimator!r}", key="estimator")
+    return scenario_law(scenario)
+
+
+def _table(law: GuidanceLaw) -> Layout:
+    return path_table_layout(law.config.n_obstacles, PATH_SAMPLES)
+
+
+def path_parameter_names(law: GuidanceLaw) -> tuple[str, ...]:
+    """The FMU parameters of ``k_guid`` in its element order (module docstring)."""
+    L = _table(law)
+    n = L.size_of("points") // 2
+    m = L.size_of("obstacles") // 3
+    names = ["path_length", "path_closed", "path_speed"]
+    names += [f"path_p{i}_{c}" for i in range(n) for c in "xy"]
+    names += [f"path_t{i}_{c}" for i in range(n) for c in "xy"]
+    names += [f"obstacle{j}_{c}" for j in range(m) for c in ("x", "y", "r")]
+    if len(names) != L.size:
+        raise ScenarioError(f"path table of {L.size} entries, {len(names)} names")
+    return tuple(names)
+
+
+def path_parameter_descriptions(law: GuidanceLaw) -> dict[str, tuple[str, str | None]]:
+    """``name -> (description, unit)`` of the path parameters and ``path_s0``."""
+    L = _table(law)
+    n = L.size_of("points") // 2
+    out: dict[str, tuple[str, str | None]] = {
+        "path_length": ("length L of the path (arc length of the table's last point)", "m"),
+        "path_closed": ("1: a closed path (progress modulo L), 0: an open one (stops at its end)",
+                        "1"),
+        "path_speed": (f"reference progress speed, 0 < speed <= {V_MAX} (thesis 7.1 v_max)",
+                       "m/s"),
+        S0_NAME: ("arc length of the path point nearest the robot's position at power-on "
+                  "(x0_x, x0_y): where the MPC's progress starts", "m"),
+    }
+    for name in path_parameter_names(law)[3:]:
+        kind, c = name.rsplit("_", 1)
+        if kind.startswith("path_p"):
+            out[name] = (f"path table point {kind[6:]} of {n} (equal arc-length steps), {c}", "m")
+        elif kind.startswith("path_t"):
+            out[name] = (f"unit tangent of the path at table point {kind[6:]}, {c}", "1")
+        else:
+            what = {"x": "centre x", "y": "centre y", "r": "radius (0: no obstacle)"}[c]
+            out[name] = (f"circular obstacle {kind[8:]}: {what}", "m")
+    return out
+
+
+def path_parameter_values(scenario: Scenario, law: GuidanceLaw | None = None
+                          ) -> dict[str, float]:
+    """The path parameters' values for ``scenario`` (its ``k_guid`` and ``path_s0``, as the
+    compiled guided mission starts)."""
+    law = path_law(scenario) if law is None else law
+    path = scenario.route.build()
+    k = law.parameters(path)
+    inp = power_on_inputs(scenario.estimator, scenario.inputs(periods=(0, 1)))
+    X0 = np.asarray(make_loop_state()(inp["x0"], inp["z0"]), float).reshape(NXL)
+    out = {n: float(v) for n, v in zip(path_parameter_names(law), k, strict=True)}
+    out[S0_NAME] = float(path.project(X0[12:14]))
+    return out
+
+
+def path_c_defines(law: GuidanceLaw) -> dict[str, Any]:
+    """The constants the per-model C checks the path with."""
+    L = _table(law)
+    return {"PATH_SAMPLES": L.size_of("points") // 2, "PATH_OBSTACLES": L.size_of("obstacles") // 3,
+            "V_MAX": repr(float(V_MAX)), "S0_TOL": repr(S0_TOL), "TANGENT_TOL": repr(TANGENT_TOL)}
