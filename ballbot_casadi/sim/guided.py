@@ -204,7 +204,6 @@ def _initial_function(name: str, state: Layout) -> ca.Function:
                        ["x0", "z0", "s0"], ["g0"])
 
 
-@lru_cache(maxsize=None)
 def guided_software(law: GuidanceLaw, estimator: str = "ukf") -> ca.Function:
     """The embedded software with ``law`` in its guidance slot,
     ``ballbot_embedded_<...>_<estimator>`` (inputs end with ``k_guid``, outputs with
