@@ -194,7 +194,7 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
         finished.update((todo[j], res) for j, res in exc.finished.items())
         stopped = exc
     missing = [k for k in range(n) if k not in finished]
-    doc = _write(out, path, source, runs, finished, missing)
+    doc = _write(out, path, source, runs, finished, missing, seed)
     if stopped is not None:
         raise ClusterError(f"{str(stopped).rstrip('.')}; the {len(finished)} finished runs of {n} are in "
                            f"{out / 'montecarlo.json'} (partial, missing runs {_ranges(missing)}); "
@@ -251,12 +251,12 @@ def _resumable(out: Path, runs: Sequence[dict[str, Any]], specs: Sequence[Mappin
 
 
 def _write(out: Path, path: Path, source: ScenarioFile, runs: Sequence[dict[str, Any]],
-           finished: Mapping[int, dict[str, Any]], missing: Sequence[int]) -> dict[str, Any]:
+           finished: Mapping[int, dict[str, Any]], missing: Sequence[int], seed: int | None = None) -> dict[str, Any]:
     """Write the outputs of the finished runs (all of them, or a partial set) into ``out``."""
     done = sorted(finished)
     runs_done = [runs[k] for k in done]
     results = [finished[k] for k in done]
-    summary = summarize(source, runs_done, results)
+    summary = summarize(source, runs_done, results, seed)  # the set seed used (--seed or the file's)
     worst = [done[j] for j in _rank(results, summary["specs"])[:min(N_WORST, len(results))]]
     doc = {"scenario": str(path), "name": source.scenario.name, **summary,
            "partial": bool(missing), "n_planned": len(runs), "missing": list(missing),
