@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from ballbot_casadi.errors import ScenarioFileError
+from ballbot_casadi.errors import ScenarioError, ScenarioFileError
 from ballbot_casadi.sim.scenario import parse_scenario
 from ballbot_casadi.sim.scenario.file import MAX_PERIODS, TORQUE_DISTURBANCE_MAX_NM
 
@@ -91,3 +91,30 @@ def test_limits_at_their_boundaries(label, table, bad_key):
     with pytest.raises(ScenarioFileError) as e:
         parse_scenario(table, "b.toml")
     assert f"key '{bad_key}'" in str(e.value), str(e.value)
+
+
+# the same limits through the Scenario API (sections' own checks, without the file reader)
+
+def _scenario():
+    return parse_scenario(_table(), "b.toml").scenario
+
+
+@pytest.mark.parametrize("change, bad_key", [
+    ({"pushes": ((0.999, 1.0, 0.0, 0.0),)}, None),
+    ({"pushes": ((1.0, 1.0, 0.0, 0.0),)}, "push[0]"),
+    ({"torque_disturbances": ((0.5, 0.5, 1.0, 0.0, 0.0),)}, "torque_disturbance[0]"),
+    ({"torque_disturbances": ((0.5, 0.6, 1.0, 0.0, 0.0),)}, None),
+    ({"sensor_dropouts": ((0.5, 0.5, "acc"),)}, "sensor_dropout[0]"),
+    ({"sensor_glitches": ((1.0, "gyro", "x", 1.0),), "estimator": "ukf"}, "sensor_glitch[0]"),
+    ({"sensor_glitches": ((0.995, "gyro", "x", 1.0),), "estimator": "ukf"}, None),
+    ({"seed": 2**32}, "seed"),
+    ({"seed": 2**32 - 1}, None),
+])
+def test_scenario_api_limits_at_their_boundaries(change, bad_key):
+    sc = _scenario()
+    if bad_key is None:
+        sc.replace(**change)
+        return
+    with pytest.raises(ScenarioError) as e:
+        sc.replace(**change)
+    assert e.value.key == bad_key, (e.value.key, str(e.value))
