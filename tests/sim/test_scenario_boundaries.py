@@ -32,12 +32,17 @@ CASES = [
     ("vx 10", _table(initial={"vx_mps": 10.0}), None),
     ("vx 10.5", _table(initial={"vx_mps": 10.5}), "initial.vx_mps"),
     ("vy -10.5", _table(initial={"vy_mps": -10.5}), "initial.vy_mps"),
+    ("roll 180", _table(initial={"roll_deg": 180.0}), None),
+    ("roll 180.5", _table(initial={"roll_deg": 180.5}), "initial.roll_deg"),
+    ("yaw -181", _table(initial={"yaw_deg": -181.0}), "initial.yaw_deg"),
     # the run: periods, sub-steps, control period
     # (at 1 ms: the period cap, not the 3600 s duration cap, is what refuses)
     ("max periods", _table(duration_s=MAX_PERIODS * 0.001, control_period_s=0.001), None),
     ("max periods + 1", _table(duration_s=(MAX_PERIODS + 1) * 0.001, control_period_s=0.001), "duration_s"),
     ("half a period", _table(duration_s=0.002), "duration_s"),
     ("0 substeps", _table(rk4_substeps=0), "rk4_substeps"),
+    ("100 substeps", _table(rk4_substeps=100), None),
+    ("101 substeps", _table(rk4_substeps=101), "rk4_substeps"),
     ("period 0", _table(control_period_s=0.0), "control_period_s"),
     ("period 0.1", _table(control_period_s=0.1, duration_s=1.0), None),
     ("period 0.11", _table(control_period_s=0.11, duration_s=1.0), "control_period_s"),
@@ -78,6 +83,8 @@ CASES = [
      "attitude.roll.frequency_hz"),
     ("ramp rate 0", _table(attitude={"roll": {"type": "ramp", "amplitude_deg": 1.0, "rate_deg_s": 0.0}}),
      "attitude.roll.rate_deg_s"),
+    ("velocity accel 0", _table(cascade=True, velocity=[{"t_s": 0.0, "vx_mps": 0.1, "accel_mps2": 0.0}]),
+     "velocity[0].accel_mps2"),
     ("glitch at the end", _table(sensor_glitch=[{"t_s": 1.0, "sensor": "gyro", "value": 1.0}]),
      "sensor_glitch[0]"),
 ]
