@@ -58,3 +58,11 @@ def test_min_success_is_a_fraction_and_the_boundary_passes(tmp_path, monkeypatch
                      "--out", str(tmp_path / "o")]) == 2  # a percentage is refused
     assert "--min-success" in capsys.readouterr().err
     assert not math.isnan(rate)
+
+
+@pytest.mark.parametrize("argv, needle", [(["--n", "0"], "--n must be >= 1"), (["--n", "2", "--workers", "-1"], "--workers"),
+                                          (["--n", "2", "--min-success", "-0.1"], "--min-success")])
+def test_bad_numbers_name_the_option_typed(tmp_path, capsys, argv, needle):
+    assert cli.main(["montecarlo", "zero", *argv, "--quiet", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert needle in err and err.count("\n") == 0
