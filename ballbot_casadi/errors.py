@@ -112,9 +112,18 @@ class CosimError(BallbotError, RuntimeError):
 
 
 class ClusterError(BallbotError, RuntimeError):
-    """A Dask cluster lost its workers or its tasks during a run (the machinery, exit 3)."""
+    """A Dask cluster lost its workers or its tasks during a run (the machinery, exit 3).
+
+    ``finished`` maps the index of each task (or run) that had finished to its result
+    when the run stopped (``None`` when the raiser kept none), so that the caller can
+    save them.
+    """
 
     exit_code = EXIT_INTERNAL_ERROR
+
+    def __init__(self, message: str = "", *, finished: dict | None = None) -> None:
+        super().__init__(message)
+        self.finished = finished
 
 
 class PathError(BallbotError, ValueError):

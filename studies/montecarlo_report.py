@@ -31,12 +31,13 @@ import numpy as np
 from tqdm import tqdm
 
 from ballbot_casadi.analysis.dispersion_stats import summarize
-from ballbot_casadi.studies.dask_cluster import check_scheduler_address, connect
+from ballbot_casadi.studies.dask_cluster import check_scheduler_address, connect, quiet_dask_logs
 from ballbot_casadi.analysis.metric_names import check_spec_metrics
 from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.files import staged_dir
 from ballbot_casadi.core.safe_paths import check_file_name
-from ballbot_casadi.core.specs import spec_ok, spec_usage
+from ballbot_casadi.core.specs import spec_ok, spec_usage, specs_or_default
+from ballbot_casadi.errors import ArgumentError, ClusterError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.scenario import (
     ScenarioFile,
@@ -66,7 +67,10 @@ _LIMITS = {"peak_tilt_deg": math.degrees(THESIS_LIMITS["tilt_max"]),
 def execute(source: ScenarioFile, runs: Sequence[dict[str, Any]], scheduler: str | None = None,
             workers: int = 2, quiet: bool = False, sim: ClosedLoop | None = None) -> list[dict[str, Any]]:
     """Evaluate the runs: serially (``workers == 0`` and no scheduler), on a new
-    ``LocalCluster`` of ``workers`` processes, or on the cluster at ``scheduler``."""
+    ``LocalCluster`` of ``workers`` processes, or on the cluster at ``scheduler``.
+
+    Raises :class:`~ballbot_casadi.errors.ClusterError` (``finished``: position in
+    ``runs`` to result) when the cluster lost its workers beyond repair."""
     bar = tqdm(total=len(runs), desc=f"montecarlo {source.scenario.name}", unit="run", disable=quiet)
     try:
         if scheduler is None and workers == 0:
@@ -74,11 +78,11 @@ def execute(source: ScenarioFile, runs: Sequence[dict[str, Any]], scheduler: str
         from distributed import Client, LocalCluster
 
         if scheduler is not None:
-            with connect(scheduler) as client:  # a clear error, never a hang, if nothing answers
+            with quiet_dask_logs(), connect(scheduler) as client:  # never a hang if nothing answers
                 return run_dask(source, runs, client, bar.update)
-        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                          dashboard_address=None) as cluster, Client(cluster) as client:
-            return run_dask(source, runs, client, bar.update)
+        with quiet_dask_logs(), LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                             dashboard_address=None) as cluster, Client(cluster) as client:
+            return run_dask(source, runs, client, bar.update, cluster=cluster)  # replaces lost workers
     finally:
         bar.close()
 
@@ -154,11 +158,18 @@ def _plots(summary: dict[str, Any], runs: Sequence[dict[str, Any]], results: Seq
 
 def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str | None = None,
                    workers: int = 2, quiet: bool = False, seed: int | None = None,
-                   overrides: Sequence[tuple[str, Any]] = (), sim: ClosedLoop | None = None) -> dict[str, Any]:
+                   overrides: Sequence[tuple[str, Any]] = (), sim: ClosedLoop | None = None,
+                   resume: bool = False) -> dict[str, Any]:
     """Run ``n`` dispersed copies of a scenario file (or shipped name) and write the report.
 
     ``overrides`` (``--set``) change the base table before the dispersions (e.g. a
     shorter ``duration_s``).  Returns the content of ``montecarlo.json``.
+
+    When the Dask cluster loses its workers beyond repair, the runs finished so far are
+    written all the same (the same files, ``montecarlo.json`` with ``"partial": true``
+    and the ``missing`` run indices) and :class:`~ballbot_casadi.errors.ClusterError` is
+    raised saying so.  ``resume`` reuses the runs of such a file in ``out`` (the same set:
+    same draws) and runs only the missing ones.
     """
     path = resolve_scenario(scenario)
     if scheduler is not None:
@@ -171,18 +182,92 @@ def run_montecarlo(scenario: str | Path, n: int, out: str | Path, scheduler: str
         source = parse_scenario(table, f"{path} (with --set)", path.stem)
     check_spec_metrics(source.specs, str(path))  # a misspelled metric before any run
     runs = draw_runs(source, n, seed)
-    results = execute(source, runs, scheduler, workers, quiet, sim)
-    summary = summarize(source, runs, results)
-    worst = _rank(results, summary["specs"])[:min(N_WORST, len(results))]
+    out = Path(out)
+    finished = _resumable(out, runs, specs_or_default(source.specs)) if resume else {}
+    todo = [k for k in range(n) if k not in finished]
+    stopped: ClusterError | None = None
+    try:
+        finished.update(zip(todo, execute(source, [runs[k] for k in todo], scheduler, workers, quiet, sim)))
+    except ClusterError as exc:
+        if exc.finished is None:
+            raise
+        finished.update((todo[j], res) for j, res in exc.finished.items())
+        stopped = exc
+    missing = [k for k in range(n) if k not in finished]
+    doc = _write(out, path, source, runs, finished, missing, seed)
+    if stopped is not None:
+        raise ClusterError(f"{str(stopped).rstrip('.')}; the {len(finished)} finished runs of {n} are in "
+                           f"{out / 'montecarlo.json'} (partial, missing runs {_ranges(missing)}); "
+                           "run the same command with --resume to run only those") from None
+    return doc
+
+
+def _ranges(indices: Sequence[int]) -> str:
+    """``0-3, 7, 9-10``: run indices in short form."""
+    parts: list[str] = []
+    for k in indices:
+        if parts and parts[-1][1] == k - 1:
+            parts[-1][1] = k
+        else:
+            parts.append([k, k])
+    return ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in parts)
+
+
+def _unjson(v: Any) -> Any:
+    """A metric read back from ``montecarlo.json`` (non-finite floats were written as strings)."""
+    return float(v) if v in ("nan", "inf", "-inf") else v
+
+
+def _resumable(out: Path, runs: Sequence[dict[str, Any]], specs: Sequence[Mapping[str, Any]]) -> dict[int, dict[str, Any]]:
+    """The results of ``out/montecarlo.json`` by run index, when it holds runs of the same set
+    (same noise seeds and drawn values); empty when there is no such file.
+
+    Raises
+    ------
+    ArgumentError
+        The file is of another set (another scenario, ``--n``, ``--seed`` or ``--set``).
+    """
+    f = out / "montecarlo.json"
+    if not f.is_file():
+        return {}
+    try:
+        doc = json.loads(f.read_text(encoding="utf-8"))
+        prior = {int(r["index"]): r for r in doc["runs"]}
+        n_planned = int(doc.get("n_planned", doc["n"]))
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ArgumentError(f"--resume: {f} is not a Monte Carlo result ({type(exc).__name__})") from None
+    if n_planned != len(runs) or any(k >= len(runs) or r.get("seed") != runs[k]["seed"]
+                                     or r.get("values") != runs[k]["values"] for k, r in prior.items()):
+        raise ArgumentError(f"--resume: {f} holds another Monte Carlo set (other scenario, --n, --seed "
+                            "or --set); give another --out or leave --resume out")
+    results = {}
+    for k, r in prior.items():
+        m = {key: _unjson(v) for key, v in r["metrics"].items()}
+        oks = ([False] * len(specs) if r.get("error") else
+               [spec_ok(m.get(s["metric"]), s["op"], s["threshold"]) for s in specs])
+        results[k] = {"ok": bool(r["ok"]), "spec_ok": oks, "metrics": m, "error": r.get("error"),
+                      "failure": r.get("failure")}
+    return results
+
+
+def _write(out: Path, path: Path, source: ScenarioFile, runs: Sequence[dict[str, Any]],
+           finished: Mapping[int, dict[str, Any]], missing: Sequence[int], seed: int | None = None) -> dict[str, Any]:
+    """Write the outputs of the finished runs (all of them, or a partial set) into ``out``."""
+    done = sorted(finished)
+    runs_done = [runs[k] for k in done]
+    results = [finished[k] for k in done]
+    summary = summarize(source, runs_done, results, seed)  # the set seed used (--seed or the file's)
+    worst = [done[j] for j in _rank(results, summary["specs"])[:min(N_WORST, len(results))]]
     doc = {"scenario": str(path), "name": source.scenario.name, **summary,
+           "partial": bool(missing), "n_planned": len(runs), "missing": list(missing),
            "worst": [{"index": i, "seed": runs[i]["seed"], "file": f"worst/{runs[i]['table']['name']}.toml"}
                      for i in worst],
            "runs": [{"index": r["index"], "seed": r["seed"], "values": r["values"], "ok": res["ok"],
-                     "error": res["error"], "failure": res.get("failure"), "metrics": res["metrics"]} for r, res in zip(runs, results)]}
+                     "error": res["error"], "failure": res.get("failure"), "metrics": res["metrics"]}
+                    for r, res in zip(runs_done, results)]}
     doc = jsonable(doc)
-    out = Path(out)
     with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
-        plots = _plots(summary, runs, results, tmp)
+        plots = _plots(summary, runs_done, results, tmp)
         (tmp / "worst").mkdir()
         for rank, i in enumerate(worst, 1):
             r = runs[i]
@@ -200,8 +285,11 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
              f"- scenario file: `{doc['scenario']}`; set seed {doc['seed']} (run i draws from "
              "`numpy.random.default_rng([seed, i])`)",
              f"- **success rate: {100 * doc['success_rate']:.1f} %** ({doc['n'] - doc['n_failed']}/{doc['n']} "
-             "runs meet every spec)", "",
-             "## Specs", "", "| metric | spec | pass rate | thesis | why |", "| --- | --- | --- | --- | --- |"]
+             "runs meet every spec)", ""]
+    if doc.get("partial"):
+        lines += [f"- **partial**: the Dask cluster lost its workers; {doc['n']} of {doc['n_planned']} runs "
+                  f"finished, missing runs {_ranges(doc['missing'])} (`--resume` runs only those)", ""]
+    lines += ["## Specs", "", "| metric | spec | pass rate | thesis | why |", "| --- | --- | --- | --- | --- |"]
     for s in doc["specs"]:
         lines.append(f"| `{s['metric']}` | {s['op']} {s['threshold']} | {100 * s['pass_rate']:.1f} % | "
                      f"{s.get('thesis') or '—'} | {s.get('source', '')} |")
@@ -215,8 +303,9 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
               "allowance used: 100 % at the threshold).", "",
               "| run | noise seed | failed specs | closest spec | peak tilt (deg) | file |",
               "| --- | --- | --- | --- | --- | --- |"]
+    by_index = {r["index"]: r for r in doc["runs"]}
     for w in doc["worst"]:
-        r = doc["runs"][w["index"]]
+        r = by_index[w["index"]]
         failed = ", ".join(s["metric"] for s, ok in zip(doc["specs"], _spec_oks(doc, r)) if not ok) or "none"
         u, metric = _worst_usage(doc["specs"], r["metrics"])
         closest = f"`{metric}` {fmt(r['metrics'][metric])} ({100 * u:.0f} %)" if metric else "—"

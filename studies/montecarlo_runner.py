@@ -20,7 +20,7 @@ import numpy as np
 
 from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.core.specs import run_failure, spec_ok, specs_or_default
-from ballbot_casadi.errors import BallbotError
+from ballbot_casadi.errors import BallbotError, ClusterError
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.guided import run_path_scenario
 from ballbot_casadi.sim.scenario import ScenarioFile, parse_scenario
@@ -94,11 +94,14 @@ def evaluate_batch(tables: Sequence[Mapping[str, Any]], specs: Sequence[Mapping[
 
 def run_dask(source: ScenarioFile, runs: Sequence[Mapping[str, Any]], client: Any,
              progress: Callable[[int], None] | None = None, batch: int | None = None,
-             lost_timeout_s: float | None = None) -> list[dict[str, Any]]:
+             lost_timeout_s: float | None = None, cluster: Any = None) -> list[dict[str, Any]]:
     """Evaluate the runs on a ``distributed.Client`` (results in run order).
 
-    Fails with :class:`~ballbot_casadi.errors.ClusterError` when the cluster has had no
-    worker for ``lost_timeout_s`` (:func:`~ballbot_casadi.studies.dask_cluster.wait_all`).
+    Lost workers are replaced and lost tasks resubmitted
+    (:func:`~ballbot_casadi.studies.dask_cluster.wait_all`; ``cluster`` is our own
+    ``LocalCluster``, whose closed workers are replaced).  When that is impossible it fails
+    with :class:`~ballbot_casadi.errors.ClusterError` whose ``finished`` maps the position
+    of each run that had finished (in ``runs``) to its result.
 
     Runs go to the workers in batches of ``batch`` (default: about four batches per
     worker, so that scheduling costs little and the load still balances).
@@ -109,7 +112,14 @@ def run_dask(source: ScenarioFile, runs: Sequence[Mapping[str, Any]], client: An
         batch = max(1, len(runs) // (4 * n_workers))
     chunks = [[r["table"] for r in runs[i:i + batch]] for i in range(0, len(runs), batch)]
     futures = client.map(evaluate_batch, chunks, specs=specs, pure=False)
-    # never waits for ever: lost workers (none left) or killed tasks fail with ClusterError
-    wait_all(futures, client, (lambda i: progress(len(chunks[i]))) if progress else None,
-             lost_timeout_s)
-    return [res for part in client.gather(futures) for res in part]
+    try:
+        parts = wait_all(futures, client, (lambda i: progress(len(chunks[i]))) if progress else None,
+                         lost_timeout_s,
+                         resubmit=lambda i: client.submit(evaluate_batch, chunks[i], specs=specs, pure=False),
+                         cluster=cluster)
+    except ClusterError as exc:
+        finished = {i * batch + k: res for i, part in (exc.finished or {}).items()
+                    for k, res in enumerate(part)}
+        raise ClusterError(str(exc).replace("tasks had finished", f"batches ({len(finished)} runs) "
+                                            "had finished"), finished=finished) from None
+    return [res for part in parts for res in part]

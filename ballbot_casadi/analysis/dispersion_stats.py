@@ -22,8 +22,11 @@ __all__ = ["summarize"]
 
 
 def summarize(source: ScenarioFile, runs: Sequence[Mapping[str, Any]],
-              results: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """Success rate, per-spec pass rates and metric statistics of a Monte Carlo set."""
+              results: Sequence[Mapping[str, Any]], seed: int | None = None) -> dict[str, Any]:
+    """Success rate, per-spec pass rates and metric statistics of a Monte Carlo set.
+
+    ``seed`` is the set seed the runs were drawn with (``None``: the file's, as
+    :func:`~ballbot_casadi.sim.scenario.dispersions.draw_runs`)."""
     specs = specs_or_default(source.specs)
     n = len(results)
     ok = [r["ok"] for r in results]
@@ -37,7 +40,8 @@ def summarize(source: ScenarioFile, runs: Sequence[Mapping[str, Any]],
         if fin.size:
             stats[k] = {"mean": float(np.mean(fin)), "std": float(np.std(fin)), "min": float(np.min(fin)),
                         "max": float(np.max(fin)), "p95": float(np.percentile(fin, 95))}
-    dispersions, seed = dispersions_of(source)
+    dispersions, file_seed = dispersions_of(source)
+    seed = file_seed if seed is None else int(seed)
     return {"n": n, "success_rate": float(np.mean(ok)) if n else math.nan, "n_failed": int(n - sum(ok)),
             "specs": per_spec, "metric_stats": stats, "dispersions": [dict(d) for d in dispersions],
             "seed": seed, "errors": [r["error"] for r in results if r["error"]],

@@ -27,7 +27,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("build") / "montecarlo" / path.stem
     check_output_dir(out, "--out", owned=OWNED_OUTPUTS)
     doc = run_montecarlo(path, args.n, out, args.scheduler, args.workers, args.quiet, args.seed,
-                         parse_overrides(args.set or []))
+                         parse_overrides(args.set or []), resume=args.resume)
     if not args.quiet:
         print(f"montecarlo {doc['name']}: {doc['n']} runs, success rate {100 * doc['success_rate']:.1f} %")
         for s in doc["specs"]:
@@ -67,5 +67,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--min-success", type=float, default=1.0, metavar="RATE",
                    help="exit 1 when the fraction of runs meeting every spec is below RATE "
                         "(default 1: every run; a NaN run or a fall never meets them)")
+    p.add_argument("--resume", action="store_true",
+                   help="reuse the finished runs of a partial montecarlo.json in --out (a run "
+                        "stopped by a cluster that lost its workers, exit 3) and run only the missing ones")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=_cmd_montecarlo)

@@ -215,7 +215,7 @@ def test_a_cluster_without_workers_fails_the_run_instead_of_waiting():
             time.sleep(0.1)
         assert not client.scheduler_info().get("workers")
         t0 = time.perf_counter()
-        with pytest.raises(ClusterError, match=r"no worker for 2 s: 0 of \d+ tasks"):
+        with pytest.raises(ClusterError, match=r"no worker for 2 s; 0 of \d+ batches \(0 runs\)"):
             run_dask(source, runs, client, lost_timeout_s=2.0)
         assert time.perf_counter() - t0 < 20.0
 

@@ -1,0 +1,18 @@
+"""How reports print values: floats (numpy's too) to four significant digits, the rest as
+``str`` (issue 23: a precision change survived the tests)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.studies.formatting import fmt
+
+
+@pytest.mark.parametrize("value, text", [
+    (1.23456, "1.235"), (0.000123456, "0.0001235"), (123456.0, "1.235e+05"), (2.5, "2.5"),
+    (np.float64(0.987654), "0.9877"), (float("nan"), "nan"), (3, "3"), (True, "True"), (None, "None"),
+    ("x", "x"),
+])
+def test_fmt(value, text):
+    assert fmt(value) == text

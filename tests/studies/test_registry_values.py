@@ -1,0 +1,31 @@
+"""The study registry's ``--set`` handling against hand-written expectations: which runs
+an override reaches, which keys ``--set`` accepts (issue 23, test strength)."""
+
+from __future__ import annotations
+
+import pytest
+
+from ballbot_casadi.errors import ScenarioFileError
+from ballbot_casadi.studies.registry import SET_EVERY_RUN, get_study, parse_overrides
+
+
+def test_set_main_only_studies_change_the_main_run_except_for_every_run_keys():
+    study = get_study("robustness")
+    assert study.set_main_only and len(study.files) > 1
+    tables = study.tables("flc", [("duration_s", 0.5), ("seed", 9)])
+    assert [t["duration_s"] == 0.5 for t in tables] == [False] * (len(tables) - 1) + [True]
+    assert all(t["seed"] == 9 for t in tables)  # seed is in SET_EVERY_RUN
+    assert "seed" in SET_EVERY_RUN and all(t["controller"] == "flc" for t in tables)
+
+
+def test_overrides_parse_toml_values_and_dotted_keys():
+    assert parse_overrides(["duration_s=20", "attitude.roll.amplitude_deg = 5.5", "estimator=ukf",
+                            "noise=false", "name=a b"]) == [
+        ("duration_s", 20), ("attitude.roll.amplitude_deg", 5.5), ("estimator", "ukf"),
+        ("noise", False), ("name", "a b")]
+
+
+@pytest.mark.parametrize("item", ["duration_s", "=5", "a b=1", "a..b=1", "a.=1", "x/y=1", "a-b=2"])
+def test_malformed_overrides_are_refused(item):
+    with pytest.raises(ScenarioFileError, match="KEY=VALUE"):
+        parse_overrides([item])
