@@ -136,3 +136,24 @@ def test_acceleration_random_walk_per_axis_overrides_both_axes_in_any_order():
     assert Qv[2, 3] == 0.0
     table = sc.to_file()
     assert _reread(table, "t").scenario == sc
+
+
+def test_the_matched_filter_runs_its_calibrated_random_walk_unless_the_file_sets_one():
+    """``ukf_consistent`` without ``acc_process_var``/``_x``/``_y`` gets the shipped pair
+    :data:`MATCHED_ACC_PROCESS_VAR`; a key the file sets wins on its axes; ``ukf`` keeps
+    the thesis tuning's value."""
+    from ballbot_casadi.estimation import DEFAULT_TUNING
+    from ballbot_casadi.estimation.velocity import MATCHED_ACC_PROCESS_VAR
+
+    def acc(estimator, **tuning):
+        sc = Scenario("t", estimator=estimator, noise=False, duration=0.1, estimator_tuning=tuning)
+        return np.diag(sc.estimation_inputs()["Qv"])[2:4]
+
+    thesis = np.diag(DEFAULT_TUNING["vukf"].Q)[2:4]
+    assert not np.allclose(MATCHED_ACC_PROCESS_VAR, thesis)
+    np.testing.assert_array_equal(acc("ukf_consistent"), MATCHED_ACC_PROCESS_VAR)
+    np.testing.assert_array_equal(acc("ukf_consistent", acc_bias_process_var=2e-8), MATCHED_ACC_PROCESS_VAR)
+    np.testing.assert_array_equal(acc("ukf"), thesis)
+    np.testing.assert_array_equal(acc("ukf_consistent", acc_process_var=1e-2), [1e-2, 1e-2])
+    np.testing.assert_array_equal(acc("ukf_consistent", acc_process_var_y=3e-2),
+                                  [MATCHED_ACC_PROCESS_VAR[0], 3e-2])

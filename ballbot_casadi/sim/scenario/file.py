@@ -78,6 +78,7 @@ Format (every key optional unless marked; units in the names)::
     encoder_var = 0.1111            # VUKF encoder noise, ticks^2 (thesis 1/9)
     acc_process_var = 1e-2          # VUKF acceleration random walk, (m/s^2)^2 per period (predecessor 1e-5)
     acc_process_var_x = 1e-2        # the same for x alone (and _y): after acc_process_var if both
+                                    # (ukf_consistent, none set: its calibrated x/y pair)
     acc_bias_process_var = 2e-8     # VUKF accelerometer-bias process noise, (m/s^2)^2 (predecessor 1e-9)
 
     [[sensor_dropout]]              # readings missing (NaN) in [t_start_s, t_end_s)

@@ -39,6 +39,7 @@ from ballbot_casadi.core.sensor_params import SensorParams, load_sensor_params
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS
+from ballbot_casadi.estimation.velocity import MATCHED_ACC_PROCESS_VAR
 from ballbot_casadi.model.dynamics import make_jacobians, make_model_functions
 from ballbot_casadi.model.linearization import linearize
 from ballbot_casadi.model.sensors import NOISE_STREAMS, heading_schedule
@@ -46,6 +47,7 @@ from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES, controller_torque_limit
 from ballbot_casadi.sim.embedded import (
     ESTIMATOR_FILTERS,
+    MATCHED_VELOCITY,
     NOISE,
     VALID,
     initial_estimator_state,
@@ -178,7 +180,10 @@ class Scenario:
         1e-5), ``encoder_var`` (the velocity filter's encoder noise, ticks^2, thesis
         5.27: 1/9), ``acc_process_var`` (the velocity filter's acceleration random walk per
         period, (m/s^2)^2, the predecessor's 1e-5; ``acc_process_var_x``, ``acc_process_var_y``
-        set one axis, applied after it) and ``acc_bias_process_var`` (the velocity
+        set one axis, applied after it; the matched filter of ``ukf_consistent`` starts
+        from its calibrated pair,
+        :data:`~ballbot_casadi.estimation.velocity.MATCHED_ACC_PROCESS_VAR`, instead) and
+        ``acc_bias_process_var`` (the velocity
         filter's accelerometer-bias
         process noise per period, (m/s^2)^2, the predecessor's 1e-9; it sets how fast
         the velocity-aided tilt correction follows the attitude filter's slow error,
@@ -434,6 +439,9 @@ class Scenario:
         att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[self.estimator])
         cov = {"Qa": np.array(att.Q, float), "Ra": np.array(att.R, float),
                "Qv": np.array(vel.Q, float), "Rv": np.array(vel.R, float)}
+        if self.estimator in MATCHED_VELOCITY:  # its calibration; the file's keys set theirs over it
+            name, block = ESTIMATOR_TUNING_TARGETS["acc_process_var"]
+            cov[name][block, block] = np.diag(MATCHED_ACC_PROCESS_VAR)
         for key in sorted(self.estimator_tuning, key=list(ESTIMATOR_TUNING_TARGETS).index):
             val = self.estimator_tuning[key]  # in the targets' order: per-axis after both axes
             name, block = ESTIMATOR_TUNING_TARGETS[key]
