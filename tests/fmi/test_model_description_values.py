@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 from fmpy import read_model_description
 
-from ballbot_casadi.fmi.model_description import model_description_xml, xml_number, xml_start
+from ballbot_casadi.fmi.model_description import model_description_xml, xml_number
 from ballbot_casadi.fmi.plant.plant import plant_spec
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
