@@ -21,7 +21,7 @@ codegen: $(STAMP)
 
 ## Run the test suite.
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q --durations=15
 
 ## Main job: build, analyse, simulate the default robot, write report and plots under build/demo.
 demo: $(STAMP)
