@@ -71,3 +71,27 @@ def _run_in_fork(fn: Callable[[], object]) -> tuple[int, str]:
 def in_fork() -> Callable[[Callable[[], object]], tuple[int, str]]:
     """:func:`_run_in_fork`: ``in_fork(fn) -> (exit code or -signal, str(fn()))``."""
     return _run_in_fork
+
+
+@pytest.fixture(scope="session")
+def guided_path():
+    """A short waypoint path for the guidance-slot tests (tests/sim, tests/analysis)."""
+    from ballbot_casadi.guidance.paths import waypoint_path
+
+    return waypoint_path([[0.0, 0.0], [1.0, 0.3], [2.0, 0.0]])
+
+
+@pytest.fixture(scope="session")
+def guided_inputs(guided_path):
+    """The path scenario's mission inputs along :func:`guided_path` (1 s)."""
+    from ballbot_casadi.sim.path_following import path_scenario
+
+    return path_scenario(guided_path, 1.0).inputs()
+
+
+@pytest.fixture(scope="session")
+def guided_law(guided_inputs):
+    """The MPC guidance law for :func:`guided_inputs`' robot (built once per session)."""
+    from ballbot_casadi.sim.guided import mpc_law
+
+    return mpc_law(guided_inputs["p_ctrl"], guided_inputs["k_vel"])

@@ -16,24 +16,8 @@ from ballbot_casadi.analysis.guidance_samples import (
     timing_summary,
 )
 from ballbot_casadi.errors import ScenarioError
-from ballbot_casadi.guidance.paths import waypoint_path
-from ballbot_casadi.sim.guided import GUIDANCE_EVERY, mpc_law, predictions, pursuit_law, run_guided
-from ballbot_casadi.sim.path_following import path_scenario, velocity_loop_model
-
-
-@pytest.fixture(scope="module")
-def path():
-    return waypoint_path([[0.0, 0.0], [1.0, 0.3], [2.0, 0.0]])
-
-
-@pytest.fixture(scope="module")
-def inputs(path):
-    return path_scenario(path, 1.0).inputs()
-
-
-@pytest.fixture(scope="module")
-def law(inputs):
-    return mpc_law(inputs["p_ctrl"], inputs["k_vel"])
+from ballbot_casadi.sim.guided import GUIDANCE_EVERY, predictions, pursuit_law, run_guided
+from ballbot_casadi.sim.path_following import velocity_loop_model
 
 
 def test_sample_periods_every_20th_from_0():
@@ -54,21 +38,22 @@ def test_timing_summary_by_hand():
         timing_summary([])
 
 
-def test_residual_is_read_after_each_sample_period(law):
-    S = law.state
+def test_residual_is_read_after_each_sample_period(guided_law):
+    S = guided_law.state
     guide = np.full((2 * GUIDANCE_EVERY + 6, 1 + S.size), 9.0)  # 46 periods: samples at 0, 20, 40
     col = 1 + S["r_prim"].start
     for row, r in ((1, 0.1), (GUIDANCE_EVERY + 1, 0.2), (2 * GUIDANCE_EVERY + 1, 0.3)):
         guide[row, col] = r
-    np.testing.assert_array_equal(sample_residuals(law, guide), [0.1, 0.2, 0.3])
+    np.testing.assert_array_equal(sample_residuals(guided_law, guide), [0.1, 0.2, 0.3])
     with pytest.raises(ScenarioError, match="only the MPC"):
         sample_residuals(pursuit_law(), guide)
 
 
-def test_predicted_horizon_of_a_known_plan_equals_stepping_the_model(law, inputs):
+def test_predicted_horizon_of_a_known_plan_equals_stepping_the_model(guided_law,
+                                                                     guided_inputs):
     """The plan in the logged state (MPC state x0, blocked inputs u) predicts the positions
     of the closed velocity loop stepped with each step's held reference."""
-    S, cond = law.state, law.cond
+    S, cond = guided_law.state, guided_law.cond
     rng = np.random.default_rng(4)
     guide = np.zeros((GUIDANCE_EVERY + 2, 1 + S.size))
     plans = []
@@ -78,9 +63,10 @@ def test_predicted_horizon_of_a_known_plan_equals_stepping_the_model(law, inputs
         guide[row, 1 + S["x0"].start:1 + S["x0"].stop] = x0
         guide[row, 1 + S["u"].start:1 + S["u"].stop] = ub
         plans.append((x0, ub))
-    periods, pos = predictions(law, {"guide": guide})
+    periods, pos = predictions(guided_law, {"guide": guide})
     np.testing.assert_array_equal(periods, [0, GUIDANCE_EVERY])
-    model = velocity_loop_model(inputs["p_ctrl"], inputs["k_vel"], law.config.dt)
+    model = velocity_loop_model(guided_inputs["p_ctrl"], guided_inputs["k_vel"],
+                                guided_law.config.dt)
     for (x0, ub), p in zip(plans, pos):
         steps = np.repeat(ub.reshape(-1, 3), cond.blocks, axis=0)  # block j held blocks[j] steps
         assert steps.shape == (cond.N, 3)
@@ -97,10 +83,11 @@ def test_sample_inputs_read_what_the_controllers_read():
     assert np.all(sample_inputs(log, 1)[0] == 5)
 
 
-def test_timed_calls_reproduce_the_logged_guidance_state(path, inputs):
+def test_timed_calls_reproduce_the_logged_guidance_state(guided_path, guided_inputs):
     law = pursuit_law()
-    log = run_guided(path, law, 1.0)
-    t = time_samples(law.function, log, inputs["p_ctrl"], law.parameters(path), inputs["Ts"])
+    log = run_guided(guided_path, law, 1.0)
+    t = time_samples(law.function, log, guided_inputs["p_ctrl"], law.parameters(guided_path),
+                     guided_inputs["Ts"])
     np.testing.assert_array_equal(t.periods, np.arange(0, 200, GUIDANCE_EVERY))
     np.testing.assert_allclose(t.g_next, log["guide"][t.periods + 1], rtol=0, atol=1e-12)
     assert np.all(t.wall_s > 0) and np.all(t.cpu_s >= 0) and t.wall_s.shape == (10,)

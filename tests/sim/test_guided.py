@@ -16,14 +16,12 @@ from ballbot_casadi.guidance.pure_pursuit import PurePursuit
 from ballbot_casadi.sim.guided import (
     GUIDANCE_EVERY,
     PURSUIT_GAINS,
-    mpc_law,
     predictions,
     pursuit_law,
     run_guided,
 )
 from ballbot_casadi.sim.path_following import (
     make_loop_state,
-    path_scenario,
     run_path,
     velocity_loop_model,
 )
@@ -32,28 +30,14 @@ DURATION = 3.0
 
 
 @pytest.fixture(scope="module")
-def path():
-    return waypoint_path([[0.0, 0.0], [1.0, 0.3], [2.0, 0.0]])
+def mpc_runs(guided_path, guided_inputs, guided_law):
+    mission = run_guided(guided_path, guided_law, DURATION)
+    mpc = PathMPC(velocity_loop_model(guided_inputs["p_ctrl"], guided_inputs["k_vel"], 0.1),
+                  guided_path)
+    return mission, run_path(guided_path, mpc, DURATION)
 
 
-@pytest.fixture(scope="module")
-def inputs(path):
-    return path_scenario(path, 1.0).inputs()
-
-
-@pytest.fixture(scope="module")
-def law(inputs):
-    return mpc_law(inputs["p_ctrl"], inputs["k_vel"])
-
-
-@pytest.fixture(scope="module")
-def mpc_runs(path, inputs, law):
-    mission = run_guided(path, law, DURATION)
-    mpc = PathMPC(velocity_loop_model(inputs["p_ctrl"], inputs["k_vel"], 0.1), path)
-    return mission, run_path(path, mpc, DURATION)
-
-
-def test_mpc_in_the_compiled_period_equals_the_python_driver(mpc_runs, law):
+def test_mpc_in_the_compiled_period_equals_the_python_driver(mpc_runs, guided_law):
     """The compiled mission with the MPC in the guidance slot == the Python driver calling
     PathMPC every 0.1 s above the compiled cascade (path table vs spline: ~1e-7 m)."""
     mission, ref = mpc_runs
@@ -61,13 +45,13 @@ def test_mpc_in_the_compiled_period_equals_the_python_driver(mpc_runs, law):
     np.testing.assert_allclose(mission["state"], ref.log["state"], rtol=0, atol=1e-6)
     np.testing.assert_allclose(mission["v_ref_used"][::GUIDANCE_EVERY, :2], ref.v_ref,
                                rtol=0, atol=1e-6)
-    _, pos = predictions(law, mission)
+    _, pos = predictions(guided_law, mission)
     np.testing.assert_allclose(pos, np.array(ref.predictions), rtol=0, atol=1e-6)
     # and it went somewhere: 3 s along the path at up to 0.5 m/s
     assert np.linalg.norm(mission["state"][-1, :2] - mission["state"][0, :2]) > 0.8
 
 
-def test_the_guidance_runs_every_20th_period_and_holds_between(mpc_runs, law):
+def test_the_guidance_runs_every_20th_period_and_holds_between(mpc_runs, guided_law):
     mission, _ = mpc_runs
     v = mission["v_ref_used"]
     held = np.repeat(v[::GUIDANCE_EVERY], GUIDANCE_EVERY, axis=0)[:v.shape[0]]
@@ -77,14 +61,14 @@ def test_the_guidance_runs_every_20th_period_and_holds_between(mpc_runs, law):
     count = g[:, 0]
     np.testing.assert_array_equal(count[:41], np.r_[np.arange(20), np.arange(20), 0.0])
     # the plan changes only in the sample's period
-    w = g[:, 1 + law.state.offset("x0"):]
+    w = g[:, 1 + guided_law.state.offset("x0"):]
     changed = np.flatnonzero(np.any(w[1:] != w[:-1], axis=1))
     assert set(changed % GUIDANCE_EVERY) == {0}
 
 
-def test_pure_pursuit_in_the_period_equals_the_python_driver(path):
-    mission = run_guided(path, pursuit_law(), DURATION)
-    ref = run_path(path, PurePursuit(path, *PURSUIT_GAINS), DURATION)
+def test_pure_pursuit_in_the_period_equals_the_python_driver(guided_path):
+    mission = run_guided(guided_path, pursuit_law(), DURATION)
+    ref = run_path(guided_path, PurePursuit(guided_path, *PURSUIT_GAINS), DURATION)
     # projection: Gauss-Newton on the table vs the class's dense search
     np.testing.assert_allclose(mission["state"], ref.log["state"], rtol=0, atol=1e-5)
     np.testing.assert_allclose(mission["v_ref_used"][::GUIDANCE_EVERY, :2], ref.v_ref,
@@ -122,16 +106,17 @@ def test_pure_pursuit_with_noise_and_the_ukfs_follows_the_figure_eight():
     assert np.linalg.norm(log["state"][-1, :2] - log["state"][0, :2]) > 1.0
 
 
-def test_the_initial_function_starts_the_guidance_as_the_python_samples(path, inputs, law):
+def test_the_initial_function_starts_the_guidance_as_the_python_samples(guided_path, guided_inputs,
+                                                                       guided_law):
     # g0 of the mission and of the path-following controller FMU (one Function) packs what
     # the sample's Python start packs, at a position off the path and a moving start
-    x0 = np.array(inputs["x0"], float).reshape(-1)
+    x0 = np.array(guided_inputs["x0"], float).reshape(-1)
     x0[0:2], x0[6:8] = (0.4, 0.25), (0.1, -0.05)
     z0 = np.linspace(0.01, 0.08, make_loop_state().numel_in(1))
     X0 = np.asarray(make_loop_state()(x0, z0), float).reshape(-1)
-    for lw, ref in ((law, mpc_initial_state(law.mpc_layout, path, X0)),
-                    (pursuit_law(), pursuit_initial_state(path, X0))):
-        g0 = lw.initial_state(path, x0, z0)
+    for lw, ref in ((guided_law, mpc_initial_state(guided_law.mpc_layout, guided_path, X0)),
+                    (pursuit_law(), pursuit_initial_state(guided_path, X0))):
+        g0 = lw.initial_state(guided_path, x0, z0)
         assert g0[0] == 0.0
         np.testing.assert_array_equal(g0[1:], ref)
         assert lw.initial_function().name() == f"ballbot_guidance_{lw.name}_initial"
