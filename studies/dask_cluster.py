@@ -21,6 +21,7 @@ import logging
 import re
 import threading
 import time
+from concurrent.futures import CancelledError
 from contextlib import contextmanager
 from typing import Any, Callable, Iterator, Sequence
 
@@ -182,6 +183,9 @@ def wait_all(futures: Sequence[Any], client: Any, on_done: Callable[[int], None]
             done = set()
         except OSError as exc:  # the scheduler went away (CommClosedError, ...)
             raise _lost(f"lost the Dask scheduler ({type(exc).__name__})", results, n) from None
+        except CancelledError as exc:  # the client cancels every pending future when it loses the scheduler
+            raise _lost(f"lost the Dask scheduler (pending tasks cancelled: {type(exc).__name__})",
+                        results, n) from None
         for f in done:
             i = index.pop(f.key)
             if f.status == "cancelled":
