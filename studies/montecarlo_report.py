@@ -286,6 +286,9 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
              "`numpy.random.default_rng([seed, i])`)",
              f"- **success rate: {100 * doc['success_rate']:.1f} %** ({doc['n'] - doc['n_failed']}/{doc['n']} "
              "runs meet every spec)", ""]
+    if doc.get("errors"):
+        lines += [f"- **{len(doc['errors'])} run(s) raised an error** (not simulated, no metrics; they count as "
+                  f"failed): {doc['errors'][0]}", ""]
     if doc.get("partial"):
         lines += [f"- **partial**: the Dask cluster lost its workers; {doc['n']} of {doc['n_planned']} runs "
                   f"finished, missing runs {_ranges(doc['missing'])} (`--resume` runs only those)", ""]
@@ -306,7 +309,7 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
     by_index = {r["index"]: r for r in doc["runs"]}
     for w in doc["worst"]:
         r = by_index[w["index"]]
-        failed = ", ".join(s["metric"] for s, ok in zip(doc["specs"], _spec_oks(doc, r)) if not ok) or "none"
+        failed = _failed_cell(doc, r)
         u, metric = _worst_usage(doc["specs"], r["metrics"])
         closest = f"`{metric}` {fmt(r['metrics'][metric])} ({100 * u:.0f} %)" if metric else "—"
         lines.append(f"| {w['index']} | {w['seed']} | {failed} | {closest} | "
@@ -335,6 +338,16 @@ def _report(out: Path, doc: dict[str, Any], plots: Sequence[str]) -> None:
 
 def _spec_oks(doc: dict[str, Any], run: dict[str, Any]) -> list[bool]:
     return [spec_ok(run["metrics"].get(s["metric"]), s["op"], s["threshold"]) for s in doc["specs"]]
+
+
+def _failed_cell(doc: dict[str, Any], run: dict[str, Any]) -> str:
+    """The "failed specs" cell of a worst run: an errored run says so (its specs were never
+    evaluated, so it has no metrics to judge), a fall or NaN run says why, then the specs
+    its metrics miss."""
+    if run.get("error"):
+        return "**error**: " + str(run["error"]).replace("|", "\\|").replace("\n", " ")
+    failed = ", ".join(s["metric"] for s, ok in zip(doc["specs"], _spec_oks(doc, run)) if not ok) or "none"
+    return f"**{run['failure']}**; {failed}" if run.get("failure") else failed
 
 
 def demo_step(out: Path) -> int:
