@@ -1,0 +1,100 @@
+"""What the study plots draw, read back from the figures when they are saved (issue 23:
+plot mutants -- axes swapped, a wrong grid, points of the wrong runs -- changed no number
+a test looked at).  ``Figure.savefig`` is wrapped to record each figure's lines and
+scatter collections; the data are compared with values computed here independently."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+from ballbot_casadi.analysis import linear as an
+from ballbot_casadi.core.params import load_params
+from ballbot_casadi.core.specs import specs_or_default
+from ballbot_casadi.sim.scenario import load_scenario_file
+from ballbot_casadi.sim.scenario.dispersions import draw_runs
+from ballbot_casadi.studies import analysis_report
+from ballbot_casadi.studies import montecarlo_report as mr
+from ballbot_casadi.studies.registry import shipped_scenarios
+
+
+@pytest.fixture
+def saved(monkeypatch):
+    """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)],
+    "xlabel", "ylabel"}."""
+    figs: dict[str, list[dict]] = {}
+    real = Figure.savefig
+
+    def grab(self, fname, *a, **kw):
+        axes = []
+        for ax in self.axes:
+            axes.append({"lines": [(ln.get_label(), np.asarray(ln.get_xdata(), float),
+                                    np.asarray(ln.get_ydata(), float)) for ln in ax.lines],
+                         "scatter": [(c.get_label(), np.asarray(c.get_offsets(), float)) for c in ax.collections],
+                         "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel()})
+        figs[Path(fname).name] = axes
+        return real(self, fname, *a, **kw)
+
+    monkeypatch.setattr(Figure, "savefig", grab)
+    return figs
+
+
+def _line(axes: dict, label: str):
+    hits = [(x, y) for lab, x, y in axes["lines"] if lab == label]
+    assert len(hits) == 1, [lab for lab, *_ in axes["lines"]]
+    return hits[0]
+
+
+def test_pole_zero_and_singular_value_plots_draw_the_analysis(saved, tmp_path):
+    lin, result = an.analyze_plant(load_params())
+    analysis_report.write_plots(lin, result, tmp_path)
+    pz = saved["pole_zero.png"][0]
+    er = np.array([complex(*z) for z in result["eigenvalues_reduced"]])
+    x, y = _line(pz, "poles (reduced 10-state model)")
+    np.testing.assert_allclose(x, er.real, rtol=0, atol=0)  # Re on x, Im on y
+    np.testing.assert_allclose(y, er.imag, rtol=0, atol=0)
+    assert np.any(x > 0)  # the balancing robot is open-loop unstable: a pole on the right
+    cons = np.array([complex(*z) for z in result["constraint_eigenvalues"]])
+    x, y = _line(pz, "constraint poles (12-state only)")
+    np.testing.assert_allclose(x + 1j * y, cons, rtol=0, atol=0)
+    assert pz["xlabel"].startswith("Re") and pz["ylabel"].startswith("Im")
+
+    sv_axes = saved["singular_values.png"]
+    assert len(sv_axes) == 3
+    for ax, channel in zip(sv_axes, ("position", "tilt", "heading")):
+        w, db = _line(ax, "sigma_1")
+        assert w[0] == pytest.approx(1e-2, rel=1e-12) and w[-1] == pytest.approx(1e2, rel=1e-12)
+        assert np.all(np.diff(np.log10(w)) > 0) and np.allclose(np.diff(np.log10(w)), np.diff(np.log10(w))[0])
+        sv = an.singular_values(lin, w[[0, len(w) // 2, -1]], channel)
+        np.testing.assert_allclose(db[[0, len(w) // 2, -1]], 20 * np.log10(sv[:, 0]), rtol=1e-12, atol=1e-12)
+
+
+def test_monte_carlo_scatter_draws_each_run_at_its_drawn_value_and_metric(saved, tmp_path):
+    path = shipped_scenarios()["zero"]
+    source = load_scenario_file(path)
+    specs = specs_or_default(source.specs)
+    runs = draw_runs(source, 5, 3)
+    tilts = [0.3, 1.5, 0.2, 40.0, 0.9]
+    results = [{"ok": t < 1.0, "spec_ok": [t < 1.0] * len(specs), "metrics": {"peak_tilt_deg": t},
+                "error": None, "failure": None} for t in tilts]
+    summary = {"specs": [{"metric": "peak_tilt_deg", "op": "<", "threshold": 1.0}], "n": 5, "success_rate": 0.6}
+    mr._plots(summary, runs, results, tmp_path)
+    params = list(runs[0]["values"])
+    sc = saved["scatter.png"]
+    assert [a["xlabel"] for a in sc[:len(params)]] == params
+    ok = np.array([t < 1.0 for t in tilts])
+    for ax, p in zip(sc, params):
+        assert ax["ylabel"] == "peak_tilt_deg"
+        got = dict(ax["scatter"])
+        xs = np.array([r["values"][p] for r in runs])
+        np.testing.assert_array_equal(got["pass"], np.column_stack([xs[ok], np.array(tilts)[ok]]))
+        np.testing.assert_array_equal(got["fail"], np.column_stack([xs[~ok], np.array(tilts)[~ok]]))
+    hist = saved["histograms.png"]
+    tilt_ax = next(a for a in hist if any(lab.startswith("spec") for lab, *_ in a["lines"]))
+    x, _ = _line(tilt_ax, "spec < 1.0")
+    assert np.all(x == 1.0)  # the spec threshold, in the metric's units
+    x, _ = next((x, y) for lab, x, y in tilt_ax["lines"] if lab.startswith("§7.1 limit"))
+    assert np.allclose(x, 5.0, rtol=1e-12, atol=0)  # 5 deg (thesis §7.1 tilt limit), in degrees
