@@ -245,7 +245,7 @@ def _correct(model: FilterModel, x_pred, P_pred, P_xz, P_zz, z, z_pred, n_rep,
         x_post = man.normalise(x_post)
     P_post, r = make_spd_repair(model.nd)(P_post)
     return {**dict(zip(OUTPUT_NAMES, (x_post, P_post, nu, nis, n_valid, n_rep + r))), **gated,
-            "dx": dx}
+            "P_zz": P_zz}
 
 
 def _sigma_points(man: Manifold, chol: ca.Function, x, P, spread: float):

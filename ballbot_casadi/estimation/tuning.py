@@ -56,6 +56,8 @@ Acceleration random-walk adaptation of the velocity filter (``estimator = "ukf_a
 * :data:`ADAPTIVE_WALK_FORGETTING` = 0.0025: the Sage-Husa weight of the newest squared
   acceleration correction, a time constant of 2 s at the 5 ms period (the estimate of a
   stationary walk then spreads by about 5 %, ``sqrt(lambda)``);
+* :data:`ADAPTIVE_WALK_PRIOR_SAMPLES` = 20: the prior (the configured walk) counts as 20
+  squared corrections (0.1 s) at power-on;
 * :data:`ADAPTIVE_WALK_FLOOR` = 1e-3, :data:`ADAPTIVE_WALK_CEILING` = 1.0 (m/s^2)^2 per
   period: the bounds of the estimate, a decade below the moving robot's measured walk
   (~1e-2) and a decade above the standing robot's (~0.1).
@@ -72,6 +74,7 @@ __all__ = [
     "ADAPTIVE_WALK_CEILING",
     "ADAPTIVE_WALK_FLOOR",
     "ADAPTIVE_WALK_FORGETTING",
+    "ADAPTIVE_WALK_PRIOR_SAMPLES",
     "ALPHA_TRUST",
     "GATE_MAX_REJECTIONS",
     "GATE_PROBABILITY",
@@ -149,3 +152,5 @@ ADAPTIVE_WALK_FORGETTING = 0.0025
 ADAPTIVE_WALK_FLOOR = 1e-3
 #: Upper bound of the adapted acceleration random walk, (m/s^2)^2 per period.
 ADAPTIVE_WALK_CEILING = 1.0
+#: Number of squared corrections the prior of the adapted random walk counts for.
+ADAPTIVE_WALK_PRIOR_SAMPLES = 20.0

@@ -54,9 +54,11 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.errors import BallbotTypeError
 from ballbot_casadi.estimation.adaptive_walk import (
-    ACC_AXES,
+    ACC_STATE,
+    WALK_SIZE,
     WalkAdaptation,
     adapt_walk,
+    make_walk_sample,
     prior_walk,
     with_walk,
 )
@@ -254,8 +256,8 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
     u = ca.vertcat(att, ca.vec(0.5 * (P_att + P_att.T)))
     names = list(INPUT_NAMES)
     if adaptive is not None:  # the acceleration block of Q from the filter's own estimate
-        q_acc = ca.MX.sym("q_acc", 2)
-        q_used = prior_walk(q_acc, Qn)
+        walk = ca.MX.sym("walk", WALK_SIZE)
+        q_used = prior_walk(walk, Qn)
         Qn = with_walk(Qn, q_used)
     if matched:
         P_rate = ca.MX.sym("P_rate", 3, 3)
@@ -268,7 +270,7 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
         Jw = _encoder_rate_jacobian(wheel_speeds)(att, dt, p)
         R = R + ca.diagcat(ca.mtimes([Jw, P_rate, Jw.T]), ca.DM.zeros(3, 3))
     if adaptive is not None:
-        args, names = (*args, q_acc), [*names, "q_acc"]
+        args, names = (*args, walk), [*names, "walk"]
     g, names_out = {}, list(OUTPUT_NAMES)
     if gate:
         g = {"gate": VELOCITY_GATE, "n_rej": ca.MX.sym("n_rej", len(VELOCITY_GATE.groups))}
@@ -279,8 +281,19 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
     else:
         out = ekf_step(model, xhat, P, z, u, Qn, R, dt, p, **g)
     if adaptive is not None:
-        out["q_acc_next"] = adapt_walk(q_used, out["dx"][ACC_AXES], out["n_valid"] >= 5.5, adaptive)
-        names_out.append("q_acc_next")
+        # h_i = H G e_i: the measurements' sensitivity to the walk's increment on axis i
+        # (H by AD; the models are linear in the state; G of period_acceleration_noise)
+        xs = ca.MX.sym("x", NX)
+        H = ca.substitute(ca.jacobian(model.measurement(xs, u, dt, p), xs), xs, xhat)
+        GE = ca.MX.zeros(NX, 2)
+        GE[ACC_STATE, :] = ca.MX.eye(2)
+        if matched:
+            GE[0:2, :] = dt * ca.MX.eye(2)
+        sample, ok = make_walk_sample(6)(out["nu"], out["P_zz"], ca.mtimes(H, GE),
+                                         q_used)
+        out["walk_next"] = adapt_walk(walk, q_used, sample,
+                                      ca.logic_and(out["n_valid"] >= 5.5, ok), adaptive)
+        names_out.append("walk_next")
     return ca.Function(name, list(args), [out[k] for k in names_out], names, names_out)
 
 
@@ -320,11 +333,11 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool =
     adaptive
         Adapt the acceleration random walk online (issue 22,
         :mod:`~ballbot_casadi.estimation.adaptive_walk`: covariance matching of the
-        acceleration corrections with a Sage-Husa forgetting factor, bounded): an input
-        ``q_acc`` (2, the walk per axis x, y, a state of the filter; 0 = use ``Q``'s
-        acceleration block, the power-on value) after ``P_rate`` and before ``n_rej``, and
-        a last output ``q_acc_next``.  ``Q``'s acceleration block is then replaced by
-        ``diag(q_acc)``.
+        accelerometer innovations with a Sage-Husa forgetting factor, bounded): an input
+        ``walk`` (``[q_x, q_y, n]``, the walk per axis and its sample count, a state of the
+        filter; 0 = use ``Q``'s acceleration block as the prior, the power-on value) after
+        ``P_rate`` and before ``n_rej``, and a last output ``walk_next``.  ``Q``'s
+        acceleration block is then replaced by ``diag(q_x, q_y)``.
 
     Returns
     -------

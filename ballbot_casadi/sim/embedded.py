@@ -85,7 +85,7 @@ from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_
 from ballbot_casadi.estimation.heading import HEADING_FILTER_STATE, make_qukf_heading
 from ballbot_casadi.estimation.predecessor import QEKF_HEADING_STATE, make_qekf_heading
 from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0
-from ballbot_casadi.estimation.adaptive_walk import WalkAdaptation
+from ballbot_casadi.estimation.adaptive_walk import WALK_SIZE, WalkAdaptation
 from ballbot_casadi.estimation.velocity import encoder_rate
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.model.sensors import (
@@ -152,8 +152,9 @@ MATCHED_VELOCITY = frozenset({"ukf_consistent", "ukf_adaptive"})
 #: Estimator choices whose (matched) velocity filter adapts its acceleration random walk
 #: online (``make_vukf(..., adaptive=WalkAdaptation())``,
 #: :mod:`~ballbot_casadi.estimation.adaptive_walk`): the estimate, per axis x and y, is a
-#: state of the filter (field ``q_acc`` of :func:`estimator_layout`, 0 at power-on: the
-#: configured ``Qv``'s acceleration block is the prior).  ``ukf_consistent`` keeps the
+#: state of the filter (field ``walk`` of :func:`estimator_layout`, ``[q_x, q_y, n]`` with
+#: ``n`` its sample count, 0 at power-on: the configured ``Qv``'s acceleration block is the
+#: prior).  ``ukf_consistent`` keeps the
 #: constant pair :data:`~ballbot_casadi.estimation.velocity.MATCHED_ACC_PROCESS_VAR`.
 ADAPTIVE_VELOCITY = frozenset({"ukf_adaptive"})
 #: The state layouts of the attitude filters that read the heading sensor (the others'
@@ -288,7 +289,7 @@ def estimator_layout(estimator: str) -> Layout:
         raise BuildError(f"estimator {estimator!r}: filter states of {att.x0.size} and "
                          f"{vel.x0.size} entries do not match the layouts {XA} "
                          f"and {VELOCITY_FILTER_STATE}")
-    walk = (("q_acc", 2),) if estimator in ADAPTIVE_VELOCITY else ()
+    walk = (("walk", WALK_SIZE),) if estimator in ADAPTIVE_VELOCITY else ()
     return Layout("estimator state", [("xa", XA), ("Pa", att.P0.size),
                                       ("xv", VELOCITY_FILTER_STATE), ("Pv", vel.P0.size),
                                       ("pos", 2), ("gate", GATE_GROUPS.size), *walk])
@@ -438,8 +439,8 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                                      ca.reshape(sym["Ra"], nr, nr)[g, g],
                                      ca.reshape(sym["Qa"], nq, nq)[w, w])
         rate, att_v = {"P_rate": P_rate}, ca.vertcat(xa[XA["q"]], w_enc)
-    if "q_acc" in est.velocity.name_in():  # the adapted acceleration random walk (a state)
-        rate["q_acc"] = c[C["q_acc"]]
+    if "walk" in est.velocity.name_in():  # the adapted acceleration random walk (a state)
+        rate["walk"] = c[C["walk"]]
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
                        att=att_v, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
                        R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate, **gate_in["vel"])
@@ -461,7 +462,7 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     if len(Z.fields) > 1:
         z_next = z_next[Z["z"]]
     after = [ctrl["z_next"][Z[f]] for f in Z.fields[1:]]
-    walk = (vel["q_acc_next"],) if C.has("q_acc") else ()
+    walk = (vel["walk_next"],) if C.has("walk") else ()
     c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos,
                         gate_next, *walk, *after)
     outs = {"c_next": c_next, "x_hat": x_hat, "nis": ca.vertcat(att["nis"], vel["nis"]),
@@ -581,7 +582,7 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     parts.update({"xa": xa, "Pa": ca.vec(Pa),
                   "xv": ca.vertcat(*(xv[f] for f in VELOCITY_FILTER_STATE.fields)),
                   "Pv": ca.vec(ca.DM(vel.P0)), "pos": x0[STATE_XY],
-                  "gate": ca.DM.zeros(GATE_GROUPS.size), "q_acc": ca.DM.zeros(2)})
+                  "gate": ca.DM.zeros(GATE_GROUPS.size), "walk": ca.DM.zeros(WALK_SIZE)})
     # COM observer
     if observer:
         pi = {n: PARAM_NAMES.index(n) for n in ("com_x", "com_y", "l")}

@@ -23,7 +23,13 @@ from ballbot_casadi.analysis.consistency import chi2_band, nees
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import TS_CONTROL as TS
 from ballbot_casadi.errors import ShapeError
-from ballbot_casadi.estimation.adaptive_walk import WalkAdaptation, adapt_walk, with_walk
+from ballbot_casadi.estimation.adaptive_walk import (
+    WALK_SIZE,
+    WalkAdaptation,
+    adapt_walk,
+    make_walk_sample,
+    with_walk,
+)
 from ballbot_casadi.estimation.tuning import SIGMA_ACC, SIGMA_ENC, SIGMA_GYRO
 from ballbot_casadi.estimation.velocity import make_vukf
 
@@ -70,13 +76,13 @@ def _run(f, ws, seed, prior=(1e-1, 1e-1), qa=(QX, QY), n=N, z_edit=None):
     if z_edit is not None:
         z_edit(Z)
     Qn = np.diag([0.0, 0.0, *prior, QB, QB, QB])
-    i_q, o_q = f.index_in("q_acc"), f.index_out("q_acc_next")
+    i_q, o_q = f.index_in("walk"), f.index_out("walk_next")
     acc = f.mapaccum("v", n, [0, 1, i_q], [0, 1, o_q])
     out = acc(np.zeros(7), P0, Z, A, np.zeros((3, 3 * n)), Qn, R6, TS, PV,
-              np.tile(SIGMA_GYRO, (1, n)), np.zeros(2))
+              np.tile(SIGMA_GYRO, (1, n)), np.zeros(WALK_SIZE))
     xh = np.asarray(out[0]).T
     P = np.asarray(out[1]).T.reshape(n, 7, 7).transpose(0, 2, 1)
-    q = np.asarray(out[o_q]).T
+    q = np.asarray(out[o_q]).T[:, :2]
     return nees(xh - X[:, 1:].T, P), np.asarray(out[3]).ravel(), q
 
 
@@ -97,10 +103,8 @@ def runs(adaptive, ws):
 
 def test_the_walk_estimate_converges_to_the_known_process_noise(runs):
     """From a prior of 0.1 on both axes (10x and 2.5x the truth) the estimate, averaged
-    over the last 6 s of each run (after 5 time constants: the prior's share has decayed to
-    ~2 % of 0.09 on average), is within 10 % of the true walk per axis on every seed, and
-    within 4 % over the 25 seeds (its spread ~ sqrt(lambda) = 5 % per instant; from the
-    truth it settles 2 % above it on x, measured 0.0102)."""
+    over the last 6 s of each run, is within 10 % of the true walk per axis on every seed,
+    and within 4 % over the 25 seeds (its spread ~ sqrt(lambda) = 5 % per instant)."""
     q = np.array([r[2][SKIP:].mean(axis=0) for r in runs])  # (SEEDS, 2)
     np.testing.assert_allclose(q, np.tile([QX, QY], (SEEDS, 1)), rtol=0.10)
     np.testing.assert_allclose(q.mean(axis=0), [QX, QY], rtol=0.04)
@@ -128,8 +132,8 @@ def test_the_estimate_follows_a_change_of_the_walk(adaptive, ws):
 
 def test_a_glitch_moves_the_estimate_by_at_most_lambda_times_the_ceiling(adaptive, ws):
     """A 50 m/s^2 accelerometer glitch (the filter is ungated here): the walk stays in
-    [floor, ceiling], jumps by at most ``lambda q_max`` and is back within 10 % of its
-    unglitched value 3 time constants later."""
+    [floor, ceiling], jumps by at most ``lambda q_max`` (the sample enters clipped to the
+    ceiling) and is back within 10 % of its unglitched value 3 time constants later."""
     n, k = 1600, 800
 
     def glitch(Z):
@@ -144,27 +148,55 @@ def test_a_glitch_moves_the_estimate_by_at_most_lambda_times_the_ceiling(adaptiv
     np.testing.assert_allclose(q1[-1], q0[-1], rtol=0.10)
 
 
-def _step(q, d, valid, a=ADAPT):
-    qs, ds, vs = ca.MX.sym("q", 2), ca.MX.sym("d", 2), ca.MX.sym("v")
-    f = ca.Function("f", [qs, ds, vs], [adapt_walk(qs, ds, vs > 0.5, a)])
-    return np.asarray(f(q, d, valid)).ravel()
+def _step(q, s, valid, n=1e9, a=ADAPT):
+    """``adapt_walk`` from the state ``[q, n]`` with the walk ``q`` used."""
+    ws, qs, ss, vs = ca.MX.sym("w", 3), ca.MX.sym("q", 2), ca.MX.sym("s", 2), ca.MX.sym("v")
+    f = ca.Function("f", [ws, qs, ss, vs], [adapt_walk(ws, qs, ss, vs > 0.5, a)])
+    return np.asarray(f(np.r_[q, n], q, s, valid)).ravel()
 
 
 def test_the_update_is_the_sage_husa_mean_clipped_to_its_bounds():
-    lam = ADAPT.forgetting
-    np.testing.assert_allclose(_step([0.02, 0.05], [0.1, -0.3], 1),
-                               [(1 - lam) * 0.02 + lam * 0.01, (1 - lam) * 0.05 + lam * 0.09],
+    lam, n_max = ADAPT.forgetting, 1.0 / ADAPT.forgetting
+    np.testing.assert_allclose(_step([0.02, 0.05], [0.01, 0.09], 1),
+                               [(1 - lam) * 0.02 + lam * 0.01, (1 - lam) * 0.05 + lam * 0.09, n_max],
                                rtol=1e-14, atol=0)
-    # a missing reading (not every component used) or a non-finite correction: unchanged
-    np.testing.assert_array_equal(_step([0.02, 0.05], [0.1, -0.3], 0), [0.02, 0.05])
-    np.testing.assert_array_equal(_step([0.02, 0.05], [np.nan, 0.0], 1), [0.02, 0.05])
-    np.testing.assert_array_equal(_step([0.02, 0.05], [np.inf, 0.0], 1), [0.02, 0.05])
-    # the bounds: a zero correction cannot take it below the floor, nor a huge one above
-    # the ceiling, and a huge one enters clipped to the ceiling
-    assert np.all(_step([ADAPT.floor, ADAPT.floor], [0.0, 0.0], 1) == ADAPT.floor)
-    big = _step([0.02, ADAPT.ceiling], [1e6, 1e6], 1)
+    # growing memory at the start: the prior counts as n0 samples, the k-th has 1/(n0 + k)
+    w = 1.0 / (ADAPT.prior_samples + 5 + 1)
+    np.testing.assert_allclose(_step([0.02, 0.05], [0.01, 0.09], 1, n=5),
+                               [(1 - w) * 0.02 + w * 0.01, (1 - w) * 0.05 + w * 0.09, 6],
+                               rtol=1e-14, atol=0)
+    # a missing reading (not every component used) or a non-finite sample: unchanged
+    np.testing.assert_array_equal(_step([0.02, 0.05], [0.01, 0.09], 0, n=5), [0.02, 0.05, 5])
+    np.testing.assert_array_equal(_step([0.02, 0.05], [np.nan, 0.0], 1, n=5), [0.02, 0.05, 5])
+    np.testing.assert_array_equal(_step([0.02, 0.05], [np.inf, 0.0], 1, n=5), [0.02, 0.05, 5])
+    # the bounds: a negative sample enters as 0 and cannot take it below the floor, a huge
+    # one enters clipped to the ceiling and cannot take it above
+    assert np.all(_step([ADAPT.floor, ADAPT.floor], [-5.0, 0.0], 1)[:2] == ADAPT.floor)
+    np.testing.assert_allclose(_step([0.02, 0.05], [-5.0, 0.0], 1)[:2],
+                               [(1 - lam) * 0.02, (1 - lam) * 0.05], rtol=1e-14)
+    big = _step([0.02, ADAPT.ceiling], [1e6, 1e6], 1)[:2]
     np.testing.assert_allclose(big, [(1 - lam) * 0.02 + lam * ADAPT.ceiling, ADAPT.ceiling],
                                rtol=1e-14)
+
+
+def test_the_sample_is_the_scoring_step_of_the_innovation_likelihood():
+    """``s_i = q_i + (a_i^2 - b_i) / b_i^2``, ``a_i = h_i^T S^-1 nu``, ``b_i = h_i^T S^-1 h_i``
+    (numpy reference); for a scalar measurement of the walk (``h = 1``) it is
+    ``nu^2 - (S - q)``: the squared innovation less the variance that is not the walk."""
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((6, 6))
+    S = A @ A.T + 0.5 * np.eye(6)
+    nu, Hg, q = rng.standard_normal(6), rng.standard_normal((6, 2)), np.array([0.02, 0.04])
+    s, ok = make_walk_sample(6)(nu, S, Hg, q)
+    Si = np.linalg.inv(S)
+    a, b = Hg.T @ Si @ nu, np.einsum("ji,jk,ki->i", Hg, Si, Hg)
+    np.testing.assert_allclose(np.asarray(s).ravel(), q + (a * a - b) / b ** 2, rtol=1e-10)
+    assert float(ok) == 1.0
+    # scalar: S = 0.3 (of which q = 0.1 is the walk), nu = 0.5 -> 0.25 - 0.2 = 0.05
+    s1, _ = make_walk_sample(1)([0.5], [[0.3]], [[1.0, 1.0]], [0.1, 0.1])
+    np.testing.assert_allclose(np.asarray(s1).ravel(), [0.05, 0.05], rtol=1e-12)
+    # a covariance that is not positive definite gives no sample
+    assert float(make_walk_sample(6)(nu, -S, Hg, q)[1]) == 0.0
 
 
 def test_with_walk_replaces_the_acceleration_block_only():
