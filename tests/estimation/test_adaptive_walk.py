@@ -193,7 +193,8 @@ def test_the_sample_is_the_scoring_step_of_the_innovation_likelihood():
     np.testing.assert_allclose(np.asarray(s).ravel(), q + (a * a - b) / b ** 2, rtol=1e-10)
     assert float(ok) == 1.0
     # scalar: S = 0.3 (of which q = 0.1 is the walk), nu = 0.5 -> 0.25 - 0.2 = 0.05
-    s1, _ = make_walk_sample(1)([0.5], [[0.3]], [[1.0, 1.0]], [0.1, 0.1])
+    s1, _ = make_walk_sample(1)(np.array([0.5]), np.array([[0.3]]), np.array([[1.0, 1.0]]),
+                                np.array([0.1, 0.1]))
     np.testing.assert_allclose(np.asarray(s1).ravel(), [0.05, 0.05], rtol=1e-12)
     # a covariance that is not positive definite gives no sample
     assert float(make_walk_sample(6)(nu, -S, Hg, q)[1]) == 0.0
