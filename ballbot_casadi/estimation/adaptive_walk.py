@@ -172,11 +172,11 @@ def adapt_walk(walk, q, sample, all_valid, a: WalkAdaptation):
     measurement component was used.  Returns the next period's state."""
     ok = ca.logic_and(all_valid, ca.logic_and(ca.fabs(sample[0]) <= FINITE_MAX,
                                               ca.fabs(sample[1]) <= FINITE_MAX))
-    s = ca.if_else(ok, sample, ca.DM.zeros(2), True)
+    s = ca.if_else(ok, sample, ca.DM.zeros(2))
     n = ca.fmin(ca.fmax(walk[2], 0), 1.0 / a.forgetting)
     w = ca.fmax(a.forgetting, 1.0 / (a.prior_samples + n + 1))
     s = ca.fmin(ca.fmax(s, 0), a.ceiling)
     q_new = ca.fmin(ca.fmax((1 - w) * q + w * s, a.floor), a.ceiling)
     q_held = ca.fmin(ca.fmax(q, a.floor), a.ceiling)
-    return ca.vertcat(ca.if_else(ok, q_new, q_held, True),
+    return ca.vertcat(ca.if_else(ok, q_new, q_held),
                       ca.if_else(ok, ca.fmin(n + 1, 1.0 / a.forgetting), n))

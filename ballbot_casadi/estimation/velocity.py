@@ -283,14 +283,13 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
     if adaptive is not None:
         # h_i = H G e_i: the measurements' sensitivity to the walk's increment on axis i
         # (H by AD; the models are linear in the state; G of period_acceleration_noise)
-        xs = ca.MX.sym("x", NX)
-        H = ca.substitute(ca.jacobian(model.measurement(xs, u, dt, p), xs), xs, xhat)
         GE = ca.MX.zeros(NX, 2)
         GE[ACC_STATE, :] = ca.MX.eye(2)
         if matched:
             GE[0:2, :] = dt * ca.MX.eye(2)
-        sample, ok = make_walk_sample(6)(out["nu"], out["P_zz"], ca.mtimes(H, GE),
-                                         q_used)
+        xs = ca.MX.sym("x", NX)  # two forward directions, not the 6 x 7 Jacobian
+        HG = ca.substitute(ca.jtimes(model.measurement(xs, u, dt, p), xs, GE), xs, xhat)
+        sample, ok = make_walk_sample(6)(out["nu"], out["P_zz"], HG, q_used)
         out["walk_next"] = adapt_walk(walk, q_used, sample,
                                       ca.logic_and(out["n_valid"] >= 5.5, ok), adaptive)
         names_out.append("walk_next")
