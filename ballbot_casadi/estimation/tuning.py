@@ -60,7 +60,9 @@ Acceleration random-walk adaptation of the velocity filter (``estimator = "ukf_a
   squared corrections (0.1 s) at power-on;
 * :data:`ADAPTIVE_WALK_FLOOR` = 1e-3, :data:`ADAPTIVE_WALK_CEILING` = 1.0 (m/s^2)^2 per
   period: the bounds of the estimate, a decade below the moving robot's measured walk
-  (~1e-2) and a decade above the standing robot's (~0.1).
+  (~1e-2) and a decade above the standing robot's (~0.1);
+* :data:`ADAPTIVE_WALK_SAMPLE_MAX` = 10 (m/s^2)^2: each period's sample enters clipped to
+  it (a glitch moves the estimate by at most ``lambda`` times it, 0.025).
 
 Every array is read-only.
 """
@@ -75,6 +77,7 @@ __all__ = [
     "ADAPTIVE_WALK_FLOOR",
     "ADAPTIVE_WALK_FORGETTING",
     "ADAPTIVE_WALK_PRIOR_SAMPLES",
+    "ADAPTIVE_WALK_SAMPLE_MAX",
     "ALPHA_TRUST",
     "GATE_MAX_REJECTIONS",
     "GATE_PROBABILITY",
@@ -154,3 +157,5 @@ ADAPTIVE_WALK_FLOOR = 1e-3
 ADAPTIVE_WALK_CEILING = 1.0
 #: Number of squared corrections the prior of the adapted random walk counts for.
 ADAPTIVE_WALK_PRIOR_SAMPLES = 20.0
+#: Each sample of the adapted random walk enters clipped to this, (m/s^2)^2 per period.
+ADAPTIVE_WALK_SAMPLE_MAX = 10.0
