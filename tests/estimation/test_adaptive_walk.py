@@ -104,13 +104,15 @@ def runs(adaptive, ws):
 def test_the_walk_estimate_converges_to_the_known_process_noise(runs):
     """From a prior of 0.1 on both axes (10x and 2.5x the truth) the estimate, averaged
     over the last 6 s of each run, is within 10 % of the true walk per axis on every seed,
-    and within 4 % over the 25 seeds (its spread ~ sqrt(lambda) = 5 % per instant)."""
+    and within 4 % over the 25 seeds (its spread ~ sqrt(lambda) = 5 % per instant; measured
+    0.0102/0.0399, at most 8 % off on a seed)."""
     q = np.array([r[2][SKIP:].mean(axis=0) for r in runs])  # (SEEDS, 2)
     np.testing.assert_allclose(q, np.tile([QX, QY], (SEEDS, 1)), rtol=0.10)
     np.testing.assert_allclose(q.mean(axis=0), [QX, QY], rtol=0.04)
 
 
 def test_nees_and_nis_over_25_seeds_lie_in_the_chi2_bands_with_the_adapted_walk(runs):
+    """Measured NEES 6.77 in [5.61, 8.54] (7 states), NIS 5.98 in [4.72, 7.43]."""
     ne = np.array([r[0][SKIP:].mean() for r in runs])
     ni = np.array([r[1][SKIP:].mean() for r in runs])
     lo, hi = chi2_band(7, SEEDS)
