@@ -12,7 +12,10 @@ Keys
     ``tilt_correction_step_us``, ``com_observer_step_us`` and ``embedded_step_us``
     (the whole embedded software: filters, observer, controllers, limit); with the
     matched velocity filter of estimator ``ukf_consistent``: ``vukf_matched_step_us``,
-    ``estimator_step_matched_us`` and ``embedded_step_matched_us``.
+    ``estimator_step_matched_us`` and ``embedded_step_matched_us``; with the matched
+    filter adapting its acceleration random walk (estimator ``ukf_adaptive``):
+    ``vukf_adaptive_step_us``, ``estimator_step_adaptive_us`` and
+    ``embedded_step_adaptive_us``.
 ``estimator_heading_step_us``
     The same with the heading-aided QUKF (``ballbot_qukf_heading``: the z gyro bias a
     state, the heading reading in the update; estimator ``ukf_heading``) in place of the
@@ -43,7 +46,13 @@ from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
 from ballbot_casadi.estimation.attitude import ATTITUDE_MEAS
-from ballbot_casadi.sim.embedded import MATCHED_VELOCITY, embedded_readings, software_layout
+from ballbot_casadi.estimation.tuning import ADAPTIVE_WALK_FORGETTING
+from ballbot_casadi.sim.embedded import (
+    ADAPTIVE_VELOCITY,
+    MATCHED_VELOCITY,
+    embedded_readings,
+    software_layout,
+)
 from ballbot_casadi.sim.ports import REFERENCE_SEQUENCES
 from ballbot_casadi.sim.scenario import load_scenario_file
 
@@ -74,8 +83,11 @@ def c_function_us(lib: Library, function: ca.Function, inputs: list, n_calls: in
     return float(res["us_per_call"])
 
 
-#: The estimator choice with the matched velocity filter (timed beside the scenario's).
-MATCHED = min(MATCHED_VELOCITY)
+#: The estimator choice with the matched velocity filter and its constant random walk
+#: (timed beside the scenario's).
+MATCHED = min(MATCHED_VELOCITY - ADAPTIVE_VELOCITY)
+#: The estimator choice with the matched velocity filter adapting its random walk.
+ADAPTIVE = min(ADAPTIVE_VELOCITY)
 
 
 def _full_scenario():
@@ -126,6 +138,12 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
     data["estimator_step_matched_us"] = sum(pm[k] for k in ("qukf", "vukf", "tilt_correction",
                                                            "com_observer"))
     data["embedded_step_matched_us"] = pm["embedded"]
+    # the same with the adapted random walk (estimator "ukf_adaptive")
+    pa = _estimator_parts(sc.replace(estimator=ADAPTIVE), inputs, log, k, n_calls)
+    data["vukf_adaptive_step_us"] = pa["vukf"]
+    data["estimator_step_adaptive_us"] = sum(pa[k] for k in ("qukf", "vukf", "tilt_correction",
+                                                            "com_observer"))
+    data["embedded_step_adaptive_us"] = pa["embedded"]
     data["estimator_step_target_us"] = 10.0
     return data
 
@@ -152,6 +170,10 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     vel_f = next(f for n, f in names.items() if n.startswith("ballbot_v"))
     tilt, observer = names["ballbot_tilt_correction"], names["ballbot_com_observer"]
     C = software_layout(embedded, sc.estimator)
+    if C.has("walk") and c.size + C.size_of("walk") == C.size:  # a run without the walk state:
+        # the adaptation's operating point after its growing memory (n = 1 / lambda)
+        walk = np.r_[np.diag(np.asarray(est["Qv"]))[2:4], 1.0 / ADAPTIVE_WALK_FORGETTING]
+        c = np.insert(np.asarray(c, float), C.offset("walk"), walk)
     xa, Pa, xv, Pv, obs = (c[C[f]] for f in ("xa", "Pa", "xv", "Pv", "obs"))
     meas = log["meas"][k]
     M = embedded_readings(embedded)
@@ -168,7 +190,8 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     g = ATTITUDE_MEAS["gyro"]
     vel_values = {"xhat": xv, "P": Pv, "z": np.r_[enc * inputs["Ts"], acc], "att": xa[:XA.size],
                   "P_att": np.eye(3) * 1e-8, "Q": est["Qv"], "R": est["Rv"], "dt": inputs["Ts"],
-                  "p": p, "P_rate": np.asarray(est["Ra"])[g, g]}  # (Ra's gyro block)
+                  "p": p, "P_rate": np.asarray(est["Ra"])[g, g],  # (Ra's gyro block)
+                  **({"walk": c[C["walk"]]} if C.has("walk") else {})}
     tilt_values = {"q": xa[XA["q"]], "a": xv[XV["a"]], "b_acc": xv[XV["b_acc"]], "p": p}
     obs_values = {"x": log["x_hat"][k], "v_ref": np.zeros(3), "o": obs, "p": inputs["p_ctrl"],
                   "k": inputs["k_obs"], "Ts": inputs["Ts"]}

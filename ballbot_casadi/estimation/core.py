@@ -244,7 +244,8 @@ def _correct(model: FilterModel, x_pred, P_pred, P_xz, P_zz, z, z_pred, n_rep,
     if man.normalise is not None:
         x_post = man.normalise(x_post)
     P_post, r = make_spd_repair(model.nd)(P_post)
-    return {**dict(zip(OUTPUT_NAMES, (x_post, P_post, nu, nis, n_valid, n_rep + r))), **gated}
+    return {**dict(zip(OUTPUT_NAMES, (x_post, P_post, nu, nis, n_valid, n_rep + r))), **gated,
+            "P_zz": P_zz}
 
 
 def _sigma_points(man: Manifold, chol: ca.Function, x, P, spread: float):

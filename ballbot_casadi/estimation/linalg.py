@@ -46,6 +46,7 @@ __all__ = [
     "make_innovation_gate",
     "make_masked_update",
     "make_spd_repair",
+    "solve_lower",
 ]
 
 #: Relative pivot threshold of the positive-definiteness test (see module docstring).
@@ -134,6 +135,11 @@ def make_spd_repair(n: int) -> ca.Function:
     return ca.Function(
         f"spd_repair{n}", [P], [out, 1 - ok0], ["P"], ["P_spd", "repaired"], {"cse": True}
     )
+
+
+def solve_lower(L: ca.SX, B: ca.SX) -> ca.SX:
+    """``L^-1 B`` for a lower-triangular SX ``L`` (unrolled forward substitution)."""
+    return _tri_solve_lower(L, B)
 
 
 def _tri_solve_lower(L: ca.SX, B: ca.SX) -> ca.SX:

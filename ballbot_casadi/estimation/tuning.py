@@ -50,6 +50,20 @@ readings, :class:`~ballbot_casadi.estimation.core.InnovationGate`):
   (0.1 s at the 5 ms period) the gate opens and stays open until an innovation passes
   it again (the guard against lock-out after a real manoeuvre or a long dropout).
 
+Acceleration random-walk adaptation of the velocity filter (``estimator = "ukf_adaptive"``,
+:mod:`~ballbot_casadi.estimation.adaptive_walk`; not in the thesis):
+
+* :data:`ADAPTIVE_WALK_FORGETTING` = 0.0025: the Sage-Husa weight of the newest squared
+  acceleration correction, a time constant of 2 s at the 5 ms period (the estimate of a
+  stationary walk then spreads by about 5 %, ``sqrt(lambda)``);
+* :data:`ADAPTIVE_WALK_PRIOR_SAMPLES` = 20: the prior (the configured walk) counts as 20
+  squared corrections (0.1 s) at power-on;
+* :data:`ADAPTIVE_WALK_FLOOR` = 1e-3, :data:`ADAPTIVE_WALK_CEILING` = 1.0 (m/s^2)^2 per
+  period: the bounds of the estimate, a decade below the moving robot's measured walk
+  (~1e-2) and a decade above the standing robot's (~0.1);
+* :data:`ADAPTIVE_WALK_SAMPLE_MAX` = 10 (m/s^2)^2: each period's sample enters clipped to
+  it (a glitch moves the estimate by at most ``lambda`` times it, 0.025).
+
 Every array is read-only.
 """
 
@@ -59,6 +73,11 @@ import numpy as np
 from scipy.linalg import block_diag
 
 __all__ = [
+    "ADAPTIVE_WALK_CEILING",
+    "ADAPTIVE_WALK_FLOOR",
+    "ADAPTIVE_WALK_FORGETTING",
+    "ADAPTIVE_WALK_PRIOR_SAMPLES",
+    "ADAPTIVE_WALK_SAMPLE_MAX",
     "ALPHA_TRUST",
     "GATE_MAX_REJECTIONS",
     "GATE_PROBABILITY",
@@ -129,3 +148,14 @@ GATE_SCALE_ATTITUDE = 10.0
 GATE_SCALE_VELOCITY = 1000.0
 #: Consecutive rejections of a measurement group after which its gate opens.
 GATE_MAX_REJECTIONS = 20
+
+#: Sage-Husa weight of the newest squared acceleration correction (see the module docstring).
+ADAPTIVE_WALK_FORGETTING = 0.0025
+#: Lower bound of the adapted acceleration random walk, (m/s^2)^2 per period.
+ADAPTIVE_WALK_FLOOR = 1e-3
+#: Upper bound of the adapted acceleration random walk, (m/s^2)^2 per period.
+ADAPTIVE_WALK_CEILING = 1.0
+#: Number of squared corrections the prior of the adapted random walk counts for.
+ADAPTIVE_WALK_PRIOR_SAMPLES = 20.0
+#: Each sample of the adapted random walk enters clipped to this, (m/s^2)^2 per period.
+ADAPTIVE_WALK_SAMPLE_MAX = 10.0

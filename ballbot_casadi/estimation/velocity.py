@@ -53,6 +53,15 @@ import casadi as ca
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.errors import BallbotTypeError
+from ballbot_casadi.estimation.adaptive_walk import (
+    ACC_STATE,
+    WALK_SIZE,
+    WalkAdaptation,
+    adapt_walk,
+    make_walk_sample,
+    prior_walk,
+    with_walk,
+)
 from ballbot_casadi.estimation.core import (
     GATE_OUTPUT_NAMES,
     OUTPUT_NAMES,
@@ -237,7 +246,8 @@ def attitude_offset_noise(J, P_rate, dt):
 
 
 def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = False,
-           matched: bool = False, gate: bool = False) -> ca.Function:
+           matched: bool = False, gate: bool = False,
+           adaptive: WalkAdaptation | None = None) -> ca.Function:
     model = make_velocity_model(wheel_speeds, midpoint, attitude_noise=not matched)
     args = (ca.MX.sym("xhat", NX), ca.MX.sym("P", NX, NX), ca.MX.sym("z", 6), ca.MX.sym("att", 7),
             ca.MX.sym("P_att", 3, 3), ca.MX.sym("Q", NX, NX), ca.MX.sym("R", 6, 6),
@@ -245,6 +255,10 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
     xhat, P, z, att, P_att, Qn, R, dt, p = args
     u = ca.vertcat(att, ca.vec(0.5 * (P_att + P_att.T)))
     names = list(INPUT_NAMES)
+    if adaptive is not None:  # the acceleration block of Q from the filter's own estimate
+        walk = ca.MX.sym("walk", WALK_SIZE)
+        q_used = prior_walk(walk, Qn)
+        Qn = with_walk(Qn, q_used)
     if matched:
         P_rate = ca.MX.sym("P_rate", 3, 3)
         args = (*args, P_rate)
@@ -255,6 +269,8 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
         Qn = Qn + ca.diagcat(ca.DM.zeros(4, 4), attitude_offset_noise(J, P_rate, dt))
         Jw = _encoder_rate_jacobian(wheel_speeds)(att, dt, p)
         R = R + ca.diagcat(ca.mtimes([Jw, P_rate, Jw.T]), ca.DM.zeros(3, 3))
+    if adaptive is not None:
+        args, names = (*args, walk), [*names, "walk"]
     g, names_out = {}, list(OUTPUT_NAMES)
     if gate:
         g = {"gate": VELOCITY_GATE, "n_rej": ca.MX.sym("n_rej", len(VELOCITY_GATE.groups))}
@@ -264,11 +280,24 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
         out = ukf_step(model, xhat, P, z, u, Qn, R, dt, p, kappa=KAPPA, **g)
     else:
         out = ekf_step(model, xhat, P, z, u, Qn, R, dt, p, **g)
+    if adaptive is not None:
+        # h_i = H G e_i: the measurements' sensitivity to the walk's increment on axis i
+        # (H by AD; the models are linear in the state; G of period_acceleration_noise)
+        GE = ca.MX.zeros(NX, 2)
+        GE[ACC_STATE, :] = ca.MX.eye(2)
+        if matched:
+            GE[0:2, :] = dt * ca.MX.eye(2)
+        xs = ca.MX.sym("x", NX)  # two forward directions, not the 6 x 7 Jacobian
+        HG = ca.substitute(ca.jtimes(model.measurement(xs, u, dt, p), xs, GE), xs, xhat)
+        sample, ok = make_walk_sample(6)(out["nu"], out["P_zz"], HG, q_used)
+        out["walk_next"] = adapt_walk(walk, q_used, sample,
+                                      ca.logic_and(out["n_valid"] >= 5.5, ok), adaptive)
+        names_out.append("walk_next")
     return ca.Function(name, list(args), [out[k] for k in names_out], names, names_out)
 
 
 def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool = False,
-              gate: bool = False) -> ca.Function:
+              gate: bool = False, adaptive: WalkAdaptation | None = None) -> ca.Function:
     """``ballbot_vukf``: one period of the velocity UKF (thesis 5.1-5.28).
 
     Parameters
@@ -300,6 +329,14 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool =
         :class:`~ballbot_casadi.estimation.core.InnovationGate`): a last input ``n_rej``
         (2, consecutive rejections of ``[enc, acc]``) and the outputs ``rejected`` and
         ``n_rej_next`` (2 each) appended.
+    adaptive
+        Adapt the acceleration random walk online (issue 22,
+        :mod:`~ballbot_casadi.estimation.adaptive_walk`: covariance matching of the
+        accelerometer innovations with a Sage-Husa forgetting factor, bounded): an input
+        ``walk`` (``[q_x, q_y, n]``, the walk per axis and its sample count, a state of the
+        filter; 0 = use ``Q``'s acceleration block as the prior, the power-on value) after
+        ``P_rate`` and before ``n_rej``, and a last output ``walk_next``.  ``Q``'s
+        acceleration block is then replaced by ``diag(q_x, q_y)``.
 
     Returns
     -------
@@ -310,7 +347,7 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool =
         non-finite component is not used); ``att = [q, omega]`` and ``P_att`` from the
         attitude filter; ``R`` without the attitude term (added inside).
     """
-    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, matched, gate)
+    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, matched, gate, adaptive)
 
 
 def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool = False,

@@ -85,6 +85,7 @@ from ballbot_casadi.estimation.com_observer import COM_OBSERVER_STATE, make_com_
 from ballbot_casadi.estimation.heading import HEADING_FILTER_STATE, make_qukf_heading
 from ballbot_casadi.estimation.predecessor import QEKF_HEADING_STATE, make_qekf_heading
 from ballbot_casadi.estimation.tuning import QEKF_P0_RADIAL, QUKF_P0
+from ballbot_casadi.estimation.adaptive_walk import WALK_SIZE, WalkAdaptation
 from ballbot_casadi.estimation.velocity import encoder_rate
 from ballbot_casadi.model.dynamics import make_affine, make_ode, make_wheel_speeds
 from ballbot_casadi.model.sensors import (
@@ -104,6 +105,7 @@ from ballbot_casadi.sim.ports import (
 __all__ = [
     "ESTIMATOR_FILTERS",
     "MATCHED_VELOCITY",
+    "ADAPTIVE_VELOCITY",
     "GATE_GROUPS",
     "NOISE",
     "VALID",
@@ -132,18 +134,29 @@ __all__ = [
 #: (:mod:`~ballbot_casadi.estimation.heading`, thesis (4.30), ch. 11 future work);
 #: ``ekf_heading`` the predecessor's QEKF with its heading correction and gyro-bias
 #: states (:mod:`~ballbot_casadi.estimation.predecessor`, thesis §6) and the VEKF;
-#: ``ukf_consistent`` the QUKF with the matched velocity filter (:data:`MATCHED_VELOCITY`).
+#: ``ukf_consistent`` the QUKF with the matched velocity filter (:data:`MATCHED_VELOCITY`),
+#: ``ukf_adaptive`` the same with its acceleration random walk adapted online
+#: (:data:`ADAPTIVE_VELOCITY`).
 ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ekf": ("qekf", "vekf"),
                                                     "ukf_heading": ("qukf_heading", "vukf"),
                                                     "ekf_heading": ("qekf_heading", "vekf"),
-                                                    "ukf_consistent": ("qukf", "vukf")}
+                                                    "ukf_consistent": ("qukf", "vukf"),
+                                                    "ukf_adaptive": ("qukf", "vukf")}
 #: Estimator choices whose velocity filter has the matched model of issue 22
 #: (``make_vukf(..., matched=True)``): the encoders' body-rate term from the gyro reading
 #: (estimation.velocity.encoder_rate), the period's acceleration noise on the velocity
 #: (estimation.velocity.period_acceleration_noise) and the attitude error as a slowly
 #: varying accelerometer offset (estimation.velocity.attitude_offset_noise).  A choice,
 #: not the default (the README compares it with the thesis-model "ukf").
-MATCHED_VELOCITY = frozenset({"ukf_consistent"})
+MATCHED_VELOCITY = frozenset({"ukf_consistent", "ukf_adaptive"})
+#: Estimator choices whose (matched) velocity filter adapts its acceleration random walk
+#: online (``make_vukf(..., adaptive=WalkAdaptation())``,
+#: :mod:`~ballbot_casadi.estimation.adaptive_walk`): the estimate, per axis x and y, is a
+#: state of the filter (field ``walk`` of :func:`estimator_layout`, ``[q_x, q_y, n]`` with
+#: ``n`` its sample count, 0 at power-on: the configured ``Qv``'s acceleration block is the
+#: prior).  ``ukf_consistent`` keeps the
+#: constant pair :data:`~ballbot_casadi.estimation.velocity.MATCHED_ACC_PROCESS_VAR`.
+ADAPTIVE_VELOCITY = frozenset({"ukf_adaptive"})
 #: The state layouts of the attitude filters that read the heading sensor (the others'
 #: is :data:`~ballbot_casadi.core.layout.ATTITUDE_FILTER_STATE`).
 _HEADING_FILTERS: Mapping[str, Layout] = {"qukf_heading": HEADING_FILTER_STATE,
@@ -256,8 +269,9 @@ def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function
     else:
         attitude = (make_qukf if att == "qukf" else make_qekf)(compensate_acceleration=True,
                                                                gate=True)
+    adaptive = {"adaptive": WalkAdaptation()} if estimator in ADAPTIVE_VELOCITY else {}
     velocity = (make_vukf if vel == "vukf" else make_vekf)(
-        wheel_speeds, midpoint=True, matched=estimator in MATCHED_VELOCITY, gate=True)
+        wheel_speeds, midpoint=True, matched=estimator in MATCHED_VELOCITY, gate=True, **adaptive)
     return EstimatorBlocks(make_imu(ode), make_gyro_bias_step(), make_encoders(), attitude,
                            velocity, estimator, make_tilt_correction(), ode, wheel_speeds,
                            make_heading_sensor() if att in _HEADING_FILTERS else None)
@@ -275,9 +289,10 @@ def estimator_layout(estimator: str) -> Layout:
         raise BuildError(f"estimator {estimator!r}: filter states of {att.x0.size} and "
                          f"{vel.x0.size} entries do not match the layouts {XA} "
                          f"and {VELOCITY_FILTER_STATE}")
+    walk = (("walk", WALK_SIZE),) if estimator in ADAPTIVE_VELOCITY else ()
     return Layout("estimator state", [("xa", XA), ("Pa", att.P0.size),
                                       ("xv", VELOCITY_FILTER_STATE), ("Pv", vel.P0.size),
-                                      ("pos", 2), ("gate", GATE_GROUPS.size)])
+                                      ("pos", 2), ("gate", GATE_GROUPS.size), *walk])
 
 
 def controller_layout(estimator: str, nz: int, n_obs: int = 0, n_guide: int = 0,
@@ -424,6 +439,8 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
                                      ca.reshape(sym["Ra"], nr, nr)[g, g],
                                      ca.reshape(sym["Qa"], nq, nq)[w, w])
         rate, att_v = {"P_rate": P_rate}, ca.vertcat(xa[XA["q"]], w_enc)
+    if "walk" in est.velocity.name_in():  # the adapted acceleration random walk (a state)
+        rate["walk"] = c[C["walk"]]
     vel = est.velocity(xhat=xv_prev, P=ca.reshape(c[C["Pv"]], nv, nv), z=ca.vertcat(enc * Ts, acc),
                        att=att_v, P_att=att["P_att"], Q=ca.reshape(sym["Qv"], nv, nv),
                        R=ca.reshape(sym["Rv"], 6, 6), dt=Ts, p=p_est, **rate, **gate_in["vel"])
@@ -445,8 +462,9 @@ def make_embedded_step(balance: ca.Function, velocity: ca.Function, est: Estimat
     if len(Z.fields) > 1:
         z_next = z_next[Z["z"]]
     after = [ctrl["z_next"][Z[f]] for f in Z.fields[1:]]
+    walk = (vel["walk_next"],) if C.has("walk") else ()
     c_next = ca.vertcat(z_next, xa, ca.vec(att["P_next"]), xv, ca.vec(vel["P_next"]), pos,
-                        gate_next, *after)
+                        gate_next, *walk, *after)
     outs = {"c_next": c_next, "x_hat": x_hat, "nis": ca.vertcat(att["nis"], vel["nis"]),
             "repairs": att["n_repair"] + vel["n_repair"], "rejections": rejected, **ctrl}
     return ports.function(f"ballbot_embedded_{blocks.name}_{est.name}", sym, outs)
@@ -564,7 +582,7 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     parts.update({"xa": xa, "Pa": ca.vec(Pa),
                   "xv": ca.vertcat(*(xv[f] for f in VELOCITY_FILTER_STATE.fields)),
                   "Pv": ca.vec(ca.DM(vel.P0)), "pos": x0[STATE_XY],
-                  "gate": ca.DM.zeros(GATE_GROUPS.size)})
+                  "gate": ca.DM.zeros(GATE_GROUPS.size), "walk": ca.DM.zeros(WALK_SIZE)})
     # COM observer
     if observer:
         pi = {n: PARAM_NAMES.index(n) for n in ("com_x", "com_y", "l")}

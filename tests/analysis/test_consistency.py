@@ -116,3 +116,16 @@ def test_skip_drops_exactly_the_first_samples_and_non_finite_ones():
     assert (res.lo, res.hi) == pytest.approx(chi2_band(2, 3))
     np.testing.assert_allclose(ensemble_average(np.array([[1.0, 2.0, 3.0], [3.0, 4.0, 5.0]])),
                                [2.0, 3.0, 4.0], rtol=1e-15)
+
+
+def test_verdict_at_the_band_edges():
+    """The band is closed: a mean on either edge is consistent, the next float outside is
+    over- (above) or underconfident (below); the study's verdicts read ``verdict``."""
+    from ballbot_casadi.analysis.consistency import ConsistencyResult
+
+    lo, hi = chi2_band(6, 3800)
+    for mean, verdict in ((lo, "consistent"), (hi, "consistent"), (6.0, "consistent"),
+                          (np.nextafter(hi, np.inf), "overconfident"),
+                          (np.nextafter(lo, -np.inf), "underconfident")):
+        r = ConsistencyResult(float(mean), lo, hi, 6, 3800, 0.95)
+        assert r.verdict == verdict and r.inside == (verdict == "consistent")

@@ -42,6 +42,8 @@ def _case(estimator: str, gyro_x: float):
     c[L["xv"]] = [0.3, -0.2, 0.8, 0.5, 0.01, -0.02, 0.03]  # v, a, b_acc all different
     c[L["pos"]] = [1.5, -0.7]
     c[L["gate"]] = [0.0, 3.0, 7.0, 0.0]  # attitude [acc, gyro], velocity [enc, acc]
+    if L.has("walk"):  # the adapted acceleration random walk [q_x, q_y, n]
+        c[L["walk"]] = [0.03, 0.08, 12.0]
     Pv = np.diag([1e-2, 1e-2, 1e-3, 1e-3, 1e-9, 1e-9, 1e-9])
     Pv[0, 1] = Pv[1, 0] = 0.5  # indefinite: the velocity filter repairs it
     c[L["Pv"]] = Pv.ravel(order="F")
@@ -56,7 +58,7 @@ def _case(estimator: str, gyro_x: float):
 
 
 @pytest.mark.parametrize("gyro_x", [-0.04, 1000.0])  # a clean reading, a gyro glitch
-@pytest.mark.parametrize("estimator", ["ukf", "ukf_consistent"])
+@pytest.mark.parametrize("estimator", ["ukf", "ukf_consistent", "ukf_adaptive"])
 def test_embedded_period_equals_its_filters_called_one_by_one(estimator, gyro_x):
     f, L, a, est = _case(estimator, gyro_x)
     out = {k: np.asarray(v, float).ravel() for k, v in f.call(a).items()}
@@ -70,9 +72,11 @@ def test_embedded_period_equals_its_filters_called_one_by_one(estimator, gyro_x)
     att = {k: np.asarray(v, float) for k, v in att.items()}
     xa = att["xhat_next"].ravel()
     extra, att_v = {}, xa
-    if estimator == "ukf_consistent":  # the gyro reading and its noise + a third of Q_rate
-        extra = {"P_rate": est["Ra"][3:6, 3:6] + est["Qa"][3:6, 3:6] / 3}
+    if estimator in ("ukf_consistent", "ukf_adaptive"):  # the gyro reading and its noise +
+        extra = {"P_rate": est["Ra"][3:6, 3:6] + est["Qa"][3:6, 3:6] / 3}  # a third of Q_rate
         att_v = np.r_[xa[XA["q"]], gyro]
+    if estimator == "ukf_adaptive":  # the walk state goes in, its next value comes out
+        extra["walk"] = c[L["walk"]]
     vel = blocks.velocity(xhat=xv, P=c[L["Pv"]].reshape(7, 7, order="F"), z=np.r_[enc * Ts, acc],
                           att=att_v, P_att=att["P_att"], Q=est["Qv"], R=est["Rv"], dt=Ts,
                           p=est["p_est"], n_rej=c[L["gate"]][2:], **extra)
@@ -104,6 +108,10 @@ def test_embedded_period_equals_its_filters_called_one_by_one(estimator, gyro_x)
     np.testing.assert_allclose(cn[L["xv"]], xv_next, rtol=0, atol=1e-12)
     np.testing.assert_allclose(cn[L["Pv"]], vel["P_next"].ravel(order="F"), rtol=0, atol=1e-15)
     np.testing.assert_allclose(cn[L["pos"]], pos, rtol=0, atol=1e-12)
+    if estimator == "ukf_adaptive":
+        np.testing.assert_allclose(cn[L["walk"]], vel["walk_next"].ravel(), rtol=0, atol=1e-15)
+        if not glitch:  # every reading used: it adapted (n 12 -> 13)
+            assert cn[L["walk"]][2] == 13.0 and not np.allclose(cn[L["walk"]], c[L["walk"]])
     # repairs: both filters' (the velocity filter repaired the indefinite covariance)
     assert vel["n_repair"].item() >= 1
     assert out["repairs"][0] == att["n_repair"].item() + vel["n_repair"].item()

@@ -16,7 +16,7 @@ Format (every key optional unless marked; units in the names)::
     feedforward = "exact"           # exact | none (thesis mode: zero reference acceleration)
                                     # | no-rate (neither rate nor acceleration, thesis §7.2 item 5)
     torque_limit = "direction"      # direction (ours) | per-wheel (the thesis's clipping, §9.1)
-    estimator = "true"              # true | ukf | ekf | ukf_heading | ekf_heading | ukf_consistent
+    estimator = "true"              # true | ukf | ekf | ukf_heading | ekf_heading | ukf_consistent | ukf_adaptive
                                     # (noisy sensors + QUKF/VUKF, QEKF/VEKF, the heading-aided QUKF
                                     # with its z gyro bias + VUKF, the predecessor's QEKF with
                                     # heading + VEKF, or the QUKF with the matched velocity filter)
@@ -78,7 +78,8 @@ Format (every key optional unless marked; units in the names)::
     encoder_var = 0.1111            # VUKF encoder noise, ticks^2 (thesis 1/9)
     acc_process_var = 1e-2          # VUKF acceleration random walk, (m/s^2)^2 per period (predecessor 1e-5)
     acc_process_var_x = 1e-2        # the same for x alone (and _y): after acc_process_var if both
-                                    # (ukf_consistent, none set: its calibrated x/y pair)
+                                    # (ukf_consistent, none set: its calibrated x/y pair;
+                                    # ukf_adaptive: the prior its online estimate starts from)
     acc_bias_process_var = 2e-8     # VUKF accelerometer-bias process noise, (m/s^2)^2 (predecessor 1e-9)
 
     [[sensor_dropout]]              # readings missing (NaN) in [t_start_s, t_end_s)

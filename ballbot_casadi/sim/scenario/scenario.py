@@ -182,7 +182,8 @@ class Scenario:
         period, (m/s^2)^2, the predecessor's 1e-5; ``acc_process_var_x``, ``acc_process_var_y``
         set one axis, applied after it; the matched filter of ``ukf_consistent`` starts
         from its calibrated pair,
-        :data:`~ballbot_casadi.estimation.velocity.MATCHED_ACC_PROCESS_VAR`, instead) and
+        :data:`~ballbot_casadi.estimation.velocity.MATCHED_ACC_PROCESS_VAR`, instead, and
+        ``ukf_adaptive`` takes it as the prior of its online estimate) and
         ``acc_bias_process_var`` (the velocity
         filter's accelerometer-bias
         process noise per period, (m/s^2)^2, the predecessor's 1e-9; it sets how fast

@@ -65,7 +65,8 @@ __all__ = [
 #: Balance-controller feed-forward of the reference acceleration: exact, or none (thesis mode).
 FEEDFORWARD_MODES = ("exact", "none", "no-rate")
 #: What the controllers read: the true state, or estimates from noisy sensors.
-ESTIMATOR_CHOICES = ("true", "ukf", "ekf", "ukf_heading", "ekf_heading", "ukf_consistent")
+ESTIMATOR_CHOICES = ("true", "ukf", "ekf", "ukf_heading", "ekf_heading", "ukf_consistent",
+                     "ukf_adaptive")
 #: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
 #: input each sets and the diagonal block of it (the value times the identity).
 ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
@@ -564,7 +565,9 @@ class SensorsSection:
 class EstimationSection:
     """What the controllers read: ``estimator`` ``true``/``ukf``/``ekf``/``ukf_heading``/
     ``ekf_heading``/``ukf_consistent`` (the QUKF with the matched velocity filter,
-    :data:`~ballbot_casadi.sim.embedded.MATCHED_VELOCITY`), the estimators' internal model
+    :data:`~ballbot_casadi.sim.embedded.MATCHED_VELOCITY`)/``ukf_adaptive`` (the same with
+    its acceleration random walk adapted online,
+    :data:`~ballbot_casadi.sim.embedded.ADAPTIVE_VELOCITY`), the estimators' internal model
     (``est_changes``, file ``[estimator_model]``) and changes to the
     filters' thesis tuning (``estimator_tuning``: variances per period, file
     ``[estimator_tuning]``)."""
