@@ -77,7 +77,6 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.errors import ShapeError
 from ballbot_casadi.estimation.linalg import FINITE_MAX, make_cholesky, solve_lower
 from ballbot_casadi.estimation.tuning import (
