@@ -19,7 +19,10 @@ table, the obstacles and ``path_s0`` are parameters, the guidance state ``c_guid
 starts at initialisation as the mission's (``GuidanceLaw.initial_function``), and the
 outputs ``v_ref_used_x, v_ref_used_y, yaw_rate_ref_used`` give the references the
 guidance handed the velocity controller.  The velocity inputs ``v_ref_x, v_ref_y`` are
-then unused (``yaw_rate_ref`` still is).
+then unused (``yaw_rate_ref`` still is).  The parameters the MPC's build-time prediction
+matrices depend on (``Ts``, ``ctrl_*`` and ``k_vel_*`` entries of
+:func:`~ballbot_casadi.fmi.controller.path.mpc_model_dependencies`) are fixed at the
+build's values: another value is refused.  The same table builds the FMI 2.0 and the FMI 3.0 variant.
 
 Variants: :func:`controller_spec` builds any balance controller with any estimator;
 ``("flc", "ukf")`` (the thesis's system: QUKF + VUKF, FLC) is ``BallbotController``, the
@@ -101,9 +104,11 @@ from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_GAIN_NAMES
 from ballbot_casadi.fmi.controller.path import (
+    FIXED_WHY,
     PATH_MODEL_IDENTIFIER,
     S0_NAME,
     path_c_defines,
+    mpc_model_dependencies,
     path_law,
     path_parameter_descriptions,
     path_parameter_names,
@@ -483,8 +488,20 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
                                     ("m/s", "m/s", "rad/s"), strict=True):
             t.add(name, "discrete_output", f"{what} the path-following guidance gave the "
                   "velocity controller in the last period", unit=unit)
+    # the path variant's MPC was built from these (module path): fixed at their build values
+    fixed: set[str] = set()
+    if law is not None:
+        kv = _kvel_names()
+        names, gains = mpc_model_dependencies([start[f"ctrl_{n}"] for n in PARAM_NAMES],
+                                              [start[n] for n in kv], law.config.dt)
+        fixed = {"Ts", *(f"ctrl_{n}" for n in names), *(kv[i] for i in gains)}
+
+    def why(name: str) -> str | None:
+        return FIXED_WHY if name in fixed else None
+
     t.add("Ts", "parameter", "period of the embedded software; a communication step must be a "
-          "whole number of periods", start=float(start["Ts"]), unit="s", rule="pos")
+          "whole number of periods", start=float(start["Ts"]), unit="s", rule="pos",
+          fixed=why("Ts"))
     path_desc = path_parameter_descriptions(law) if law is not None else {}
     for arg, names in _parameter_groups(embedded, controller, estimator, law):
         for n in names:
@@ -496,7 +513,8 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
                 unit, pdesc, rule = PARAM_INFO[base]
                 who = "controllers'" if arg == "p_ctrl" else "filters'"
                 desc = f"{pdesc} (the {who} internal model, load_params name {base})"
-            t.add(n, "parameter", desc, start=float(start[n]), unit=unit, rule=rule)
+            t.add(n, "parameter", desc, start=float(start[n]), unit=unit, rule=rule,
+                  fixed=why(n))
     t.add("feedforward", "parameter", "the balance controller gets the reference's second "
           "derivative (false: zero, the thesis's mode)", type="Boolean",
           start=bool(start["feedforward"]))
