@@ -88,9 +88,9 @@ class FmuVar:
 
     ``rule`` (Real parameters) is a key of
     :data:`~ballbot_casadi.core.params.PARAM_RULES`; ``bounds`` is a closed range
-    ``(lo, hi)`` (Integer variables; default the 32-bit range).  ``missing`` (Real inputs)
-    makes NaN an accepted value meaning "no value" (a missing sensor reading); Inf is
-    still refused.  ``fixed`` (Real parameters) pins the value to ``start``: the FMU
+    ``(lo, hi)`` (Integer variables; default the 32-bit range).  ``missing`` (Real inputs
+    and held Real outputs) makes NaN an accepted value meaning "no value" (a missing
+    sensor reading; a stored NaN output then survives FMU states); Inf is still refused.  ``fixed`` (Real parameters) pins the value to ``start``: the FMU
     refuses any other value (range ``[start, start]``), and the text says why (e.g. a
     build-time constant computed from it).  ``derivative_of`` is the
     VR of the state of a derivative.  ``start_from`` (states) is the VR of the Real
@@ -276,8 +276,10 @@ def _check_var(v: FmuVar) -> None:
                                 or not isinstance(v.start, float) or not math.isfinite(v.start)):
         raise BuildError(f"{v.name!r}: only a Real parameter with a finite start value can be "
                          "fixed")
-    if v.missing and (v.type != "Real" or v.kind not in ("input", "discrete_input")):
-        raise BuildError(f"{v.name!r}: only Real inputs may accept NaN as a missing value")
+    if v.missing and (v.type != "Real" or v.kind not in ("input", "discrete_input",
+                                                         "discrete_output")):
+        raise BuildError(f"{v.name!r}: only Real inputs and held outputs may accept NaN as a "
+                         "missing value")
     if v.start_from is not None:
         if v.start is not None:
             raise BuildError(f"{v.name!r}: a state that starts from a parameter has no start "

@@ -192,7 +192,7 @@ def plant_variables() -> tuple[FmuVar, ...]:
           "body, wrapped to (-pi, pi]) with heading_bias_yaw and, with noise_on, white noise "
           "of variance heading_noise_var_yaw; taken at the samples the sensor's rate "
           "heading_rate_yaw falls on, NaN (no reading) at the others and always NaN with "
-          "heading_sensor off; " + _HELD, unit="rad")
+          "heading_sensor off; " + _HELD, unit="rad", missing=True)
     for name in PARAM_NAMES:
         unit, desc, rule = PARAM_INFO[name]
         t.add(name, "parameter", desc, start=float(getattr(params, name)), unit=unit, rule=rule)
