@@ -114,7 +114,7 @@ from ballbot_casadi.fmi.controller.path import (
     path_parameter_names,
     path_parameter_values,
 )
-from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.plant.plant import HEADING_OUTPUT_NAME, SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.package import fmu_source_dir
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.guidance.path_table import path_table_layout
@@ -170,10 +170,10 @@ MAX_PERIODS = 1_000_000
 QUAT_TOL_RESTORED = 1e-3
 #: The readings (inputs), named as the plant FMU's outputs: acc (3), gyro (3), enc (3).
 READING_NAMES = SENSOR_OUTPUT_NAMES
-#: The heading reading of an estimator that reads the heading sensor (``ukf_heading``):
-#: the last reading input (the plant FMU has no heading sensor; a master that has one
-#: sets it, NaN = no reading this period).
-HEADING_READING_NAME = "sensor_heading"
+#: The heading reading of an estimator that reads the heading sensor (``ukf_heading``,
+#: ``ekf_heading``): the last reading input, named as the plant FMU's heading output (NaN
+#: = no reading this period; the sensor samples at a low rate).
+HEADING_READING_NAME = HEADING_OUTPUT_NAME
 #: Reference inputs in the order the per-model C reads them: q_ref, dq_ref, ddq_ref (4
 #: each, balance-only mode), then the velocity reference and the heading-rate reference.
 REFERENCE_NAMES = (*(f"q_ref{i}" for i in range(4)), *(f"dq_ref{i}" for i in range(4)),
