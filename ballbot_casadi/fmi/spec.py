@@ -88,9 +88,11 @@ class FmuVar:
 
     ``rule`` (Real parameters) is a key of
     :data:`~ballbot_casadi.core.params.PARAM_RULES`; ``bounds`` is a closed range
-    ``(lo, hi)`` (Integer variables; default the 32-bit range).  ``missing`` (Real inputs)
-    makes NaN an accepted value meaning "no value" (a missing sensor reading); Inf is
-    still refused.  ``derivative_of`` is the
+    ``(lo, hi)`` (Integer variables; default the 32-bit range).  ``missing`` (Real inputs
+    and held Real outputs) makes NaN an accepted value meaning "no value" (a missing
+    sensor reading; a stored NaN output then survives FMU states); Inf is still refused.  ``fixed`` (Real parameters) pins the value to ``start``: the FMU
+    refuses any other value (range ``[start, start]``), and the text says why (e.g. a
+    build-time constant computed from it).  ``derivative_of`` is the
     VR of the state of a derivative.  ``start_from`` (states) is the VR of the Real
     parameter the state starts from (``x0_<name>``): the state is then ``initial =
     "calculated"`` (no start value of its own), equal to that parameter until
@@ -114,6 +116,7 @@ class FmuVar:
     index: int = 0
     missing: bool = False
     start_from: int | None = None
+    fixed: str | None = None
 
     @property
     def variability(self) -> str:
@@ -145,13 +148,17 @@ def value_range(v: FmuVar) -> tuple[float, float, bool, bool, str | None]:
     Real variables with a ``rule`` use :data:`~ballbot_casadi.core.params.PARAM_RULES`
     (the one definition; FMU values are SI and radians, so an angle's text also gives the
     range in radians); other Reals need only be finite (``text`` None).  Integers are
-    within ``bounds`` (default the 32-bit range), Booleans 0 or 1.
+    within ``bounds`` (default the 32-bit range), Booleans 0 or 1.  A ``fixed`` Real
+    allows its start value only.
     """
     if v.type == "Boolean":
         return 0.0, 1.0, False, False, "fmi2True (1) or fmi2False (0)"
     if v.type == "Integer":
         lo, hi = v.bounds if v.bounds is not None else (INT32_MIN, INT32_MAX)
         return float(lo), float(hi), False, False, f"an integer in [{int(lo)}, {int(hi)}]"
+    if v.fixed is not None:
+        start = float(v.start)
+        return start, start, False, False, f"its build value {start!r}: {v.fixed}"
     if v.rule is None:
         return -math.inf, math.inf, False, False, None
     lo, hi, lo_open, hi_open, text = PARAM_RULES[v.rule]
@@ -192,13 +199,13 @@ class VarTable:
             start: float | int | bool | None = None, unit: str | None = None,
             rule: str | None = None, bounds: tuple[float, float] | None = None,
             derivative_of: str | None = None, missing: bool = False,
-            start_from: str | None = None) -> None:
+            start_from: str | None = None, fixed: str | None = None) -> None:
         """Append one variable (see :class:`FmuVar`; ``derivative_of`` is a state's name,
         ``start_from`` a Real parameter's name)."""
         self._rows.append(dict(name=name, kind=kind, description=description, type=type,
                                start=start, unit=unit, rule=rule, bounds=bounds,
                                derivative_of=derivative_of, missing=missing,
-                               start_from=start_from))
+                               start_from=start_from, fixed=fixed))
 
     def rows(self) -> tuple[FmuVar, ...]:
         """The table ordered by value reference (Reals, Integers, Booleans).
@@ -249,7 +256,7 @@ class VarTable:
             v = FmuVar(name=r["name"], vr=vr, kind=r["kind"], start=r["start"], unit=r["unit"],
                        description=r["description"], rule=r["rule"], derivative_of=der,
                        type=r["type"], bounds=r["bounds"], index=index,
-                       missing=bool(r["missing"]), start_from=src)
+                       missing=bool(r["missing"]), start_from=src, fixed=r["fixed"])
             _check_var(v)
             out.append(v)
         ders = sorted(v.derivative_of for v in out if v.kind == "derivative")
@@ -265,8 +272,14 @@ def _check_var(v: FmuVar) -> None:
         raise BuildError(f"{v.name!r}: rule {v.rule!r} must be a PARAM_RULES key of a Real")
     if v.bounds is not None and v.type != "Integer":
         raise BuildError(f"{v.name!r}: bounds are for Integer variables")
-    if v.missing and (v.type != "Real" or v.kind not in ("input", "discrete_input")):
-        raise BuildError(f"{v.name!r}: only Real inputs may accept NaN as a missing value")
+    if v.fixed is not None and (v.type != "Real" or v.kind != "parameter"
+                                or not isinstance(v.start, float) or not math.isfinite(v.start)):
+        raise BuildError(f"{v.name!r}: only a Real parameter with a finite start value can be "
+                         "fixed")
+    if v.missing and (v.type != "Real" or v.kind not in ("input", "discrete_input",
+                                                         "discrete_output")):
+        raise BuildError(f"{v.name!r}: only Real inputs and held outputs may accept NaN as a "
+                         "missing value")
     if v.start_from is not None:
         if v.start is not None:
             raise BuildError(f"{v.name!r}: a state that starts from a parameter has no start "

@@ -55,6 +55,7 @@ __all__ = [
     "encoder_count",
     "make_heading_sensor",
     "heading_schedule",
+    "HEADING_SCHEDULE_EPS",
     "yaw_of",
     "wrap_angle",
 ]
@@ -125,6 +126,9 @@ def make_sensors(ode: ca.Function, imu_position: Any = (0.0, 0.0, 0.0)) -> ca.Fu
 
 # --------------------------------------------------------------------------- realistic sensors
 
+#: Rounding margin of :func:`heading_schedule` (a sample instant ``j / rate`` within it
+#: before ``k Ts`` counts as at ``k Ts``); the plant FMU's schedule uses the same.
+HEADING_SCHEDULE_EPS = 1e-9
 #: Suggested :class:`~ballbot_casadi.core.rng.NoiseStream` stream ids, one per noise
 #: source, so that adding a source never changes the numbers of another.
 NOISE_STREAMS: Mapping[str, int] = MappingProxyType(
@@ -395,5 +399,5 @@ def heading_schedule(k0: int, k1: int, Ts: float, rate: float) -> np.ndarray:
         raise ShapeError(f"heading schedule needs rate >= 0 and Ts > 0, got {rate!r}, {Ts!r}")
     if rate == 0:
         return np.zeros(k.size)
-    eps = 1e-9
+    eps = HEADING_SCHEDULE_EPS
     return (np.floor((k + 1) * Ts * rate - eps) > np.floor(k * Ts * rate - eps)).astype(float)

@@ -263,7 +263,9 @@ int fmu_value_ok(fmu_vtype t, const fmu_var *d, double v, char *msg, size_t len)
     }
     if ((d->min_open ? !(v > d->min) : !(v >= d->min)) ||
         (d->max_open ? !(v < d->max) : !(v <= d->max))) {
-        if (d->rule != NULL)
+        if (d->rule != NULL && d->min == d->max) /* fixed at its build value */
+            snprintf(msg, len, "must be %s", d->rule);
+        else if (d->rule != NULL)
             snprintf(msg, len, "non-physical value, must be %s", d->rule);
         else
             snprintf(msg, len, "out of range, must be in [%.17g, %.17g]", d->min, d->max);

@@ -82,8 +82,9 @@ typedef struct {
     double min, max;      /* allowed range of a stored value (+-HUGE_VAL: none) */
     unsigned char min_open, max_open; /* strict bounds */
     const char *rule;     /* text of the range, for messages (NULL: only finiteness) */
-    unsigned char nan_missing; /* Real inputs: NaN is accepted and means "no value" (a
-                                * missing sensor reading); Inf is still refused */
+    unsigned char nan_missing; /* Real inputs and held outputs: NaN is accepted and means
+                                * "no value" (a missing sensor reading); Inf is still
+                                * refused */
     unsigned short start_from; /* states: 1 + Real index of the parameter the state starts
                                 * from (initial = calculated: it equals that parameter until
                                 * initialisation ends and cannot be set itself); 0: none */

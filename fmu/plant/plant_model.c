@@ -17,6 +17,7 @@
  *   bbp_out(x, tau, p) -> y           roll/pitch/yaw, wheel speeds, noise-free IMU/encoders
  *   bbp_dd(xw, tau, p) -> J           dense d[xwdot; y]/d[xw; tau]
  *   ballbot_imu, ballbot_encoders, ballbot_gyro_bias_step   the robot's sensors
+ *   ballbot_heading                   the heading sensor (thesis 4.30's reading)
  * The wheel torques are saturated at +-tau_max here, before any of them is called, and
  * the disturbance torques tau_dist0..2 are added after the saturation.
  *
@@ -29,6 +30,9 @@
  *     b_k = ballbot_gyro_bias_step(b_{k-1}, s, Ts_sensor, n_rw_{k-1}),  b_0 = gyro_bias0
  *     (acc, gyro) = ballbot_imu(x(t_k), tau_prev, p, s, b_k, n_acc_k, n_gyro_k)
  *     enc = ballbot_encoders(phi(t_k), phi(t_{k-1}), p, Ts_sensor),  phi(t_{-1}) = phi(t_0)
+ *     heading = ballbot_heading(q(t_k), s, n_heading_k) if heading_sensor is on and a sample
+ *       instant j / heading_rate_yaw falls in [k Ts_sensor, (k+1) Ts_sensor) (the mission's
+ *       heading_schedule, same rounding margin), else NaN (no reading)
  *   n_<name>_k[j] = ballbot_rng_normal_at(seed, stream <name>, k, j) if noise_on, else 0.
  * Co-Simulation: fmi2DoStep stops the integration at every sample instant inside the step
  * (an instant within PLANT_GRID_TOL * Ts_sensor of the step end is the step end), so any
@@ -60,6 +64,7 @@ typedef struct {
     double xw_next[PLANT_XW_N];
     double dd[PLANT_BBP_DD_RES_J_N]; /* column-major */
     double tau_k[PLANT_TAU_N], bias[PLANT_BIAS_N], n_rw[3], n_acc[3], n_gyro[3], dticks[3];
+    double n_heading;
 } plant_work;
 
 static plant_work *work(fmu_instance *inst) { return (plant_work *)fmu_model_work(inst); }
@@ -98,6 +103,14 @@ static int check_initial(const fmu_values *v, int restored, char *msg, size_t le
 static double noise(const fmu_values *v, uint32_t stream, long k, unsigned j) {
     if (!v->b[PLANT_IX_noise_on]) return 0.0;
     return ballbot_rng_normal_at((uint32_t)v->i[PLANT_IX_seed], stream, (uint64_t)k, j);
+}
+
+/* Does the heading sensor read at sample k (a sample instant j / rate in [k Ts, (k+1) Ts))? */
+static int heading_due(const fmu_values *v, long k) {
+    double Ts = v->r[PLANT_IX_Ts_sensor], rate = v->r[PLANT_S_IX + PLANT_S_HEADING_RATE_YAW];
+    if (!v->b[PLANT_IX_heading_sensor] || !(rate > 0.0)) return 0;
+    return floor((double)(k + 1) * Ts * rate - PLANT_HEADING_EPS) >
+           floor((double)k * Ts * rate - PLANT_HEADING_EPS);
 }
 
 /* Sensor sample k at the current state (time t_k), with tau the torque that acted on the
@@ -141,6 +154,17 @@ static int take_sample(plant_work *wk, fmu_values *v, long k, const double *tau)
     cg->res[PLANT_ENCODERS_RES_ENC] = sens + PLANT_SENSOR_ENC;
     cg->res[PLANT_ENCODERS_RES_DTICKS] = wk->dticks;
     if (fmu_casadi_call(cg, PLANT_ENCODERS_FN) != 0) return 1;
+    r[PLANT_HEADING_OUT_IX] = NAN;
+    if (heading_due(v, k)) {
+        wk->n_heading = noise(v, PLANT_STREAM_HEADING, k, 0);
+        cg->arg[PLANT_HEADING_ARG_Q] = r + PLANT_XW_IX + PLANT_XW_Q;
+        cg->arg[PLANT_HEADING_ARG_S] = s;
+        cg->arg[PLANT_HEADING_ARG_N_HEADING] = &wk->n_heading;
+        cg->res[PLANT_HEADING_RES_YAW] = r + PLANT_HEADING_OUT_IX;
+        if (fmu_casadi_call(cg, PLANT_HEADING_FN) != 0 ||
+            !fmu_all_finite(r + PLANT_HEADING_OUT_IX, PLANT_HEADING_OUT_N))
+            return 1;
+    }
     memcpy(r + PLANT_PHI_PREV_IX, phi, PLANT_PHI_PREV_N * sizeof(double));
     memcpy(r + PLANT_TAU_PREV_IX, wk->tau_k, sizeof wk->tau_k);
     v->i[PLANT_IX_sensor_sample] = (fmi2Integer)k;

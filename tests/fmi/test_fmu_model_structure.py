@@ -41,7 +41,8 @@ def test_only_the_accelerometer_feeds_the_torques_through(tmp_path):
     assert sorted(fed) == ["acc_x", "acc_y", "acc_z"]
     assert all(set(d) == {"tau0", "tau1", "tau2", "tau_dist0", "tau_dist1", "tau_dist2"}
                for d in fed.values())
-    assert len(through) - len(fed) == 36  # the states, angles, speeds, gyro, encoders, readings
+    # the states, angles, speeds, gyro, encoders, readings (with the heading reading)
+    assert len(through) - len(fed) == 37
     deps = {u.variable.name: [d.name for d in u.dependencies] for u in md.outputs + md.derivatives}
     assert deps["q0"] == ["q0"] and deps["sensor_acc_x"] == []
     assert deps["der(x)"] == ["dx"]  # dx/dt = dx only

@@ -46,7 +46,8 @@ def test_integer_and_boolean_parameters_are_range_checked():
     p = Plant("cs", name="int_rules")
     ints = [v for v in plant_variables() if v.kind == "parameter" and v.type == "Integer"]
     bools = [v for v in plant_variables() if v.kind == "parameter" and v.type == "Boolean"]
-    assert [v.name for v in ints] == ["seed"] and [v.name for v in bools] == ["noise_on"]
+    assert [v.name for v in ints] == ["seed"]
+    assert [v.name for v in bools] == ["noise_on", "heading_sensor"]
     for v in ints:
         lo, hi = v.bounds
         for value, ok in ((lo, True), (lo - 1, False), (hi, True), (7, True), (-2**31, False)):

@@ -295,19 +295,20 @@ def test_fmu_state_with_sensors_continues_bit_identically():
     a = run(p, 7, 30)
     p.fmu.setFMUstate(s)  # roll back in the same instance
     p.t = t0
-    assert run(p, 7, 30) == a
+    # repr: bit-identical doubles print alike, and the held NaN heading reading equals itself
+    assert repr(run(p, 7, 30)) == repr(a)
     p.fmu.freeFMUstate(s)
     q = Plant("cs", name="second")  # and in a fresh one, from the serialised state
     s2 = q.fmu.deSerializeFMUstate(blob)
     q.fmu.setFMUstate(s2)
     q.fmu.freeFMUstate(s2)
     q.t = t0
-    assert run(q, 7, 30) == a
+    assert repr(run(q, 7, 30)) == repr(a)
     assert a[-1][1][1] > 10  # sensor_sample advanced (Integer values are compared too)
     p.fmu.reset()  # reset, same start: the same noisy run
     p.init(**dict(zip(X0_NAMES, X0.tolist())), noise_on=True, seed=11, **_sensor_params(BIASED))
     b = run(p, 0, 37)
-    assert b[7:] == a
+    assert repr(b[7:]) == repr(a)
     for x in (p, q):
         x.free()
 

@@ -166,9 +166,10 @@ def test_scenarios_the_sil_cannot_run_are_refused(work, tmp_path):
         write_sil_ssp(sc.replace(estimator="true"), tmp_path / "x.ssp")
     with pytest.raises(ScenarioError, match="32-bit signed Integer"):
         write_sil_ssp(sc.replace(seed=2**31), tmp_path / "x.ssp")
-    for change in ({"heading_sensor": True}, {"estimator": "ukf_heading"}):
-        with pytest.raises(ScenarioError, match="plant FMU has no heading sensor"):
-            write_sil_ssp(sc.replace(**change), tmp_path / "x.ssp")
+    # a user's plant without the heading sensor cannot feed a heading-aided estimator
+    with pytest.raises(BuildError, match="sensor_heading"):
+        write_sil_ssp(sc.replace(estimator="ukf_heading"), tmp_path / "x.ssp",
+                      plant_fmu=controller_build().fmu)
     with pytest.raises(ScenarioError, match="pushes"):
         write_sil_ssp(sc.replace(pushes=((0.5, 1.0, 0.0, 0.0),)), tmp_path / "x.ssp")
     with pytest.raises(ScenarioError, match="sensor_glitch"):  # never silently dropped

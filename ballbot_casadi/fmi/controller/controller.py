@@ -19,7 +19,10 @@ table, the obstacles and ``path_s0`` are parameters, the guidance state ``c_guid
 starts at initialisation as the mission's (``GuidanceLaw.initial_function``), and the
 outputs ``v_ref_used_x, v_ref_used_y, yaw_rate_ref_used`` give the references the
 guidance handed the velocity controller.  The velocity inputs ``v_ref_x, v_ref_y`` are
-then unused (``yaw_rate_ref`` still is).
+then unused (``yaw_rate_ref`` still is).  The parameters the MPC's build-time prediction
+matrices depend on (``Ts``, ``ctrl_*`` and ``k_vel_*`` entries of
+:func:`~ballbot_casadi.fmi.controller.path.mpc_model_dependencies`) are fixed at the
+build's values: another value is refused.  The same table builds the FMI 2.0 and the FMI 3.0 variant.
 
 Variants: :func:`controller_spec` builds any balance controller with any estimator;
 ``("flc", "ukf")`` (the thesis's system: QUKF + VUKF, FLC) is ``BallbotController``, the
@@ -101,15 +104,17 @@ from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_GAIN_NAMES
 from ballbot_casadi.fmi.controller.path import (
+    FIXED_WHY,
     PATH_MODEL_IDENTIFIER,
     S0_NAME,
     path_c_defines,
+    mpc_model_dependencies,
     path_law,
     path_parameter_descriptions,
     path_parameter_names,
     path_parameter_values,
 )
-from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
+from ballbot_casadi.fmi.plant.plant import HEADING_OUTPUT_NAME, SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.package import fmu_source_dir
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.guidance.path_table import path_table_layout
@@ -165,10 +170,10 @@ MAX_PERIODS = 1_000_000
 QUAT_TOL_RESTORED = 1e-3
 #: The readings (inputs), named as the plant FMU's outputs: acc (3), gyro (3), enc (3).
 READING_NAMES = SENSOR_OUTPUT_NAMES
-#: The heading reading of an estimator that reads the heading sensor (``ukf_heading``):
-#: the last reading input (the plant FMU has no heading sensor; a master that has one
-#: sets it, NaN = no reading this period).
-HEADING_READING_NAME = "sensor_heading"
+#: The heading reading of an estimator that reads the heading sensor (``ukf_heading``,
+#: ``ekf_heading``): the last reading input, named as the plant FMU's heading output (NaN
+#: = no reading this period; the sensor samples at a low rate).
+HEADING_READING_NAME = HEADING_OUTPUT_NAME
 #: Reference inputs in the order the per-model C reads them: q_ref, dq_ref, ddq_ref (4
 #: each, balance-only mode), then the velocity reference and the heading-rate reference.
 REFERENCE_NAMES = (*(f"q_ref{i}" for i in range(4)), *(f"dq_ref{i}" for i in range(4)),
@@ -483,8 +488,20 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
                                     ("m/s", "m/s", "rad/s"), strict=True):
             t.add(name, "discrete_output", f"{what} the path-following guidance gave the "
                   "velocity controller in the last period", unit=unit)
+    # the path variant's MPC was built from these (module path): fixed at their build values
+    fixed: set[str] = set()
+    if law is not None:
+        kv = _kvel_names()
+        names, gains = mpc_model_dependencies([start[f"ctrl_{n}"] for n in PARAM_NAMES],
+                                              [start[n] for n in kv], law.config.dt)
+        fixed = {"Ts", *(f"ctrl_{n}" for n in names), *(kv[i] for i in gains)}
+
+    def why(name: str) -> str | None:
+        return FIXED_WHY if name in fixed else None
+
     t.add("Ts", "parameter", "period of the embedded software; a communication step must be a "
-          "whole number of periods", start=float(start["Ts"]), unit="s", rule="pos")
+          "whole number of periods", start=float(start["Ts"]), unit="s", rule="pos",
+          fixed=why("Ts"))
     path_desc = path_parameter_descriptions(law) if law is not None else {}
     for arg, names in _parameter_groups(embedded, controller, estimator, law):
         for n in names:
@@ -496,7 +513,8 @@ def controller_variables(embedded: ca.Function, controller: str, estimator: str,
                 unit, pdesc, rule = PARAM_INFO[base]
                 who = "controllers'" if arg == "p_ctrl" else "filters'"
                 desc = f"{pdesc} (the {who} internal model, load_params name {base})"
-            t.add(n, "parameter", desc, start=float(start[n]), unit=unit, rule=rule)
+            t.add(n, "parameter", desc, start=float(start[n]), unit=unit, rule=rule,
+                  fixed=why(n))
     t.add("feedforward", "parameter", "the balance controller gets the reference's second "
           "derivative (false: zero, the thesis's mode)", type="Boolean",
           start=bool(start["feedforward"]))

@@ -4,7 +4,9 @@
 FMUs of a scenario (the same specs, tables and per-model C as the FMI 2.0 ones, see
 :func:`~ballbot_casadi.fmi.package.build_fmu_from_spec`) and takes the connections and
 parameter sets of the FMI 2.0 system (:func:`~ballbot_casadi.fmi.system.sil.sil_system`): the
-variable names and value references are the same in both versions.
+variable names and value references are the same in both versions.  A scenario with a
+``[path]`` gets the FMI 3.0 path-following controller FMU
+(:func:`~ballbot_casadi.fmi.system.sil.sil_controller`).
 
 :func:`run_fmi3_jacobi` co-simulates it the way libcosim runs the FMI 2.0 SSP (libcosim
 has no FMI 3.0): at every ``t_k`` every input is set from the outputs at ``t_k`` and
@@ -27,7 +29,6 @@ from fmpy.fmi3 import FMU3Slave
 
 from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.errors import CosimError
-from ballbot_casadi.fmi.controller.controller import controller_spec
 from ballbot_casadi.fmi.package import FmuBuild, build_fmu_from_spec
 from ballbot_casadi.fmi.plant.plant import plant_spec
 from ballbot_casadi.fmi.reference_player.player import reference_player_spec
@@ -37,6 +38,7 @@ from ballbot_casadi.fmi.system.sil import (
     REFERENCE,
     SilRun,
     recorded_signals,
+    sil_controller,
     sil_system,
 )
 from ballbot_casadi.fmi.system.ssp import SspComponent, SspConnection
@@ -56,8 +58,7 @@ def fmi3_system(scenario: Scenario, out: str | Path | None = None
     components, connections = sil_system(scenario)
     builds = {
         PLANT: build_fmu_from_spec(plant_spec(), out, fmi_version=3),
-        CONTROLLER: build_fmu_from_spec(controller_spec(scenario.controller, scenario.estimator),
-                                        out, fmi_version=3),
+        CONTROLLER: sil_controller(scenario, out, fmi_version=3)[0],
         REFERENCE: build_fmu_from_spec(reference_player_spec(scenario),
                                        out / "reference" / scenario.name, fmi_version=3),
     }

@@ -10,7 +10,11 @@ The plant: the 12 model states of the 3D quaternion ballbot model plus the three
 speeds and the noise-free IMU and encoder signals out (continuous), and the robot's
 sensor readings ``sensor_acc_*``, ``sensor_gyro_*``, ``sensor_enc*`` sampled every
 ``Ts_sensor`` and held (discrete), with noise from the counter-based generator
-(``noise_on``, ``seed``) and the sensor parameters under their
+(``noise_on``, ``seed``); with ``heading_sensor`` on, the heading sensor's reading
+``sensor_heading`` (:func:`~ballbot_casadi.model.sensors.make_heading_sensor`, the
+yaw reading the heading-aided filter reads, thesis (4.30)) at the samples of its own
+low rate ``heading_rate_yaw`` (:func:`~ballbot_casadi.model.sensors.heading_schedule`)
+and NaN (no reading) at the others; and the sensor parameters under their
 :data:`~ballbot_casadi.core.sensor_params.SENSOR_VECTOR_NAMES` names.  The sampling
 conventions are in ``fmu/plant/plant_model.c`` and reproduced in Python by
 :mod:`ballbot_casadi.fmi.plant.oracle`.
@@ -52,7 +56,9 @@ from ballbot_casadi.model.numeric import make_state
 from ballbot_casadi.model.sensors import (
     NOISE_STREAMS,
     make_encoders,
+    HEADING_SCHEDULE_EPS,
     make_gyro_bias_step,
+    make_heading_sensor,
     make_imu,
     make_sensors,
     make_wheel_angle_ode,
@@ -70,6 +76,7 @@ __all__ = [
     "NXW",
     "WHEEL_ANGLE_NAMES",
     "SENSOR_OUTPUT_NAMES",
+    "HEADING_OUTPUT_NAME",
     "PLANT_STATE",
     "PLANT_OUTPUTS",
     "plant_variables",
@@ -96,6 +103,9 @@ NXW = NX + len(WHEEL_ANGLE_NAMES)
 #: The held sensor readings (discrete outputs), in order: acc (3), gyro (3), enc (3).
 SENSOR_OUTPUT_NAMES = (*(f"sensor_acc_{c}" for c in "xyz"), *(f"sensor_gyro_{c}" for c in "xyz"),
                        *(f"sensor_enc{i}" for i in range(3)))
+#: The held heading-sensor reading (discrete output; NaN at samples without a reading):
+#: the controller FMU's heading input of the same name.
+HEADING_OUTPUT_NAME = "sensor_heading"
 
 #: The plant FMU's continuous state: the model state (:data:`~ballbot_casadi.core.layout.STATE`)
 #: and the wheel angles.
@@ -178,6 +188,11 @@ def plant_variables() -> tuple[FmuVar, ...]:
         group = name.removeprefix("sensor_").rstrip("xyz012_")
         unit, desc = _SENSOR_DESC[group]
         t.add(name, "discrete_output", desc.format(c=name[-1]), unit=unit)
+    t.add(HEADING_OUTPUT_NAME, "discrete_output", "heading-sensor reading (ZYX yaw of the "
+          "body, wrapped to (-pi, pi]) with heading_bias_yaw and, with noise_on, white noise "
+          "of variance heading_noise_var_yaw; taken at the samples the sensor's rate "
+          "heading_rate_yaw falls on, NaN (no reading) at the others and always NaN with "
+          "heading_sensor off; " + _HELD, unit="rad", missing=True)
     for name in PARAM_NAMES:
         unit, desc, rule = PARAM_INFO[name]
         t.add(name, "parameter", desc, start=float(getattr(params, name)), unit=unit, rule=rule)
@@ -201,6 +216,8 @@ def plant_variables() -> tuple[FmuVar, ...]:
     t.add("noise_on", "parameter", "sensor noise on: white IMU noise and the gyroscope bias "
           "random walk drawn from the counter-based generator (off: zero noise; bias, scale "
           "and misalignment still apply)", type="Boolean", start=False)
+    t.add("heading_sensor", "parameter", "the robot carries the heading sensor (off: "
+          "sensor_heading is always NaN)", type="Boolean", start=False)
     t.add("seed", "parameter", "noise seed (Philox key word 0): the same seed gives the same "
           "noise in Python, in the compiled mission and in the FMU", type="Integer", start=0,
           bounds=(0, INT32_MAX))
@@ -221,7 +238,8 @@ def plant_variables() -> tuple[FmuVar, ...]:
 def plant_functions() -> list[ca.Function]:
     """The CasADi Functions compiled into the FMU (see ``fmu/plant/plant_model.c``):
     ``bbp_ode``, ``bbp_rk4``, ``bbp_out``, ``bbp_dd`` and the sensor Functions
-    ``ballbot_imu``, ``ballbot_encoders``, ``ballbot_gyro_bias_step``."""
+    ``ballbot_imu``, ``ballbot_encoders``, ``ballbot_gyro_bias_step``,
+    ``ballbot_heading``."""
     f = make_model_functions()
     ode, jac, ws = f["ode"], f["jac"], f["wheel_speeds"]
     ode_w = make_wheel_angle_ode(ode, ws)
@@ -246,7 +264,7 @@ def plant_functions() -> list[ca.Function]:
         ca.horzcat(ca.jacobian(yw, xm), Z(yw.numel(), NXW - NX), ca.jacobian(yw, tau_s)))
     dd = ca.Function("bbp_dd", [xw, tau_s, p_s], [ca.densify(J)], ["xw", "tau", "p"], ["J"])
     return [bbp_ode, bbp_rk4, out, dd, make_imu(ode).expand(), make_encoders(NP),
-            make_gyro_bias_step()]
+            make_gyro_bias_step(), make_heading_sensor()]
 
 
 def plant_spec() -> FmuSpec:
@@ -261,6 +279,7 @@ def plant_spec() -> FmuSpec:
         FmuBlock("tau_dist", None, tuple(f"tau_dist{i}" for i in range(NU))),
         FmuBlock("y", PLANT_OUTPUTS, y_names),
         FmuBlock("sensor", MEAS, SENSOR_OUTPUT_NAMES),
+        FmuBlock("heading_out", None, (HEADING_OUTPUT_NAME,)),
         FmuBlock("bias", None, tuple(f"sensor_gyro_bias_{c}" for c in "xyz")),
         FmuBlock("tau_prev", None, tuple(f"sensor_tau_prev{i}" for i in range(NU))),
         FmuBlock("phi_prev", None, tuple(f"sensor_phi_prev{i}" for i in range(NU))),
@@ -273,6 +292,7 @@ def plant_spec() -> FmuSpec:
         "MAX_SUBSTEPS": repr(float(MAX_SUBSTEPS)),
         "MAX_SAMPLES": repr(float(MAX_SAMPLES)),
         "GRID_TOL": repr(GRID_TOL),
+        "HEADING_EPS": repr(HEADING_SCHEDULE_EPS),
         **{f"STREAM_{k.upper()}": f"{v}u" for k, v in NOISE_STREAMS.items()},
     }
     functions = plant_functions()

@@ -3,8 +3,9 @@
 The system (:func:`sil_system`, written by :func:`write_sil_ssp`, ``make sil``):
 
 * ``plant`` - ``BallbotPlant.fmu`` (or any FMU with its variable names) with the
-  scenario's plant parameters, sensor parameters, noise switch and seed (a 32-bit signed
-  Integer in the FMU), internal step ``Ts / n_sub`` and sensor period ``Ts``;
+  scenario's plant parameters, sensor parameters, noise switch, heading-sensor switch
+  and seed (a 32-bit signed Integer in the FMU), internal step ``Ts / n_sub`` and sensor
+  period ``Ts``;
 * ``controller`` - ``BallbotController.fmu`` (:mod:`~ballbot_casadi.fmi.controller.controller`)
   with the scenario's controller and filter models, gains, tuning and state at power-on;
   a scenario with a ``[path]`` (and ``[[obstacle]]`` rows) gets the path-following
@@ -13,7 +14,9 @@ The system (:func:`sil_system`, written by :func:`write_sil_ssp`, ``make sil``):
   obstacles and ``path_s0`` in the parameter set (:mod:`~ballbot_casadi.fmi.controller.path`);
 * ``reference`` - ``BallbotReference.fmu`` (:mod:`~ballbot_casadi.fmi.reference_player.player`),
   the scenario's per-period references and wheel-torque disturbance;
-* connections ``plant.sensor_* -> controller.sensor_*``, ``controller.tau0..2 ->
+* connections ``plant.sensor_* -> controller.sensor_*`` (the readings the controller's
+  estimator reads: with ``ukf_heading`` / ``ekf_heading`` also ``sensor_heading``, the
+  plant's heading sensor, NaN between its low-rate samples), ``controller.tau0..2 ->
   plant.tau0..2``, ``reference.<reference> -> controller.<reference>``,
   ``reference.tau_dist0..2 -> plant.tau_dist0..2``; one parameter set ``scenario``;
   the default experiment: the scenario's duration with a fixed 5 ms step
@@ -48,7 +51,6 @@ from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.errors import BallbotError, BuildError, FileFormatError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
 from ballbot_casadi.fmi.controller.controller import (
-    READING_NAMES,
     REFERENCE_NAMES,
     REJECTION_NAMES,
     V_REF_USED_NAMES,
@@ -57,14 +59,14 @@ from ballbot_casadi.fmi.controller.controller import (
     controller_values,
     embedded_function,
     path_embedded_function,
+    reading_names,
 )
 from ballbot_casadi.fmi.controller.path import path_law
-from ballbot_casadi.fmi.package import build_fmu_from_spec
+from ballbot_casadi.fmi.package import FmuBuild, build_fmu_from_spec
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES, X0_PREFIX
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_player_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.system.ssp import SspComponent, SspConnection, SspSystem, write_ssp
-from ballbot_casadi.sim.embedded import MEAS, readings_layout
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
@@ -78,6 +80,7 @@ __all__ = [
     "recorded_signals",
     "plant_parameters",
     "sil_connections",
+    "sil_controller",
     "sil_system",
     "write_sil_ssp",
     "read_scenario",
@@ -143,7 +146,7 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
                      ) -> dict[str, float | int | bool]:
     """The plant FMU's parameter set for ``scenario``: model parameters (``load_params``
     names), ``h_internal = Ts / n_sub``, ``Ts_sensor = Ts``, sensor parameters,
-    ``noise_on``, ``seed`` and the initial state (the parameters ``x0_<state>`` the
+    ``noise_on``, ``heading_sensor``, ``seed`` and the initial state (the parameters ``x0_<state>`` the
     plant's states start from).
 
     ``variables`` (the names a user's plant FMU has) drops the entries it lacks.
@@ -163,6 +166,7 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
         "Ts_sensor": float(scenario.Ts),
         **dict(zip(SENSOR_VECTOR_NAMES, (float(v) for v in sensors))),
         "noise_on": bool(scenario.noise),
+        "heading_sensor": bool(scenario.heading_sensor),
         "seed": int(scenario.seed),
         **dict(zip((X0_PREFIX + n for n in STATE.names), (float(v) for v in scenario.x0))),
     }
@@ -171,9 +175,12 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
     return values
 
 
-def sil_connections(plant_variables: Sequence[str]) -> list[SspConnection]:
-    """The SIL connections; the disturbance only if the plant has ``tau_dist0..2``."""
-    cons = [SspConnection(PLANT, n, CONTROLLER, n) for n in READING_NAMES]
+def sil_connections(plant_variables: Sequence[str], estimator: str = "ukf"
+                    ) -> list[SspConnection]:
+    """The SIL connections: the readings ``estimator`` reads
+    (:func:`~ballbot_casadi.fmi.controller.controller.reading_names`), the torques, the
+    references; the disturbance only if the plant has ``tau_dist0..2``."""
+    cons = [SspConnection(PLANT, n, CONTROLLER, n) for n in reading_names(estimator)]
     cons += [SspConnection(CONTROLLER, n, PLANT, n) for n in TORQUES]
     cons += [SspConnection(REFERENCE, n, CONTROLLER, n) for n in (*REFERENCE_NAMES, "balance_only")]
     if all(n in plant_variables for n in DISTURBANCE_NAMES):
@@ -192,18 +199,14 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     Raises
     ------
     ScenarioError
-        A scenario without an estimator, with pushes, sensor dropouts or glitches, with
-        the heading sensor or an estimator that reads it, or a seed beyond 32 bits.
+        A scenario without an estimator, with pushes, sensor dropouts or glitches, or a
+        seed beyond 32 bits.
     BuildError
         The plant FMU lacks a variable the system connects.
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the SIL runs the embedded software, "
                             "which reads sensors; set estimator = 'ukf' or 'ekf'")
-    if scenario.heading_sensor or readings_layout(scenario.estimator) is not MEAS:
-        raise ScenarioError(f"scenario {scenario.name!r}: the plant FMU has no heading sensor, so "
-                            f"the SIL cannot feed estimator {scenario.estimator!r} its heading "
-                            "reading; use estimator = 'ukf' or 'ekf' without heading_sensor")
     if scenario.sensor_dropouts:  # refused, never silently dropped
         raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_dropout]] rows, which the "
                             "SSP cannot express (the FMUs have no dropout input); remove them "
@@ -216,33 +219,47 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     plant = Path(build_fmu(out).fmu if plant_fmu is None else plant_fmu)
     causality = {v.name: v.causality for v in read_model_description(str(plant)).modelVariables}
     names = list(causality)
+    readings = reading_names(scenario.estimator)
     missing = [n for n in TORQUES if causality.get(n) != "input"] + [
-        n for n in READING_NAMES if causality.get(n) != "output"]
+        n for n in readings if causality.get(n) != "output"]
     if missing:
-        raise BuildError(f"plant FMU {plant} lacks {', '.join(missing)}; a plant for the SIL needs "
-                         "the inputs tau0..2 and the outputs sensor_acc_x .. sensor_enc2 (Real)")
-    if scenario.route.build() is not None:
-        # the path-following variant (its MPC predicts with this scenario's controller
-        # model and gains): one FMU per scenario, like the reference player
-        law = path_law(scenario)
-        embedded = path_embedded_function(law, scenario.estimator)
-        ctrl_dir = (out if out is not None else build_root() / "fmu") / "path" / scenario.name
-        ctrl = build_fmu_from_spec(controller_spec(path=scenario), ctrl_dir)
-        values = controller_values(scenario, embedded, law)
-        fmu_dir = ctrl_dir.parent.parent
-    else:
-        embedded = embedded_function(scenario.controller, scenario.estimator)
-        ctrl = build_fmu_from_spec(controller_spec(scenario.controller, scenario.estimator), out)
-        values = controller_values(scenario, embedded)
-        fmu_dir = Path(ctrl.fmu).parent
-    ref_dir = (out if out is not None else fmu_dir) / "reference" / scenario.name
+        raise BuildError(f"plant FMU {plant} lacks {', '.join(missing)}; a plant for the SIL of "
+                         f"estimator {scenario.estimator!r} needs the inputs tau0..2 and the "
+                         f"outputs {', '.join(readings)} (Real)")
+    ctrl, values = sil_controller(scenario, out)
+    fmu_dir = out if out is not None else build_root() / "fmu"
+    ref_dir = fmu_dir / "reference" / scenario.name
     ref = build_fmu_from_spec(reference_player_spec(scenario), ref_dir)
     components = [
         SspComponent(PLANT, plant, plant_parameters(scenario, names)),
         SspComponent(CONTROLLER, ctrl.fmu, values),
         SspComponent(REFERENCE, ref.fmu, {"Ts": float(scenario.Ts)}),
     ]
-    return components, sil_connections(names)
+    return components, sil_connections(names, scenario.estimator)
+
+
+def sil_controller(scenario: Scenario, out: str | Path | None = None, fmi_version: int = 2
+                   ) -> tuple[FmuBuild, dict[str, float | bool]]:
+    """The controller FMU of ``scenario``'s SIL system (built, FMI ``fmi_version``) and
+    its parameter values.
+
+    A scenario with a ``[path]`` gets the path-following variant, built per scenario under
+    ``<out>/path/<name>/`` (its MPC predicts with this scenario's controller model and
+    gains); the others the controller FMU of their controller and estimator in ``out``
+    (default ``<build>/fmu``, FMI 3.0 ``<build>/fmu3``).
+    """
+    if scenario.route.build() is not None:
+        law = path_law(scenario)
+        embedded = path_embedded_function(law, scenario.estimator)
+        root = Path(out) if out is not None else build_root() / ("fmu" if fmi_version == 2
+                                                                  else "fmu3")
+        ctrl = build_fmu_from_spec(controller_spec(path=scenario), root / "path" / scenario.name,
+                                   fmi_version=fmi_version)
+        return ctrl, controller_values(scenario, embedded, law)
+    embedded = embedded_function(scenario.controller, scenario.estimator)
+    ctrl = build_fmu_from_spec(controller_spec(scenario.controller, scenario.estimator), out,
+                               fmi_version=fmi_version)
+    return ctrl, controller_values(scenario, embedded)
 
 
 def write_sil_ssp(scenario: Scenario, path: str | Path, plant_fmu: str | Path | None = None,

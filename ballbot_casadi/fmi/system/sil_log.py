@@ -11,11 +11,11 @@ from ballbot_casadi.control import BALANCE_DIAG_NAMES
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.controller.controller import (
-    READING_NAMES,
     REFERENCE_NAMES,
     REJECTION_NAMES,
     V_REF_USED_NAMES,
     XHAT_NAMES,
+    reading_names,
 )
 from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES
@@ -53,7 +53,7 @@ def sil_log(run: SilRun, scenario: Scenario | None = None) -> SimulationLog:
     tau_in = cols(PLANT, TORQUES)[:n]
     dist = cols(PLANT, DISTURBANCE_NAMES)[:n] if f"{PLANT}.tau_dist0" in s else np.zeros((n, 3))
     tau = np.clip(tau_in, -params.tau_max, params.tau_max) + dist
-    meas = cols(PLANT, READING_NAMES)[:n].copy()
+    meas = cols(PLANT, reading_names(sc.estimator))[:n].copy()  # with the heading reading
     meas[0, MEAS["enc"]] = np.nan  # the controller takes the first encoder reading as missing
     ctrl = {k: cols(CONTROLLER, names)[1:] for k, names in (
         ("tau_cmd", [f"tau_cmd{i}" for i in range(3)]), ("x_hat", XHAT_NAMES),
