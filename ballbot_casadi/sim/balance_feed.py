@@ -30,6 +30,11 @@ tilt) across samples; position and velocity are measured (the feedback).
 ``v_ref_out`` is the measured ball velocity with the period's yaw-rate reference: the
 velocity LQR still runs below (its state is unused here), following the robot.
 
+:func:`run_balance_path` is the block's independent reference: :class:`PathMPC
+<ballbot_casadi.guidance.mpc.PathMPC>` on the shape model called from Python every
+0.1 s, the tilt-reference integration and quaternion references in numpy, and the
+compiled balance loop alone (``cascade = 0``, the references as input sequences).
+
 :func:`shape_gains` derives the shape model's gains from our model's linearisation.
 """
 
@@ -39,23 +44,29 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.control.velocity import equilibrium_tilt, tilt_heading_quaternion
+from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
 from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.guidance.blocks import mpc_state_layout
-from ballbot_casadi.guidance.mpc import MpcConfig, MpcLayout
+from ballbot_casadi.guidance.mpc import MpcConfig, MpcLayout, PathMPC
+from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL
 from ballbot_casadi.guidance.shape_model import ShapeGains
 from ballbot_casadi.model.dynamics import NP, make_jacobians
-from ballbot_casadi.sim.path_following import make_loop_state
+from ballbot_casadi.sim.closed_loop import ClosedLoop
+from ballbot_casadi.sim.path_following import PathRun, make_loop_state, path_scenario
+from ballbot_casadi.sim.ports import PERIOD_SEQUENCES
 
 __all__ = ["shape_gains", "balance_state_layout", "make_balance_guidance",
-           "balance_initial_function", "BALANCE_FEED_CONFIG"]
+           "balance_initial_function", "BALANCE_FEED_CONFIG", "run_balance_path"]
 
-#: The balance feed's MPC configuration: the shipped horizon, nodes, limits and solver;
-#: the input is the tilt acceleration (rad/s^2), so its change is weighted less than a
-#: velocity reference's (m/s).
-BALANCE_FEED_CONFIG = MpcConfig(w_dv=0.5)
+#: The balance feed's MPC configuration: the shipped one (horizon, nodes, weights, limits,
+#: solver), so the two feeds differ only in the prediction model and the feed point; its
+#: ``w_dv`` then weights the change of the tilt acceleration (rad/s^2).  (A sweep of
+#: ``w_dv`` over 0.5 / 5 / 20 / 50 on the figure-eight: 0.5 lets the plan's tilt
+#: acceleration chatter, several times the lateral error; 5 to 50 are alike.)
+BALANCE_FEED_CONFIG = MpcConfig()
 
 
 def shape_gains(p: np.ndarray) -> ShapeGains:
@@ -155,3 +166,52 @@ def balance_initial_function(state: Layout) -> ca.Function:
     g = ca.vertcat(*(parts.get(f, ca.DM.zeros(state.size_of(f))) for f in state.fields))
     return ca.Function("ballbot_guidance_mpc_balance_initial", [x0, z0, s0],
                        [ca.vertcat(0.0, g)], ["x0", "z0", "s0"], ["g0"])
+
+
+def run_balance_path(path: Path, mpc: PathMPC, duration: float, sim: ClosedLoop | None = None,
+                     every: int = 20) -> PathRun:
+    """The balance feed driven from Python (module docstring): ``mpc`` (a :class:`PathMPC`
+    on the shape model) every ``every`` periods, the references of each period computed
+    here, the compiled balance loop alone between samples (true state)."""
+    sim = ClosedLoop() if sim is None else sim
+    inp = path_scenario(path, every * TS_CONTROL).inputs()
+    for key in ("com_observer", "k_obs", "estimator"):
+        inp.pop(key, None)
+    inp["cascade"] = False
+    Ts = float(inp["Ts"])
+    loop_state, ref = make_loop_state(), _references()
+    x, z, xz = inp["x0"], inp["z0"], None
+    th_r, dth_r = z[Z["theta_r"]].copy(), z[Z["dtheta_r"]].copy()
+    psi, r = float(z[Z.index("psi_r")]), float(z[Z.index("r_r")])
+    th_eq = np.asarray(equilibrium_tilt(inp["p_ctrl"], psi), float).reshape(2)
+    parts: dict[str, list[np.ndarray]] = {}
+    t_g, a_log, prog, preds = [], [], [], []
+    for i in range(int(round(duration / (every * Ts)))):
+        X = np.asarray(loop_state(x, z), float).reshape(-1)
+        Xs = np.concatenate([X[0:2], th_r - th_eq, dth_r, np.zeros(6), X[12:14]])
+        a = np.asarray(mpc.step(Xs), float).reshape(2)
+        t_g.append(i * every * Ts)
+        a_log.append(a)
+        prog.append(mpc.progress())
+        preds.append(mpc.prediction())
+        seq = {key: inp[key][:every] for key in PERIOD_SEQUENCES}
+        qs = []
+        for _ in range(every):
+            qs.append([np.asarray(v, float).reshape(-1) for v in
+                       ref(np.r_[th_r, psi], np.r_[dth_r, r], np.r_[a, 0.0])])
+            th_r, dth_r = th_r + Ts * dth_r + 0.5 * Ts ** 2 * a, dth_r + Ts * a
+        for j, key in enumerate(("q_ref", "dq_ref", "ddq_ref")):
+            seq[key] = np.array([q[j] for q in qs])
+        out = sim.simulate("flc", **{**inp, **seq}, xz0=xz)
+        xz = out.pop("xz_final")
+        x, z = out["state"][-1], out["z"][-1]
+        for key, val in out.items():
+            if key in ("time", "state", "z"):
+                val = val[:-1]
+            parts.setdefault(key, []).append(val)
+    log = {k: np.concatenate(v) for k, v in parts.items()}
+    log["state"] = np.vstack([log["state"], x])
+    log["z"] = np.vstack([log["z"], z])
+    log["time"] = np.arange(log["state"].shape[0]) * Ts
+    return PathRun(log, np.array(t_g), np.array(a_log), np.array(mpc.solve_s), np.array(prog),
+                   preds)
