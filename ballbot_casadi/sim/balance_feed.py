@@ -56,7 +56,7 @@ from ballbot_casadi.guidance.shape_model import ShapeGains
 from ballbot_casadi.model.dynamics import NP, make_jacobians
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.path_following import PathRun, make_loop_state, path_scenario
-from ballbot_casadi.sim.ports import PERIOD_SEQUENCES
+from ballbot_casadi.sim.ports import PERIOD_SEQUENCES, REFERENCE_SEQUENCES
 
 __all__ = ["shape_gains", "balance_state_layout", "make_balance_guidance",
            "balance_initial_function", "BALANCE_FEED_CONFIG", "run_balance_path"]
@@ -200,7 +200,8 @@ def run_balance_path(path: Path, mpc: PathMPC, duration: float, sim: ClosedLoop 
             qs.append([np.asarray(v, float).reshape(-1) for v in
                        ref(np.r_[th_r, psi], np.r_[dth_r, r], np.r_[a, 0.0])])
             th_r, dth_r = th_r + Ts * dth_r + 0.5 * Ts ** 2 * a, dth_r + Ts * a
-        for j, key in enumerate(("q_ref", "dq_ref", "ddq_ref")):
+        fed = [key for key in REFERENCE_SEQUENCES if key != "v_ref"]  # q_ref, dq_ref, ddq_ref
+        for j, key in enumerate(fed):
             seq[key] = np.array([q[j] for q in qs])
         out = sim.simulate("flc", **{**inp, **seq}, xz0=xz)
         xz = out.pop("xz_final")

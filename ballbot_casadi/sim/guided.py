@@ -102,7 +102,8 @@ class GuidanceLaw:
     Attributes
     ----------
     name
-        ``mpc`` or ``pursuit``.
+        ``mpc``, ``pursuit`` or ``mpc_balance`` (the MPC feeding the balance controller,
+        :mod:`ballbot_casadi.sim.balance_feed`).
     function
         The period's block (:func:`make_guidance`).
     state
@@ -113,6 +114,8 @@ class GuidanceLaw:
         The MPC configuration (MPC only).
     cond
         The MPC's condensed prediction (MPC only: predicted positions from the state).
+    initial
+        The block's own initial-state Function (:meth:`initial_function`), if it has one.
     """
 
     name: str

@@ -15,8 +15,12 @@ from ballbot_casadi.sim.guided import GUIDANCE_EVERY, run_path_scenario, scenari
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.scenario.file import parse_scenario
 from ballbot_casadi.studies.path import (
+    FEED_POINT_COLUMNS,
+    FEED_POINT_RUNS,
+    FEED_POINTS,
     MONTE_CARLO_NOTE,
     SAMPLES_KEY,
+    feed_point_lines,
     guidance_sample_metrics,
     horizon_samples,
     path_report_lines,
@@ -44,6 +48,35 @@ def test_report_has_the_sample_table_and_the_peers_row_from_the_metrics():
     assert "fixed-iteration ADMM" in text and "r_prim" in text
     assert all(line in lines for line in MONTE_CARLO_NOTE)
     assert "## MPC samples" not in "\n".join(path_report_lines({}))
+
+
+def test_feed_point_table_has_a_row_per_run_and_feed_from_the_metrics():
+    """Rows: each course x feed point (velocity LQR, balance controller); cells: the
+    run's metrics under ``<course>_<law>[_ukf]_<metric>``; a missing metric is a dash."""
+    m = {}
+    for i, (_, course, suffix) in enumerate(FEED_POINT_RUNS):
+        for j, (_, law) in enumerate(FEED_POINTS):
+            tag = f"{course}_{law}{suffix}"
+            m.update({f"{tag}_path_lateral_rms_settled_m": 0.001 * (1 + i + 3 * j),
+                      f"{tag}_path_lateral_max_m": 0.0123, f"{tag}_path_min_clearance_m": 0.149,
+                      f"{tag}_path_completed": 1.0, f"{tag}_peak_tilt_deg": 3.54,
+                      f"{tag}_peak_tilt_rate_deg_s": 9.96, f"{tag}_peak_torque_nm": 0.57,
+                      f"{tag}_sample_us_median": 612.4, f"{tag}_sample_us_p99": 1500.6,
+                      f"{tag}_block_workspace_bytes": 40000.0})
+    del m["fig8_mpc_balance_ukf_peak_torque_nm"]
+    lines = feed_point_lines(m)
+    rows = [line for line in lines if line.startswith("| ") and "---" not in line][1:]
+    assert len(rows) == len(FEED_POINT_RUNS) * len(FEED_POINTS) == 6
+    header = next(line for line in lines if line.startswith("| run | feeds |"))
+    assert header.count("|") == len(FEED_POINT_COLUMNS) + 3
+    assert rows[0] == ("| figure-eight, true state | velocity LQR (v_ref) | 0.10 | 1.23 | 0.149 | "
+                       "1 | 3.54 | 10.0 | 0.57 | 612 / 1501 | 40000 |")
+    assert rows[1].startswith("| figure-eight, true state | balance controller") and "| 0.40 |" in rows[1]
+    assert rows[3].startswith("| figure-eight, noise + UKFs | balance controller")
+    assert "| — |" in rows[3] and "| — |" not in rows[2]
+    assert "lateral RMS 0.10 cm (velocity feed) against 0.40 cm (balance feed)" in "\n".join(lines)
+    assert any(line == "## Feed point: velocity LQR (shipped) or balance controller (Kugle's)"
+               for line in path_report_lines(m))
 
 
 @pytest.fixture(scope="module")
