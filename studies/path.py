@@ -78,7 +78,8 @@ FEED_POINT_COLUMNS = (("lateral RMS after 2 s (cm)", "path_lateral_rms_settled_m
                       ("peak tilt rate (deg/s)", "peak_tilt_rate_deg_s", 1, ".1f"),
                       ("peak torque (N m)", "peak_torque_nm", 1, ".2f"),
                       ("sample wall median / p99 (µs)", "sample_us_median|sample_us_p99", 1, ".0f"),
-                      ("block workspace (B)", "block_workspace_bytes", 1, ".0f"))
+                      ("solver / block workspace (B)", "solver_workspace_bytes|block_workspace_bytes",
+                       1, ".0f"))
 
 #: The per-run metrics the study lifts under the run's name.
 PATH_RUN_METRICS = ("path_lateral_rms_settled_m", "path_lateral_max_m", "path_min_clearance_m",
@@ -110,7 +111,8 @@ def guidance_sample_metrics(log: SimulationLog, libraries: dict[str, Any] | None
     ``_p99``, ``_max`` (wall-clock), ``sample_cpu_us_*``, ``r_prim_median``,
     ``r_prim_max``, ``samples``, ``sample_load_avg`` (the machine's 1-minute load
     average right after the timing: the wall-clock times depend on it) and
-    ``block_workspace_bytes`` (the static memory of the guidance block's generated call,
+    ``solver_workspace_bytes``, ``block_workspace_bytes`` (the static memory of the
+    generated call of the MPC's ``ballbot_mpc`` and of the whole guidance block,
     :func:`~ballbot_casadi.guidance.mpc.workspace_bytes`); the series go
     to ``log.extra[SAMPLES_KEY]``.  ``libraries`` caches the compiled guidance block by
     its name across calls (a test may put the uncompiled Function there).
@@ -145,6 +147,7 @@ def guidance_sample_metrics(log: SimulationLog, libraries: dict[str, Any] | None
             **{f"sample_cpu_us_{k.removesuffix('_us')}": v for k, v in cpu.items()},
             "r_prim_median": float(np.median(r_prim)), "r_prim_max": float(np.max(r_prim)),
             "samples": float(timing.periods.size),
+            "solver_workspace_bytes": float(workspace_bytes(law.function.find_function("ballbot_mpc"))),
             "block_workspace_bytes": float(workspace_bytes(law.function))}
 
 

@@ -62,7 +62,8 @@ def test_feed_point_table_has_a_row_per_run_and_feed_from_the_metrics():
                       f"{tag}_path_completed": 1.0, f"{tag}_peak_tilt_deg": 3.54,
                       f"{tag}_peak_tilt_rate_deg_s": 9.96, f"{tag}_peak_torque_nm": 0.57,
                       f"{tag}_sample_us_median": 612.4, f"{tag}_sample_us_p99": 1500.6,
-                      f"{tag}_block_workspace_bytes": 40000.0})
+                      f"{tag}_solver_workspace_bytes": 40000.0,
+                      f"{tag}_block_workspace_bytes": 470000.0})
     del m["fig8_mpc_balance_ukf_peak_torque_nm"]
     lines = feed_point_lines(m)
     rows = [line for line in lines if line.startswith("| ") and "---" not in line][1:]
@@ -70,7 +71,7 @@ def test_feed_point_table_has_a_row_per_run_and_feed_from_the_metrics():
     header = next(line for line in lines if line.startswith("| run | feeds |"))
     assert header.count("|") == len(FEED_POINT_COLUMNS) + 3
     assert rows[0] == ("| figure-eight, true state | velocity LQR (v_ref) | 0.10 | 1.23 | 0.149 | "
-                       "1 | 3.54 | 10.0 | 0.57 | 612 / 1501 | 40000 |")
+                       "1 | 3.54 | 10.0 | 0.57 | 612 / 1501 | 40000 / 470000 |")
     assert rows[1].startswith("| figure-eight, true state | balance controller") and "| 0.40 |" in rows[1]
     assert rows[3].startswith("| figure-eight, noise + UKFs | balance controller")
     assert "| — |" in rows[3] and "| — |" not in rows[2]
@@ -99,6 +100,8 @@ def test_sample_metrics_of_an_mpc_run(mpc_log):
     d = log.extra[SAMPLES_KEY]
     np.testing.assert_allclose(d["t_s"], 0.1 * np.arange(10), rtol=0, atol=1e-12)
     assert len(d["wall_us"]) == len(d["cpu_us"]) == 10 and d["r_prim"] == r.tolist()
+    # the solver's static memory (the 64 KiB target) inside the block's
+    assert 0 < m["solver_workspace_bytes"] <= 64 * 1024 < m["block_workspace_bytes"]
 
 
 def test_sample_metrics_refuse_a_replay_that_differs_from_the_log(mpc_log):
