@@ -77,7 +77,8 @@ FEED_POINT_COLUMNS = (("lateral RMS after 2 s (cm)", "path_lateral_rms_settled_m
                       ("peak tilt (deg)", "peak_tilt_deg", 1, ".2f"),
                       ("peak tilt rate (deg/s)", "peak_tilt_rate_deg_s", 1, ".1f"),
                       ("peak torque (N m)", "peak_torque_nm", 1, ".2f"),
-                      ("sample wall median / p99 (µs)", "sample_us_median|sample_us_p99", 1, ".0f"),
+                      ("sample CPU median / p99 (µs)", "sample_cpu_us_median|sample_cpu_us_p99", 1,
+                       ".0f"),
                       ("solver / block workspace (B)", "solver_workspace_bytes|block_workspace_bytes",
                        1, ".0f"))
 
@@ -242,8 +243,9 @@ def feed_point_lines(m: dict[str, Any]) -> list[str]:
             f"{np.degrees(lim['tilt_rate_max']):.0f} deg/s; torque: the controller's limit. "
             "Peers: Kugle fed its balance controller from a shape-accelerated MPC (10 Hz, "
             "N = 20; no tracking errors or solve times published); ETH's OCS2 MPC runs on "
-            "a nonlinear model (100 Hz, desktop). The sample times are of this shared "
-            "machine (load in the next table).", ""]
+            "a nonlinear model (100 Hz, desktop). The sample times are the CPU time of one "
+            "call of the compiled guidance block on this shared machine (wall-clock and "
+            "load in the next table).", ""]
 
 
 #: The Monte Carlo over random courses, measured once (not part of a study run: 100 runs).
