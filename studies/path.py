@@ -5,7 +5,10 @@ Monte Carlo base course with the true state and with noise + UKFs (``path_mc``,
 ``path_mc_ukf``, undispersed; ``ballbot montecarlo path_mc[_ukf]`` draws random courses
 from them), the figure-eight 4 m x 2 m at 0.5 m/s with the true state and
 with noise + QUKF/VUKF, and an obstacle course (a 6 m line past three obstacles), each
-with pure pursuit and with the MPC.  Metrics per run
+with pure pursuit and with the MPC; and the MPC's feed point (``mpc_balance``: the MPC
+feeding the balance controller directly, :mod:`ballbot_casadi.sim.balance_feed`) on the
+figure-eight (true state, noise + UKFs) and the obstacle course, tabled beside the
+shipped velocity feed (:func:`feed_point_lines`).  Metrics per run
 (:mod:`ballbot_casadi.analysis.path_metrics`) are named ``<course>_<law>[_ukf]_<metric>``;
 the specs: lateral RMS <= 2 cm (true state), <= 5 cm (noise + UKFs), clearance
 >= 0.10 m and completion on the obstacle course (the MPC's; the baseline's are reported
@@ -41,20 +44,43 @@ from ballbot_casadi.analysis.path_metrics import path_errors, path_metrics
 from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.layout import STATE_XY
 from ballbot_casadi.errors import SolverError
-from ballbot_casadi.guidance.mpc import FIRST_SAMPLE_QPS
+from ballbot_casadi.guidance.mpc import FIRST_SAMPLE_QPS, workspace_bytes
 from ballbot_casadi.guidance.paths import path_from_spec
 from ballbot_casadi.sim.guided import GUIDANCE_EVERY, predictions, scenario_law
 from ballbot_casadi.sim.log import SimulationLog
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["path_study_metrics", "path_report_lines", "path_plots", "PATH_RUN_METRICS",
-           "guidance_sample_metrics", "horizon_samples", "SAMPLES_KEY", "SHOWN_HORIZONS"]
+           "guidance_sample_metrics", "horizon_samples", "SAMPLES_KEY", "SHOWN_HORIZONS",
+           "MPC_LAWS", "FEED_POINTS", "FEED_POINT_RUNS", "FEED_POINT_COLUMNS", "feed_point_lines"]
 
 #: Key of the per-sample series in an MPC log's ``extra``: ``t_s``, ``wall_us``,
 #: ``cpu_us``, ``r_prim`` (one entry per guidance sample).
 SAMPLES_KEY = "guidance_samples"
 #: Predicted horizons drawn per MPC run on the xy plot.
 SHOWN_HORIZONS = 5
+
+#: The guidance laws that are an MPC (the velocity feed and the balance feed).
+MPC_LAWS = ("mpc", "mpc_balance")
+#: The MPC's feed points compared in the report: (label, law).
+FEED_POINTS = (("velocity LQR (v_ref)", "mpc"), ("balance controller (q_ref, dq_ref, ddq_ref)",
+                                                  "mpc_balance"))
+#: Runs of the feed-point table: (label, course tag prefix, tag suffix).
+FEED_POINT_RUNS = (("figure-eight, true state", "fig8", ""),
+                   ("figure-eight, noise + UKFs", "fig8", "_ukf"),
+                   ("obstacle course, true state", "obstacles", ""))
+#: Columns of the feed-point table: (header, metric suffix, scale, format).
+FEED_POINT_COLUMNS = (("lateral RMS after 2 s (cm)", "path_lateral_rms_settled_m", 100, ".2f"),
+                      ("lateral max (cm)", "path_lateral_max_m", 100, ".2f"),
+                      ("min clearance (m)", "path_min_clearance_m", 1, ".3f"),
+                      ("completed", "path_completed", 1, ".0f"),
+                      ("peak tilt (deg)", "peak_tilt_deg", 1, ".2f"),
+                      ("peak tilt rate (deg/s)", "peak_tilt_rate_deg_s", 1, ".1f"),
+                      ("peak torque (N m)", "peak_torque_nm", 1, ".2f"),
+                      ("sample CPU median / p99 (µs)", "sample_cpu_us_median|sample_cpu_us_p99", 1,
+                       ".0f"),
+                      ("solver / block workspace (B)", "solver_workspace_bytes|block_workspace_bytes",
+                       1, ".0f"))
 
 #: The per-run metrics the study lifts under the run's name.
 PATH_RUN_METRICS = ("path_lateral_rms_settled_m", "path_lateral_max_m", "path_min_clearance_m",
@@ -74,7 +100,7 @@ def path_study_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
         m = {**path_metrics(log), **limit_metrics(log, log.params.tau_max)}
         for k in PATH_RUN_METRICS:
             out[f"{_tag(log)}_{k}"] = m[k]
-        if log.scenario.get("guidance", "mpc") == "mpc":
+        if log.scenario.get("guidance", "mpc") in MPC_LAWS:
             out.update({f"{_tag(log)}_{k}": v for k, v in
                         guidance_sample_metrics(log, libraries).items()})
     return out
@@ -84,8 +110,11 @@ def guidance_sample_metrics(log: SimulationLog, libraries: dict[str, Any] | None
                             ) -> dict[str, float]:
     """Per-sample figures of an MPC run (module docstring): ``sample_us_median``,
     ``_p99``, ``_max`` (wall-clock), ``sample_cpu_us_*``, ``r_prim_median``,
-    ``r_prim_max``, ``samples`` and ``sample_load_avg`` (the machine's 1-minute load
-    average right after the timing: the wall-clock times depend on it); the series go
+    ``r_prim_max``, ``samples``, ``sample_load_avg`` (the machine's 1-minute load
+    average right after the timing: the wall-clock times depend on it) and
+    ``solver_workspace_bytes``, ``block_workspace_bytes`` (the static memory of the
+    generated call of the MPC's ``ballbot_mpc`` and of the whole guidance block,
+    :func:`~ballbot_casadi.guidance.mpc.workspace_bytes`); the series go
     to ``log.extra[SAMPLES_KEY]``.  ``libraries`` caches the compiled guidance block by
     its name across calls (a test may put the uncompiled Function there).
 
@@ -118,7 +147,9 @@ def guidance_sample_metrics(log: SimulationLog, libraries: dict[str, Any] | None
             **{f"sample_us_{k.removesuffix('_us')}": v for k, v in wall.items()},
             **{f"sample_cpu_us_{k.removesuffix('_us')}": v for k, v in cpu.items()},
             "r_prim_median": float(np.median(r_prim)), "r_prim_max": float(np.max(r_prim)),
-            "samples": float(timing.periods.size)}
+            "samples": float(timing.periods.size),
+            "solver_workspace_bytes": float(workspace_bytes(law.function.find_function("ballbot_mpc"))),
+            "block_workspace_bytes": float(workspace_bytes(law.function))}
 
 
 def horizon_samples(n_samples: int, count: int = SHOWN_HORIZONS) -> np.ndarray:
@@ -170,8 +201,51 @@ def path_report_lines(m: dict[str, Any]) -> list[str]:
         f"µs median, {_cell(m, 'fig8_mpc_sample_us_p99', 1, '.0f')} µs p99 wall-clock "
         f"({_cell(m, 'fig8_mpc_sample_cpu_us_p99', 1, '.0f')} µs p99 CPU); the QP alone: "
         "`make bench` (mpc_solve_us) |", "",
-        *_sample_lines(m), *MONTE_CARLO_NOTE,
+        *feed_point_lines(m), *_sample_lines(m), *MONTE_CARLO_NOTE,
     ]
+
+
+def _feed_cell(m: dict[str, Any], tag: str, metric: str, scale: float, fmt: str) -> str:
+    return " / ".join(_cell(m, f"{tag}_{k}", scale, fmt) for k in metric.split("|"))
+
+
+def feed_point_lines(m: dict[str, Any]) -> list[str]:
+    """The feed-point table (issue 18): the same MPC (horizon, weights, limits, solver)
+    feeding the velocity LQR (``mpc``: the closed velocity loop's linear model) or the
+    balance controller directly (``mpc_balance``: the shape-accelerated model,
+    :mod:`ballbot_casadi.sim.balance_feed`), on the same courses and seeds."""
+    rows = []
+    for label, course, suffix in FEED_POINT_RUNS:
+        for feed, law in FEED_POINTS:
+            tag = f"{course}_{law}{suffix}"
+            rows.append(f"| {label} | {feed} | "
+                        + " | ".join(_feed_cell(m, tag, metric, scale, fmt)
+                                     for _, metric, scale, fmt in FEED_POINT_COLUMNS) + " |")
+    lim = THESIS_LIMITS
+    ratio = [m.get(f"fig8_{law}_path_lateral_rms_settled_m") for _, law in FEED_POINTS]
+    verdict = []
+    if all(r is not None and np.isfinite(r) for r in ratio):
+        verdict = [f"Figure-eight, true state: lateral RMS {100 * ratio[0]:.2f} cm (velocity "
+                   f"feed) against {100 * ratio[1]:.2f} cm (balance feed).", ""]
+    return ["## Feed point: velocity LQR (shipped) or balance controller (Kugle's)", "",
+            "The same MPC (N = 20, dt = 0.1 s, the same weights, limits and ADMM) with two "
+            "prediction models and feed points: `mpc` predicts the closed velocity loop "
+            "(its linear model, exact at the nodes) and gives velocity references to the "
+            "velocity LQR; `mpc_balance` predicts the shape-accelerated model (per axis "
+            "position, velocity, tilt, tilt rate; the tilt acceleration as the input; "
+            "the gains from our model's linearisation) and gives the balance controller "
+            "its attitude, rate and acceleration references directly (Kugle's arrangement). "
+            "Same courses, same seeds.", "",
+            "| run | feeds | " + " | ".join(head for head, *_ in FEED_POINT_COLUMNS) + " |",
+            "| --- | --- | " + " | ".join("---" for _ in FEED_POINT_COLUMNS) + " |", *rows, "",
+            *verdict,
+            f"Limits (thesis §7.1): tilt {np.degrees(lim['tilt_max']):.0f} deg, tilt rate "
+            f"{np.degrees(lim['tilt_rate_max']):.0f} deg/s; torque: the controller's limit. "
+            "Peers: Kugle fed its balance controller from a shape-accelerated MPC (10 Hz, "
+            "N = 20; no tracking errors or solve times published); ETH's OCS2 MPC runs on "
+            "a nonlinear model (100 Hz, desktop). The sample times are the CPU time of one "
+            "call of the compiled guidance block on this shared machine (wall-clock and "
+            "load in the next table).", ""]
 
 
 #: The Monte Carlo over random courses, measured once (not part of a study run: 100 runs).
@@ -206,7 +280,8 @@ MONTE_CARLO_NOTE = [
 def _sample_lines(m: dict[str, Any]) -> list[str]:
     """The per-sample table of the MPC runs (times: this machine)."""
     rows = []
-    for tag in ("fig8_mpc", "fig8_mpc_ukf", "obstacles_mpc", "mc", "mc_ukf"):
+    for tag in ("fig8_mpc", "fig8_mpc_ukf", "obstacles_mpc", "fig8_mpc_balance",
+                "fig8_mpc_balance_ukf", "obstacles_mpc_balance", "mc", "mc_ukf"):
         if f"{tag}_samples" not in m:
             continue
         rows.append(f"| {tag} | {_cell(m, f'{tag}_samples', 1, '.0f')} | "

@@ -349,9 +349,12 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
           report=LAG.lag_report_lines, controllers=("flc",)),
     Study("push", "4 deg roll jump of the plant attitude (thesis §8.4.3)", ("push",)),
     Study("path", "path following: figure-eight 4 m x 2 m at 0.5 m/s (true state, noise + UKFs) "
-          "and an obstacle course, MPC beside pure pursuit (issue 18)",
+          "and an obstacle course, MPC beside pure pursuit, and the MPC's feed point: velocity "
+          "LQR or balance controller (issue 18)",
           ("path_mc", "path_mc_ukf", "path_fig8_pursuit", "path_fig8_pursuit_ukf",
-           "path_obstacles_pursuit", "path_fig8_mpc_ukf", "path_obstacles_mpc", "path_fig8_mpc"),
+           "path_obstacles_pursuit", "path_fig8_mpc_balance", "path_fig8_mpc_balance_ukf",
+           "path_obstacles_mpc_balance", "path_fig8_mpc_ukf", "path_obstacles_mpc",
+           "path_fig8_mpc"),
           PATH.path_study_metrics,
           (Spec("fig8_mpc_ukf_path_lateral_rms_settled_m", "<=", 0.05,
                 "lateral error RMS (true position) <= 5 cm with noise and the UKFs (issue 18)", ""),

@@ -10,6 +10,19 @@ linear model of that closed loop (:mod:`ballbot_casadi.guidance.prediction`): th
 tilt, tilt rate and accelerations are outputs of the model, so the §7.1 limits are
 linear rows, and the balance and velocity loops below stay exactly as validated.
 
+Feed point (issue 18): the alternative, Kugle's arrangement, is built as the option
+``guidance = "mpc_balance"`` (:mod:`ballbot_casadi.sim.balance_feed`): this same MPC on
+the shape-accelerated model (:mod:`ballbot_casadi.guidance.shape_model`) feeding the
+balance controller its attitude, rate and acceleration references.  Measured on the same
+courses and seeds (``ballbot study path``, report section "Feed point"): alike with the
+true state (figure-eight, obstacle course: lateral error, clearance, completion); with
+noise and the UKFs the balance feed tracked worse on the study's seed (and on average
+over two further seeds, measured once), while its torque and tilt-rate peaks were
+lower; the same solver, workspace and time per sample.  The velocity LQR closes the
+velocity loop every period with integral action, the balance feed only through the
+10 Hz replanning on the estimate.  So the velocity feed stays the default; the balance
+feed is kept as an option (two small modules, the same solver).
+
 Problem (``N`` steps of ``dt``; default N = 20, dt = 0.1 s: a 2 s horizon)
 ---------------------------------------------------------------------------
 State ``[loop state (14), s, ds]`` with the progress ``s`` along the path, input

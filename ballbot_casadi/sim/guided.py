@@ -42,7 +42,15 @@ from ballbot_casadi.guidance.mpc import MpcConfig, MpcLayout, make_mpc_parts
 from ballbot_casadi.guidance.path_table import PATH_SAMPLES, pack_path
 from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import NXL
+from ballbot_casadi.guidance.shape_model import shape_model
 from ballbot_casadi.model.dynamics import NP, make_ode, make_wheel_speeds
+from ballbot_casadi.sim.balance_feed import (
+    BALANCE_FEED_CONFIG,
+    balance_initial_function,
+    balance_state_layout,
+    make_balance_guidance,
+    shape_gains,
+)
 from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs
 from ballbot_casadi.sim.embedded import embedded_software, software_blocks
 from ballbot_casadi.sim.log import PATH_KEY, SimulationLog
@@ -51,6 +59,7 @@ from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
 
 __all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "mpc_law", "pursuit_law",
+           "mpc_balance_law",
            "guided_software", "guided_simulator", "run_guided", "run_path_scenario",
            "scenario_law", "predictions", "GUIDANCE_EVERY", "PURSUIT_GAINS", "path_metadata",
            "PATH_LOG_SPACING"]
@@ -93,7 +102,8 @@ class GuidanceLaw:
     Attributes
     ----------
     name
-        ``mpc`` or ``pursuit``.
+        ``mpc``, ``pursuit`` or ``mpc_balance`` (the MPC feeding the balance controller,
+        :mod:`ballbot_casadi.sim.balance_feed`).
     function
         The period's block (:func:`make_guidance`).
     state
@@ -104,6 +114,8 @@ class GuidanceLaw:
         The MPC configuration (MPC only).
     cond
         The MPC's condensed prediction (MPC only: predicted positions from the state).
+    initial
+        The block's own initial-state Function (:meth:`initial_function`), if it has one.
     """
 
     name: str
@@ -113,10 +125,11 @@ class GuidanceLaw:
     config: MpcConfig | None = None
     options: tuple = ()
     cond: Condensed | None = None
+    initial: ca.Function | None = None
 
     def parameters(self, path: Path) -> np.ndarray:
         """``k_guid`` of ``path``."""
-        if self.name == "mpc":
+        if self.config is not None:
             return pack_path(path, self.config.n_obstacles)
         return pursuit_parameters(path, **dict(self.options))
 
@@ -139,7 +152,10 @@ class GuidanceLaw:
         ``x0``, the velocity controller's state ``z0`` and ``s0``, the arc length of the
         path point nearest the start (:meth:`Path.project
         <ballbot_casadi.guidance.paths.Path.project>`).  The compiled mission and the
-        path-following controller FMU start from it."""
+        path-following controller FMU start from it.  A law with its own ``initial``
+        Function (the balance feed) returns that."""
+        if self.initial is not None:
+            return self.initial
         return _initial_function(self.name, self.state)
 
 
@@ -174,6 +190,27 @@ def mpc_law(p_ctrl: np.ndarray, k_vel: np.ndarray, config: MpcConfig = MpcConfig
         raise ScenarioError(f"MPC dt must be a multiple of {TS_CONTROL} s, got {config.dt!r}")
     return _mpc_law(tuple(np.asarray(p_ctrl, float).ravel()),
                     tuple(np.asarray(k_vel, float).ravel()), _Key(config))
+
+
+@lru_cache(maxsize=None)
+def _mpc_balance_law(p_ctrl: tuple, key: _Key) -> GuidanceLaw:
+    config = key.config
+    model = shape_model(shape_gains(np.array(p_ctrl)), config.dt)
+    f, L, parts = make_mpc_parts(model, config)
+    sample = make_mpc_sample(f, L, parts, config, PATH_SAMPLES)
+    every = int(round(config.dt / TS_CONTROL))
+    state = balance_state_layout(L)
+    return GuidanceLaw("mpc_balance", make_balance_guidance(sample, L, every), state, L, config,
+                       cond=parts["cond"], initial=balance_initial_function(state))
+
+
+def mpc_balance_law(p_ctrl: np.ndarray, config: MpcConfig = BALANCE_FEED_CONFIG) -> GuidanceLaw:
+    """The path-following MPC feeding the balance controller directly (Kugle's arrangement,
+    :mod:`ballbot_casadi.sim.balance_feed`): the shape-accelerated model of ``p_ctrl``'s
+    linearisation (built once per process and arguments)."""
+    if abs(round(config.dt / TS_CONTROL) * TS_CONTROL - config.dt) > 1e-9:
+        raise ScenarioError(f"MPC dt must be a multiple of {TS_CONTROL} s, got {config.dt!r}")
+    return _mpc_balance_law(tuple(np.asarray(p_ctrl, float).ravel()), _Key(config))
 
 
 #: Look-ahead (m) and lateral gain (1/s) of the pure-pursuit baseline in the slot: the
@@ -295,6 +332,8 @@ def scenario_law(scenario: Scenario) -> GuidanceLaw:
     if scenario.guidance == "pursuit":
         return pursuit_law()
     inp = scenario.inputs(periods=(0, 1))
+    if scenario.guidance == "mpc_balance":
+        return mpc_balance_law(inp["p_ctrl"])
     return mpc_law(inp["p_ctrl"], inp["k_vel"])
 
 

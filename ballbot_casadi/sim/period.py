@@ -147,16 +147,21 @@ def controller_part(
     With ``blocks.guidance`` (``const`` holds ``k_guid``) the guidance block turns the
     period's ``v_ref`` into the velocity reference the velocity controller and the
     observer follow (output ``v_ref_used``); it reads ``x_seen`` and the velocity
-    controller's state ``z`` at the start of the period.
+    controller's state ``z`` at the start of the period.  A guidance block with three
+    more outputs ``(q_ref, dq_ref, ddq_ref)`` (the balance feed,
+    :mod:`ballbot_casadi.sim.balance_feed`) gives the balance controller its references
+    itself: they replace the velocity controller's (which still runs and advances its
+    state).
     """
     Z = controller_state(blocks, len(PARAM_NAMES))
     p_ctrl = const["p_ctrl"]
     observer, guidance = blocks.observer, blocks.guidance
     v_ref, extra = seq["v_ref"], {}
     z_vel = z if len(Z.fields) == 1 else z[Z["z"]]
+    fed = None  # a balance-feed guidance block's (q_ref, dq_ref, ddq_ref)
     if guidance is not None:
-        v_ref, g_next = (_value(v) for v in guidance(x_seen, v_ref, z[Z["guide"]], z_vel,
-                                                     p_ctrl, const["k_guid"], const["Ts"]))
+        v_ref, g_next, *fed = (_value(v) for v in guidance(x_seen, v_ref, z[Z["guide"]], z_vel,
+                                                           p_ctrl, const["k_guid"], const["Ts"]))
         extra["v_ref_used"] = v_ref
     if observer is not None:
         o_next, p_hat, com_hat, com_meas = (_value(v) for v in observer(
@@ -165,6 +170,8 @@ def controller_part(
         extra.update(com_hat=com_hat, com_meas=com_meas)
     qv, dqv, ddqv, zv = (_value(v) for v in blocks.velocity(x_seen, v_ref, z_vel, p_ctrl,
                                                             const["k_vel"], const["Ts"]))
+    if fed:  # the guidance feeds the balance controller directly (the velocity LQR bypassed)
+        qv, dqv, ddqv = fed
     on = _on(const["cascade"])
     qr = _select(on, qv, seq["q_ref"])
     dqr = _select(on, dqv, seq["dq_ref"])

@@ -25,7 +25,8 @@ the velocity controller follows; the **velocity** controller; the optional **COM
 observer**; the **balance** controller.  Adding a block above the velocity controller:
 
 1. give :class:`PeriodBlocks` the Function (``guidance`` is the slot: ``(x, v_ref, g, z, p,
-   k_guid, Ts) -> (v_ref_out, g_next)``, ``z`` the velocity controller's state);
+   k_guid, Ts) -> (v_ref_out, g_next)``, ``z`` the velocity controller's state; a balance
+   feed adds ``(q_ref, dq_ref, ddq_ref)``, which replace the velocity controller's);
 2. its state becomes a field of the controller-state layout
    (:func:`controller_state`, field ``guide``), its gains a constant port
    (:data:`GUIDANCE_CONSTANTS`), its output a period output (:data:`GUIDANCE_OUTPUTS`);
@@ -220,11 +221,13 @@ def check_blocks(blocks: PeriodBlocks, n_p: int) -> dict[str, int]:
         sizes.update(n_obs=blocks.observer.numel_in(2), nko=blocks.observer.numel_in(4))
     g = blocks.guidance
     if g is not None:
-        if not isinstance(g, ca.Function) or g.n_in() != 7 or g.n_out() != 2 or \
+        if not isinstance(g, ca.Function) or g.n_in() != 7 or g.n_out() not in (2, 5) or \
                 [g.numel_in(i) for i in (0, 1, 3, 4)] != [STATE.size, 3, nz, n_p] or \
-                g.numel_out(0) != 3 or g.numel_out(1) != g.numel_in(2):
+                g.numel_out(0) != 3 or g.numel_out(1) != g.numel_in(2) or \
+                any(g.numel_out(i) != 4 for i in range(2, g.n_out())):
             raise ScenarioError("guidance must be a CasADi Function (x, v_ref, g, z, p, k_guid, "
-                                "Ts) -> (v_ref_out (3), g_next)")
+                                "Ts) -> (v_ref_out (3), g_next[, q_ref (4), dq_ref (4), "
+                                "ddq_ref (4)])")
         sizes.update(ng=g.numel_in(2), nkg=g.numel_in(5))
     return sizes
 

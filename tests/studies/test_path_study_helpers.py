@@ -15,8 +15,12 @@ from ballbot_casadi.sim.guided import GUIDANCE_EVERY, run_path_scenario, scenari
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.scenario.file import parse_scenario
 from ballbot_casadi.studies.path import (
+    FEED_POINT_COLUMNS,
+    FEED_POINT_RUNS,
+    FEED_POINTS,
     MONTE_CARLO_NOTE,
     SAMPLES_KEY,
+    feed_point_lines,
     guidance_sample_metrics,
     horizon_samples,
     path_report_lines,
@@ -46,6 +50,37 @@ def test_report_has_the_sample_table_and_the_peers_row_from_the_metrics():
     assert "## MPC samples" not in "\n".join(path_report_lines({}))
 
 
+def test_feed_point_table_has_a_row_per_run_and_feed_from_the_metrics():
+    """Rows: each course x feed point (velocity LQR, balance controller); cells: the
+    run's metrics under ``<course>_<law>[_ukf]_<metric>``; a missing metric is a dash."""
+    m = {}
+    for i, (_, course, suffix) in enumerate(FEED_POINT_RUNS):
+        for j, (_, law) in enumerate(FEED_POINTS):
+            tag = f"{course}_{law}{suffix}"
+            m.update({f"{tag}_path_lateral_rms_settled_m": 0.001 * (1 + i + 3 * j),
+                      f"{tag}_path_lateral_max_m": 0.0123, f"{tag}_path_min_clearance_m": 0.149,
+                      f"{tag}_path_completed": 1.0, f"{tag}_peak_tilt_deg": 3.54,
+                      f"{tag}_peak_tilt_rate_deg_s": 9.96, f"{tag}_peak_torque_nm": 0.57,
+                      f"{tag}_sample_cpu_us_median": 612.4, f"{tag}_sample_cpu_us_p99": 1500.6,
+                      f"{tag}_sample_us_median": 9.0,
+                      f"{tag}_solver_workspace_bytes": 40000.0,
+                      f"{tag}_block_workspace_bytes": 470000.0})
+    del m["fig8_mpc_balance_ukf_peak_torque_nm"]
+    lines = feed_point_lines(m)
+    rows = [line for line in lines if line.startswith("| ") and "---" not in line][1:]
+    assert len(rows) == len(FEED_POINT_RUNS) * len(FEED_POINTS) == 6
+    header = next(line for line in lines if line.startswith("| run | feeds |"))
+    assert header.count("|") == len(FEED_POINT_COLUMNS) + 3
+    assert rows[0] == ("| figure-eight, true state | velocity LQR (v_ref) | 0.10 | 1.23 | 0.149 | "
+                       "1 | 3.54 | 10.0 | 0.57 | 612 / 1501 | 40000 / 470000 |")
+    assert rows[1].startswith("| figure-eight, true state | balance controller") and "| 0.40 |" in rows[1]
+    assert rows[3].startswith("| figure-eight, noise + UKFs | balance controller")
+    assert "| — |" in rows[3] and "| — |" not in rows[2]
+    assert "lateral RMS 0.10 cm (velocity feed) against 0.40 cm (balance feed)" in "\n".join(lines)
+    assert any(line == "## Feed point: velocity LQR (shipped) or balance controller (Kugle's)"
+               for line in path_report_lines(m))
+
+
 @pytest.fixture(scope="module")
 def mpc_log():
     sc = parse_scenario({"duration_s": 1.0, "cascade": True, "guidance": "mpc",
@@ -66,6 +101,8 @@ def test_sample_metrics_of_an_mpc_run(mpc_log):
     d = log.extra[SAMPLES_KEY]
     np.testing.assert_allclose(d["t_s"], 0.1 * np.arange(10), rtol=0, atol=1e-12)
     assert len(d["wall_us"]) == len(d["cpu_us"]) == 10 and d["r_prim"] == r.tolist()
+    # the solver's static memory (the issue's 64 KiB target) inside the block's
+    assert 0 < m["solver_workspace_bytes"] <= 64 * 1024 < m["block_workspace_bytes"]
 
 
 def test_sample_metrics_refuse_a_replay_that_differs_from_the_log(mpc_log):

@@ -3,7 +3,9 @@
 ``[path]`` is a table with ``type`` (``waypoints``, ``line``, ``arc``, ``figure_eight``,
 :data:`~ballbot_casadi.guidance.paths.PATH_TYPES`), its geometry keys and ``speed``
 (m/s); each ``[[obstacle]]`` row has ``x``, ``y`` and ``r`` (m); ``guidance`` chooses the
-law in the period's guidance slot (``mpc`` or ``pursuit``, :mod:`ballbot_casadi.sim.guided`).
+law in the period's guidance slot (``mpc``: the MPC feeding the velocity LQR, ``pursuit``,
+or ``mpc_balance``: the MPC feeding the balance controller directly,
+:mod:`ballbot_casadi.sim.guided`, :mod:`ballbot_casadi.sim.balance_feed`).
 The section is validated by building the path
 (:func:`~ballbot_casadi.guidance.paths.path_from_spec`): fewer than two points, NaN, a
 waypoint inside an obstacle, a speed above the thesis §7.1 ``v_max`` are refused with one
@@ -24,7 +26,7 @@ from ballbot_casadi.sim.scenario.checker import FileChecker
 __all__ = ["PathSection", "GUIDANCE_CHOICES"]
 
 #: The guidance laws a scenario may choose (the first is the default).
-GUIDANCE_CHOICES = ("mpc", "pursuit")
+GUIDANCE_CHOICES = ("mpc", "pursuit", "mpc_balance")
 
 
 @dataclass(frozen=True)
