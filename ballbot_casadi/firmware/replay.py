@@ -59,7 +59,7 @@ REPLAY_ATOL = {"double": 1e-12, "single": 2e-3}
 #: filters) through 60 iterations a sample (the measured differences: README, firmware).
 GUIDED_REPLAY_ATOL = 1e-10
 #: Values in the output header of the replay program (csrc/replay_main.c).
-OUT_HEADER = 8
+OUT_HEADER = 9
 #: Iterations of the instruction-count calibration loop (1 + 2 n instructions).
 CALIB_LOOPS = 100_000
 #: The emulator: Cortex-M7 board, semihosting, one instruction per ns of virtual time.
@@ -135,8 +135,13 @@ def record_guided_log(n_periods: int = 400, seed: int = 1, guidance: str = "mpc"
                        np.asarray(log["v_ref_used"], float))
 
 
-def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild) -> Path:
-    """The binary input file of the replay program (little-endian doubles)."""
+def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild,
+                       bg_delay: int = 0) -> Path:
+    """The binary input file of the replay program (little-endian doubles); ``bg_delay``
+    (split guidance): periods from a snapshot's step to the step after which the replay
+    runs its background sample (0: right after it; ``>= latency``: too late)."""
+    if not (isinstance(bg_delay, int) and bg_delay >= 0):
+        raise ScenarioError(f"bg_delay must be an int >= 0 periods, got {bg_delay!r}")
     f = firmware_function(build.controller, build.estimator, build.guidance, build.latency)
     flat = rec.values.flat_params(f)
     n_meas = embedded_readings(f).size
@@ -146,7 +151,8 @@ def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild) -> Pa
     guid = np.zeros(0) if build.guidance is None else rec.values.guidance
     if guid is None:
         raise BuildError("the firmware has a guidance block; the replay log has no guidance data")
-    hdr = [rec.n, flat.size, rec.values.c0.size, float(rec.balance_only), CALIB_LOOPS, guid.size]
+    hdr = [rec.n, flat.size, rec.values.c0.size, float(rec.balance_only), CALIB_LOOPS, guid.size,
+           bg_delay]
     data = np.concatenate([hdr, flat, rec.values.c0, guid, np.hstack([rec.meas, rec.refs]).ravel()])
     path.write_bytes(data.astype("<f8").tobytes())
     return path
@@ -158,7 +164,8 @@ class ReplayResult:
     the stack high-water mark of one step (bytes), the calibration (ticks, instructions),
     ``sizeof(ballbot_fw_ctx)``, ``sizeof(ballbot_fw_real)``, with a guidance block the
     velocity references it gave (N, 3; else N x 0) and, with split guidance, the ticks of
-    the background sample run after each step (N, 0 where none ran) and its stack bytes."""
+    the background sample run after each step (N, 0 where none ran), its stack bytes and
+    the results that were not ready at their due period (``guidance_late``)."""
 
     tau: np.ndarray
     ticks: np.ndarray
@@ -171,6 +178,7 @@ class ReplayResult:
     v_ref: np.ndarray
     bg_ticks: np.ndarray
     bg_stack_bytes: int = 0
+    guidance_late: int = 0
 
     @property
     def instructions_per_tick(self) -> float:
@@ -189,7 +197,7 @@ def _read_output(path: Path, n: int) -> ReplayResult:
     bg = extra[:, 3].copy() if extra.shape[1] > 3 else np.zeros(n)
     return ReplayResult(rows[:, :3].copy(), rows[:, 3].copy(), rows[:, 4].astype(int), int(h[1]),
                         float(h[2]), float(h[3]), int(h[4]), int(h[5]), extra[:, :3].copy(), bg,
-                        int(h[7]))
+                        int(h[7]), int(h[8]))
 
 
 def _run(cmd: list[str], cwd: Path, what: str, timeout: float) -> None:
@@ -201,20 +209,24 @@ def _run(cmd: list[str], cwd: Path, what: str, timeout: float) -> None:
         raise BuildError(f"{what} failed (exit {res.returncode}): {res.stderr.strip()[-2000:]}")
 
 
-def run_qemu(build: FirmwareBuild, rec: RecordedLog, timeout: float = 600.0) -> ReplayResult:
-    """Replay ``rec`` with the library in QEMU (Cortex-M7, semihosting files in a temp dir)."""
+def run_qemu(build: FirmwareBuild, rec: RecordedLog, timeout: float = 600.0,
+             bg_delay: int = 0) -> ReplayResult:
+    """Replay ``rec`` with the library in QEMU (Cortex-M7, semihosting files in a temp dir;
+    ``bg_delay``: :func:`write_replay_input`)."""
     require(qemu=True)
     with tempfile.TemporaryDirectory(prefix="ballbot-fw-") as tmp:
         d = Path(tmp)
-        write_replay_input(d / "fw_replay_in.bin", rec, build)
+        write_replay_input(d / "fw_replay_in.bin", rec, build, bg_delay)
         _run([*QEMU_COMMAND, "-kernel", str(build.replay_elf)], d, "the QEMU replay", timeout)
         return _read_output(d / "fw_replay_out.bin", rec.n)
 
 
-def run_host(build: FirmwareBuild, rec: RecordedLog, timeout: float = 600.0) -> ReplayResult:
-    """Replay ``rec`` with the same library sources compiled for this PC (the reference)."""
+def run_host(build: FirmwareBuild, rec: RecordedLog, timeout: float = 600.0,
+             bg_delay: int = 0) -> ReplayResult:
+    """Replay ``rec`` with the same library sources compiled for this PC (the reference;
+    ``bg_delay``: :func:`write_replay_input`)."""
     with tempfile.TemporaryDirectory(prefix="ballbot-fw-") as tmp:
         d = Path(tmp)
-        write_replay_input(d / "in.bin", rec, build)
+        write_replay_input(d / "in.bin", rec, build, bg_delay)
         _run([str(build.host_replay), "in.bin", "out.bin"], d, "the host replay", timeout)
         return _read_output(d / "out.bin", rec.n)

@@ -115,3 +115,20 @@ def test_split_qemu_equals_the_mission_and_the_interrupt_never_runs_the_qp(split
     # every interrupt step, snapshot periods included, is a small fraction of a sample
     assert isr.max() < 0.1 * bg[bg > 0].min()
     assert bg[0] > bg[EVERY:][bg[EVERY:] > 0].max()  # the cold first sample solves 5 QPs
+
+
+@pytest.mark.firmware
+@pytest.mark.needs_cc
+@pytest.mark.slow
+@pytest.mark.skipif(bool(missing_tools()), reason=INSTALL_HINT)
+def test_a_late_background_result_is_never_applied_early_or_late(split_fw, split_rec, split_host):
+    # the sample finished just before its due period: the same references and torques
+    just = run_host(split_fw, split_rec, bg_delay=L - 1)
+    np.testing.assert_array_equal(just.v_ref, split_host.v_ref)
+    np.testing.assert_array_equal(just.tau, split_host.tau)
+    assert just.guidance_late == 0 == split_host.guidance_late
+    # one period later: every result misses its due period, is counted and not applied
+    # (the reference holds its start value: the firmware stays deterministic)
+    late = run_host(split_fw, split_rec, bg_delay=L)
+    assert late.guidance_late == len([0, *range(EVERY, N - L, EVERY)])
+    np.testing.assert_array_equal(late.v_ref[:, :2], 0.0)

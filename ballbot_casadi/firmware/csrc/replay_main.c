@@ -5,13 +5,15 @@
  * working directory, instruction counting with SysTick, stack high-water mark by painting).
  *
  * Input (little-endian doubles): n_steps, n_params, nc, balance_only, calib_loops,
- * n_guidance; the parameters (ballbot_fw_params as a flat array); the power-on state c0
+ * n_guidance, bg_delay (split guidance: the background sample runs after the step bg_delay
+ * periods after its snapshot's; 0: right after it); the parameters (ballbot_fw_params as a flat array); the power-on state c0
  * (nc); the guidance data (n_guidance = BALLBOT_FW_N_GUIDANCE values, none without a
  * guidance block); per period the readings (BALLBOT_FW_N_READINGS, NaN = missing) and the
  * references q_ref, dq_ref, ddq_ref, v_ref.
  * Output (doubles): a header of OUT_HEADER values (n_steps, stack bytes of one step,
  * SysTick ticks of the calibration loop, its instruction count, sizeof(ballbot_fw_ctx),
- * sizeof(ballbot_fw_real), ROW_EXTRA, stack bytes of the background sample); per period
+ * sizeof(ballbot_fw_real), ROW_EXTRA, stack bytes of the background sample, results
+ * not ready at their due period (ctx.guidance_late)); per period
  * tau[3], the step's SysTick ticks, the return code and, with a guidance block, the
  * velocity reference it gave (v_ref_used, 3) and, with split guidance, the SysTick ticks
  * of the background sample run after the step (0 when none was pending; the main loop of
@@ -26,8 +28,8 @@
 
 #include "ballbot_fw.h"
 
-#define OUT_HEADER 8
-#define N_IN_HEADER 6
+#define OUT_HEADER 9
+#define N_IN_HEADER 7
 #define N_REF 15
 #if BALLBOT_FW_GUIDANCE_SPLIT
 #define ROW_EXTRA 4
@@ -93,6 +95,7 @@ static int replay(FILE *in, FILE *out) {
     int i, rc;
     unsigned long stack_max = 0, bg_stack_max = 0;
     int bg_runs = 0;
+    long bg_at = -1;
     if (read_doubles(in, hdr, N_IN_HEADER) || (int)hdr[1] != N_PAR || (int)hdr[2] != BALLBOT_FW_NC ||
         (int)hdr[5] != BALLBOT_FW_N_GUIDANCE) {
         fprintf(stderr, "replay: input header does not match the library (%d params, nc %d, "
@@ -172,8 +175,10 @@ static int replay(FILE *in, FILE *out) {
 #endif
 #if BALLBOT_FW_GUIDANCE_SPLIT
         row[8] = 0;
-        if (ctx.bg_state == BALLBOT_FW_BG_PENDING) { /* the main loop: the background sample */
+        if (ctx.bg_state == BALLBOT_FW_BG_PENDING && bg_at < 0) bg_at = k + (long)hdr[6];
+        if (ctx.bg_state == BALLBOT_FW_BG_PENDING && k >= bg_at) { /* the main loop's task */
             int brc;
+            bg_at = -1;
 #ifdef BALLBOT_FW_TARGET
             int bg_paint = bg_runs < 8;
             if (bg_paint) paint_stack(sp);
@@ -194,7 +199,11 @@ static int replay(FILE *in, FILE *out) {
     }
     oh[1] = (double)stack_max;
     oh[7] = (double)bg_stack_max;
+#if BALLBOT_FW_GUIDANCE_SPLIT
+    oh[8] = (double)ctx.guidance_late;
+#endif
     (void)bg_runs;
+    (void)bg_at;
     (void)bg_stack_max;
     if (fseek(out, 0, SEEK_SET) != 0 || write_doubles(out, oh, OUT_HEADER)) return 3;
     return 0;
