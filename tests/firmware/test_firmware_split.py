@@ -127,8 +127,15 @@ def test_a_late_background_result_is_never_applied_early_or_late(split_fw, split
     np.testing.assert_array_equal(just.v_ref, split_host.v_ref)
     np.testing.assert_array_equal(just.tau, split_host.tau)
     assert just.guidance_late == 0 == split_host.guidance_late
-    # one period later: every result misses its due period, is counted and not applied
-    # (the reference holds its start value: the firmware stays deterministic)
+    # one period later: every warm result misses its due period, is counted and never
+    # applied; the reference holds the cold first sample's (due at period 19, in time)
+    first = first_sample_latency(EVERY)
     late = run_host(split_fw, split_rec, bg_delay=L)
-    assert late.guidance_late == len([0, *range(EVERY, N - L, EVERY)])
-    np.testing.assert_array_equal(late.v_ref[:, :2], 0.0)
+    assert late.guidance_late == len(range(EVERY + L, N, EVERY))
+    np.testing.assert_array_equal(late.v_ref[:first, :2], 0.0)
+    np.testing.assert_array_equal(late.v_ref[first:, :2],
+                                  np.tile(split_host.v_ref[first, :2], (N - first, 1)))
+    # the first one late too: nothing is ever applied, the reference stays 0
+    never = run_host(split_fw, split_rec, bg_delay=first)
+    assert never.guidance_late == len([first, *range(EVERY + L, N, EVERY)])
+    np.testing.assert_array_equal(never.v_ref[:, :2], 0.0)
