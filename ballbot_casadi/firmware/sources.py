@@ -33,10 +33,15 @@ path (the robot's projection onto it, :func:`scenario_values` with ``path``).
 Split guidance (issue 18, ``latency >= 1``): the period's block is the guided mission's
 with that latency in its interrupt-step form (:func:`~ballbot_casadi.sim.guided.make_guidance`
 with ``split``: no sample, a snapshot), and the sample Function is generated beside it
-(``BALLBOT_FW_GUIDANCE_SAMPLE``) for the background task ``ballbot_fw_guidance_background``
-(``csrc/ballbot_fw.h``); ``ballbot_fw_config.h`` carries the offsets of the guidance state
-the C reads and writes (the counter, the sample state, ``due``, ``snap``) and the work
-sizes of both Functions.
+for the background task ``ballbot_fw_guidance_background`` (``csrc/ballbot_fw.h``) as its
+two branches (:data:`~ballbot_casadi.guidance.blocks.MPC_SAMPLE_BRANCHES`: the warm sample
+and the cold first, ``BALLBOT_FW_GUIDANCE_SAMPLE_NEXT`` / ``_FIRST``), which the C picks by
+the snapshot's ``first`` as the sample's ``Function.conditional`` does: the same arithmetic,
+but the work is the larger branch's own generated C's instead of the conditional's (which
+sizes it from CasADi's virtual-machine counts: 40,285 against 11,810 doubles with the
+default MPC).  ``ballbot_fw_config.h`` carries the offsets of the guidance state the C
+reads and writes (the counter, the sample state and its ``first``, ``due``, ``snap``) and
+the work sizes of the period and of the branches.
 """
 
 from __future__ import annotations
@@ -55,6 +60,7 @@ import numpy as np
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.firmware.toolchain import PRECISIONS
+from ballbot_casadi.guidance.blocks import MPC_SAMPLE_BRANCHES
 from ballbot_casadi.guidance.paths import Path as GuidancePath, figure_eight
 from ballbot_casadi.sim.embedded import (
     embedded_readings,
@@ -77,6 +83,7 @@ __all__ = [
     "guidance_every",
     "default_guidance_path",
     "firmware_function",
+    "background_functions",
     "param_inputs",
     "FirmwareValues",
     "scenario_values",
@@ -165,6 +172,21 @@ def firmware_function(controller: str = "flc", estimator: str = "ukf",
         raise ScenarioError(f"the firmware needs an estimator ('ukf' or 'ekf'), got {estimator!r}")
     law = firmware_guidance(guidance, controller, latency)
     return embedded_software(controller, estimator, guidance=None if law is None else law.function)
+
+
+def background_functions(law: GuidanceLaw) -> tuple[ca.Function, ca.Function]:
+    """The split build's background Functions: the MPC sample's branches (warm, first:
+    :data:`~ballbot_casadi.guidance.blocks.MPC_SAMPLE_BRANCHES`), each ``(X, g, k) -> (v,
+    g_next)``.
+
+    Raises
+    ------
+    ScenarioError
+        ``law`` is not the MPC (only its sample runs in the background).
+    """
+    if law.sample is None or law.name != "mpc":
+        raise ScenarioError(f"the background task runs the MPC's sample, not {law.name!r}'s")
+    return tuple(law.sample.find_function(n) for n in MPC_SAMPLE_BRANCHES)  # type: ignore[return-value]
 
 
 def param_inputs(f: ca.Function) -> list[str]:
@@ -268,13 +290,13 @@ def _strict(src: str) -> str:
     return re.sub(r"(void \w+_(?:release|incref|decref)\(int mem\) \{\n)", r"\1  (void)mem;\n", src)
 
 
-def _codegen(f: ca.Function, real: str, extra: ca.Function | None = None) -> tuple[str, str]:
+def _codegen(f: ca.Function, real: str, extra: tuple[ca.Function, ...] = ()) -> tuple[str, str]:
     opts = {"with_header": True, "casadi_real": real, "casadi_int": "int", "with_export": False,
             "verbose": False}
     cg = ca.CodeGenerator(f"{CG_NAME}.c", opts)
     cg.add(f)
-    if extra is not None:
-        cg.add(extra)
+    for e in extra:
+        cg.add(e)
     with tempfile.TemporaryDirectory() as tmp:
         cg.generate(tmp + os.sep)
         c_src = Path(tmp, f"{CG_NAME}.c").read_text()
@@ -319,15 +341,17 @@ def _split_lines(f: ca.Function, law: GuidanceLaw | None, estimator: str, c_src:
     """The config lines of the split guidance (``BALLBOT_FW_GUIDANCE_SPLIT``)."""
     if law is None or not law.split:
         return ["#define BALLBOT_FW_GUIDANCE_SPLIT 0"]
-    sample = law.sample
-    sz = codegen_work(sample, c_src)
+    branches = background_functions(law)
+    sz = np.max([codegen_work(b, c_src) for b in branches], axis=0)
     off = software_layout(f, estimator, law.block_size).offset("guide")
     tail = 1 + law.state.size  # the tail's offsets inside the block's state
     return [
         "/* Split guidance: the sample runs in the background (ballbot_fw_guidance_background);",
         "   offsets in c of the block's state and, inside it, of due and snap. */",
         "#define BALLBOT_FW_GUIDANCE_SPLIT 1",
-        f"#define BALLBOT_FW_GUIDANCE_SAMPLE {sample.name()}",
+        f"#define BALLBOT_FW_GUIDANCE_SAMPLE_NEXT {branches[0].name()}",
+        f"#define BALLBOT_FW_GUIDANCE_SAMPLE_FIRST {branches[1].name()}",
+        f"#define BALLBOT_FW_GUIDE_FIRST {law.state.offset('first')}",
         f"#define BALLBOT_FW_GUIDANCE_LATENCY {law.latency}",
         f"#define BALLBOT_FW_GUIDANCE_FIRST_LATENCY {law.first_latency}",
         f"#define BALLBOT_FW_GUIDE_OFFSET {off}",
@@ -432,7 +456,7 @@ def generate_sources(f: ca.Function, precision: str, values: FirmwareValues,
         raise ScenarioError(f"unknown precision {precision!r}; allowed: {', '.join(PRECISIONS)}")
     real = PRECISIONS[precision]
     split = law is not None and law.split
-    c_src, h_src = _codegen(f, real, law.sample if split else None)
+    c_src, h_src = _codegen(f, real, background_functions(law) if split else ())
     files = {f"{CG_NAME}.c": c_src, f"{CG_NAME}.h": h_src,
              "ballbot_fw_config.h": _config_header(f, real, guidance_every, c_src, law, estimator),
              "ballbot_fw_defaults.c": _defaults_source(f, values)}

@@ -44,15 +44,16 @@ def test_split_step_has_no_mpc_and_its_config_points_at_the_guidance_state():
     cfg = _config(files["ballbot_fw_config.h"])
     assert cfg["BALLBOT_FW_GUIDANCE_SPLIT"] == "1" and cfg["BALLBOT_FW_GUIDANCE_LATENCY"] == str(L)
     assert cfg["BALLBOT_FW_GUIDANCE_FIRST_LATENCY"] == str(first_sample_latency(EVERY))
-    assert cfg["BALLBOT_FW_GUIDANCE_SAMPLE"] == law.sample.name()
+    assert cfg["BALLBOT_FW_GUIDANCE_SAMPLE_FIRST"] == "ballbot_guidance_mpc_sample_first"
     off = software_layout(f, "ukf", law.block_size).offset("guide")
     assert int(cfg["BALLBOT_FW_GUIDE_OFFSET"]) == off
     g0 = vals.c0[off:off + law.block_size]
     assert g0[0] == 0.0 and g0[1 + law.state.offset("first")] == 1.0  # counter 0, cold start
     assert int(cfg["BALLBOT_FW_GUIDE_DUE"]) + 1 == int(cfg["BALLBOT_FW_GUIDE_SNAP"])
     assert int(cfg["BALLBOT_FW_GUIDE_SNAP"]) + int(cfg["BALLBOT_FW_GUIDE_NSNAP"]) == law.block_size
-    # the interrupt step's work vector is a fraction of the sample's
-    assert int(cfg["BALLBOT_FW_SZ_W"]) * 5 < int(cfg["BALLBOT_FW_BG_SZ_W"])
+    # the interrupt step's work vector is a fraction of the sample's, and the background's
+    # is its larger branch's own (not the conditional's virtual-machine count)
+    assert int(cfg["BALLBOT_FW_SZ_W"]) * 3 < int(cfg["BALLBOT_FW_BG_SZ_W"]) < law.sample.sz_w() / 3
     assert "malloc" not in files["ballbot_fw_cg.c"]
 
 

@@ -98,7 +98,10 @@ int ballbot_fw_guidance_background(ballbot_fw_ctx *ctx) {
     ctx->bg_arg[2] = ctx->guidance;
     ctx->bg_res[0] = ctx->bg_v;
     ctx->bg_res[1] = ctx->bg_g_next;
-    ok = BALLBOT_FW_GUIDANCE_SAMPLE(ctx->bg_arg, ctx->bg_res, ctx->bg_iw, ctx->bg_w, 0) == 0 &&
+    /* the sample's two branches, chosen by its state's first as its conditional does */
+    ok = (ctx->bg_g[BALLBOT_FW_GUIDE_FIRST] > 0.5
+              ? BALLBOT_FW_GUIDANCE_SAMPLE_FIRST(ctx->bg_arg, ctx->bg_res, ctx->bg_iw, ctx->bg_w, 0)
+              : BALLBOT_FW_GUIDANCE_SAMPLE_NEXT(ctx->bg_arg, ctx->bg_res, ctx->bg_iw, ctx->bg_w, 0)) == 0 &&
          all_finite(ctx->bg_g_next, BALLBOT_FW_GUIDE_NS);
     if (!ok) {
         ctx->guidance_faults++;
