@@ -13,6 +13,14 @@ reads the loop-model state from the plant state and the velocity controller's st
 (:func:`~ballbot_casadi.sim.path_following.make_loop_state`); the period's own
 ``v_ref`` input gives the yaw-rate reference (its third entry) and is otherwise unused.
 
+Latency (issue 18, a switch of the mission: :func:`mpc_law` ``latency = L``, default 0):
+the sample of period ``k`` gives the reference of periods ``k + L`` on (the cold first
+sample: :func:`first_sample_latency`), the previous sample's reference holding until
+then, as a firmware whose sample runs in a background task applies it; the block's state
+then ends with ``v_prev`` and ``due`` (:func:`latency_layout`).  ``L = 0`` is the block
+without latency, unchanged.  The firmware's interrupt step runs the same block with
+``split`` (no sample; a snapshot of the loop state for the background task).
+
 The path and its obstacles are the parameter ``k_guid`` (the table of
 :mod:`ballbot_casadi.guidance.path_table`), so one compiled mission follows any path.
 :func:`run_guided` runs a path with true state or with noise and the UKFs and returns
@@ -50,8 +58,8 @@ from ballbot_casadi.sim.path_following import make_loop_state, path_scenario, ve
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
 
-__all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "latency_layout", "first_sample_latency", "mpc_law", "pursuit_law",
-           "guided_software", "guided_simulator", "run_guided", "run_path_scenario",
+__all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "latency_layout",
+           "first_sample_latency", "mpc_law", "pursuit_law", "guided_software", "guided_simulator", "run_guided", "run_path_scenario",
            "scenario_law", "predictions", "GUIDANCE_EVERY", "PURSUIT_GAINS", "path_metadata",
            "PATH_LOG_SPACING"]
 
@@ -65,7 +73,7 @@ PATH_LOG_SPACING = 0.02
 
 def latency_layout(latency: int, split: bool = False) -> Layout:
     """The guidance block's state after ``[count, sample state]`` (module docstring,
-    latency): none at ``latency = 0``; else ``v_prev`` (2, the reference applied until the
+    Latency): none at ``latency = 0``; else ``v_prev`` (2, the reference applied until the
     last sample's result is due) and ``due`` (1, the count at which it is applied); with
     ``split`` also ``snap`` (:data:`~ballbot_casadi.guidance.prediction.NXL`, the loop
     state the sample reads, taken at its sample period for a background task)."""
