@@ -19,7 +19,7 @@ import numpy as np
 
 from ballbot_casadi.bench.control import bench_control
 from ballbot_casadi.bench.estimation import bench_estimation
-from ballbot_casadi.bench.firmware import bench_firmware, bench_firmware_mpc
+from ballbot_casadi.bench.firmware import bench_firmware, bench_firmware_mpc, bench_firmware_split
 from ballbot_casadi.bench.fmu import bench_fmu
 from ballbot_casadi.bench.guidance import bench_mpc
 from ballbot_casadi.bench.montecarlo import bench_montecarlo
@@ -87,6 +87,7 @@ BENCHMARKS: Mapping[str, Callable[[], dict[str, float]]] = MappingProxyType({
     "montecarlo": bench_montecarlo,
     "firmware": bench_firmware,
     "firmware_mpc": bench_firmware_mpc,
+    "firmware_split": bench_firmware_split,
     "mpc": bench_mpc,
 })
 

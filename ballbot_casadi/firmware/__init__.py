@@ -9,5 +9,8 @@ the static library, the QEMU replay program and the 200 Hz example (cached by ha
 host; :mod:`~ballbot_casadi.firmware.cost` measures flash, RAM and instructions per step;
 :mod:`~ballbot_casadi.firmware.single` runs the float build in the closed loop.
 With ``guidance="mpc"`` the period carries the guided mission's path-following MPC (issue 18;
-its path table and obstacles given at init by pointer), replayed from a guided mission.
+its path table and obstacles given at init by pointer), replayed from a guided mission;
+with ``latency=L`` as well the split build: the 200 Hz step without the MPC, its sample in
+a background task, the result applied ``L`` periods after its snapshot (the guided mission
+with that latency).
 """

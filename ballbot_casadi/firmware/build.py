@@ -1,7 +1,9 @@
 """Cross-compile the firmware library for Cortex-M7 (cached by hash, verified before use).
 
-One build lives in ``<build>/firmware/<controller>_<estimator>[_<guidance>]_<precision>-<hash>/``
-(``guidance``: the period with the guided mission's path-following block, ``mpc``):
+One build lives in
+``<build>/firmware/<controller>_<estimator>[_<guidance>[_l<latency>]]_<precision>-<hash>/``
+(``guidance``: the period with the guided mission's path-following block, ``mpc``;
+``latency``: its sample split off into a background task, applied that many periods later):
 
 * ``include/``: ``ballbot_fw.h`` (the stable API), ``ballbot_fw_config.h`` and the generated
   ``ballbot_fw_cg.h``; ``src/``: every C file;
@@ -67,6 +69,7 @@ class FirmwareBuild:
     digest: str
     status: str = field(default="cached", compare=False)
     guidance: str | None = None
+    latency: int = 0
 
     @property
     def library(self) -> Path:
@@ -107,7 +110,7 @@ def _cflags(precision: str, cpu: Sequence[str]) -> list[str]:
 def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: str = "double",
                    values: FirmwareValues | None = None, root: Path | None = None,
                    lib_cpu_flags: Sequence[str] | None = None,
-                   guidance: str | None = None) -> FirmwareBuild:
+                   guidance: str | None = None, latency: int = 0) -> FirmwareBuild:
     """Generate and cross-compile the firmware of ``controller`` with ``estimator``.
 
     Parameters
@@ -121,6 +124,11 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
         ``None`` (the embedded period alone) or a guidance law of the guided mission
         (``mpc``, ``pursuit``) in the period's guidance slot
         (:func:`~ballbot_casadi.firmware.sources.firmware_guidance`).
+    latency
+        ``0``: the guidance sample runs inside the period; ``L >= 1`` (the MPC): the split
+        build, the sample in a background task (``ballbot_fw_guidance_background``), its
+        result applied ``L`` periods after its snapshot (the guided mission with latency
+        ``L``).
     lib_cpu_flags
         Replace the library's CPU/ABI flags (the programs keep the precision's): a test
         hook to build a deliberately mismatched library.
@@ -136,13 +144,17 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
     """
     if precision not in PRECISIONS:
         raise ScenarioError(f"unknown precision {precision!r}; allowed: {', '.join(PRECISIONS)}")
-    law = firmware_guidance(guidance, controller)  # refused before looking for the toolchain
+    if latency and guidance is None:
+        raise ScenarioError(f"a guidance latency ({latency!r}) needs a guidance block "
+                            "(guidance 'mpc')")
+    law = firmware_guidance(guidance, controller, latency)  # refused before the toolchain
     require(qemu=False)
-    f = firmware_function(controller, estimator, guidance)
+    f = firmware_function(controller, estimator, guidance, latency)
     if values is None:
         values = scenario_values(f, default_scenario(controller, estimator), law,
                                  None if law is None else default_guidance_path())
-    files = generate_sources(f, precision, values, 0 if law is None else guidance_every(law))
+    files = generate_sources(f, precision, values, 0 if law is None else guidance_every(law),
+                             law, estimator)
     files.update({n: csrc_path(n).read_text() for n in _TARGET_FILES})
     cpu = tuple(ARM_CPU_FLAGS[precision])
     lib_cpu = cpu if lib_cpu_flags is None else tuple(lib_cpu_flags)
@@ -154,9 +166,10 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
                         tool_version("arm-none-eabi-gcc"), tool_version(host_cc[0])]).encode())
     digest = h.hexdigest()[:16]
     out = (build_root() if root is None else Path(root)) / "firmware"
-    tag = f"{controller}_{estimator}{'' if guidance is None else '_' + guidance}_{precision}"
+    guided = "" if guidance is None else f"_{guidance}{f'_l{latency}' if latency else ''}"
+    tag = f"{controller}_{estimator}{guided}_{precision}"
     fw = FirmwareBuild(out / f"{tag}-{digest}", controller, estimator, precision, digest,
-                       guidance=guidance)
+                       guidance=guidance, latency=latency)
     if check_manifest(fw.folder, _PRODUCTS) is None:
         return fw
     with build_lock(out / f".{fw.folder.name}.lock"):
@@ -173,7 +186,7 @@ def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: s
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
     return FirmwareBuild(fw.folder, controller, estimator, precision, digest,
-                         "built" if first else f"rebuilt: {problem}", guidance)
+                         "built" if first else f"rebuilt: {problem}", guidance, latency)
 
 
 def _compile(tmp: Path, files: dict[str, str], precision: str, cpu: tuple[str, ...],

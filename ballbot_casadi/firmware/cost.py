@@ -22,6 +22,12 @@ only hold the reference; its RAM is what the linked 200 Hz example reserves stat
 (``.data + .bss``: the context and the library's state) plus the measured stack, and the
 guidance block's own work memory is counted from the generated Function with the
 target's sizes (:func:`arm_workspace_bytes`).
+
+A split build (guidance sample in a background task, issue 18: :func:`split_cost`) has
+the interrupt step's instructions over every period, the background sample's apart, and
+the latency that sample has: :func:`latency_margin` says how many times it fits into the
+time the interrupts leave free until its due period, :func:`min_latency` the shortest
+latency with a given margin.
 """
 
 from __future__ import annotations
@@ -38,9 +44,10 @@ from ballbot_casadi.firmware.build import FirmwareBuild
 from ballbot_casadi.firmware.replay import ReplayResult
 from ballbot_casadi.firmware.sources import generated_work
 
-__all__ = ["CLOCK_HZ", "CLOCK_HZ_MAX", "IPC", "PERIOD_S", "FirmwareCost", "GuidedCost",
+__all__ = ["CLOCK_HZ", "CLOCK_HZ_MAX", "IPC", "PERIOD_S", "SPLIT_MARGIN", "FirmwareCost", "GuidedCost",
            "size_text_data", "section_sizes", "max_frame", "firmware_cost", "guided_cost",
-           "arm_workspace_bytes"]
+           "arm_workspace_bytes", "period_instructions", "latency_margin", "min_latency",
+           "SplitCost", "split_cost"]
 
 #: The STM32H743's core clock.
 CLOCK_HZ = 400e6
@@ -50,6 +57,10 @@ CLOCK_HZ_MAX = 480e6
 IPC = 1.0
 #: The embedded software's period (200 Hz).
 PERIOD_S = 0.005
+#: How many times a split build's background sample must fit into the time it has until
+#: its due period (:func:`latency_margin`): room for the instruction count being only a
+#: proxy for cycles and for the main loop's other work.
+SPLIT_MARGIN = 1.5
 
 
 def size_text_data(path) -> tuple[int, int]:
@@ -190,3 +201,83 @@ def guided_cost(build: FirmwareBuild, replay: ReplayResult, every: int,
                       sec.get(".data", 0) + sec.get(".bss", 0), replay.stack_bytes,
                       replay.ctx_bytes, text + sec.get(".data", 0),
                       guidance_values * replay.real_bytes)
+
+
+def period_instructions(clock_hz: float = CLOCK_HZ_MAX, ipc: float = IPC) -> float:
+    """Instructions one 5 ms period has at ``clock_hz`` and ``ipc`` (2.4 M at 480 MHz, 1 IPC)."""
+    return PERIOD_S * clock_hz * ipc
+
+
+def latency_margin(latency: int, isr_instructions: float, sample_instructions: float,
+                   clock_hz: float = CLOCK_HZ_MAX, ipc: float = IPC) -> float:
+    """How many times a background sample of ``sample_instructions`` fits into the time
+    from its snapshot to its due period ``latency`` periods later, while the interrupt
+    takes ``isr_instructions`` of each of those periods: ``latency * (period -
+    isr) / sample`` (:func:`period_instructions`); >= 1 meets the deadline."""
+    return latency * (period_instructions(clock_hz, ipc) - isr_instructions) / sample_instructions
+
+
+def min_latency(isr_instructions: float, sample_instructions: float, margin: float = 1.0,
+                clock_hz: float = CLOCK_HZ_MAX, ipc: float = IPC) -> int:
+    """The smallest latency (periods) whose :func:`latency_margin` is at least ``margin``."""
+    free = period_instructions(clock_hz, ipc) - isr_instructions
+    if free <= 0:
+        raise BuildError(f"the interrupt step's {isr_instructions:.0f} instructions leave no "
+                         f"time in a {PERIOD_S * 1e3:g} ms period for the background")
+    return int(np.ceil(margin * sample_instructions / free - 1e-12))
+
+
+@dataclass(frozen=True)
+class SplitCost:
+    """Instructions, RAM and flash of a split build (guidance sample in the background).
+
+    ``isr_*``: the interrupt step over every period (those that take a snapshot
+    included); ``sample_*``: the background samples after the first (warm, one QP),
+    ``first_sample``: the cold first; ``latency`` / ``first_latency``: periods from a
+    snapshot to its due period; RAM: ``.data + .bss`` of the linked example plus the
+    worst stack of the background sample interrupted by the step (their sum)."""
+
+    isr_instructions_max: float
+    isr_instructions_median: float
+    sample_instructions_max: float
+    sample_instructions_median: float
+    first_sample_instructions: float
+    latency: int
+    first_latency: int
+    static_ram_bytes: int
+    stack_bytes: int
+    bg_stack_bytes: int
+    context_bytes: int
+    flash_bytes: int
+
+    @property
+    def ram_bytes(self) -> int:
+        """``.data + .bss`` plus the step's stack on top of the background's."""
+        return self.static_ram_bytes + self.stack_bytes + self.bg_stack_bytes
+
+    def margin(self, clock_hz: float = CLOCK_HZ_MAX) -> float:
+        """:func:`latency_margin` of the worst warm sample."""
+        return latency_margin(self.latency, self.isr_instructions_max,
+                              self.sample_instructions_max, clock_hz)
+
+    def first_margin(self, clock_hz: float = CLOCK_HZ_MAX) -> float:
+        """:func:`latency_margin` of the cold first sample."""
+        return latency_margin(self.first_latency, self.isr_instructions_max,
+                              self.first_sample_instructions, clock_hz)
+
+
+def split_cost(build: FirmwareBuild, replay: ReplayResult, latency: int,
+               first_latency: int) -> SplitCost:
+    """The costs of a split build from a QEMU ``replay`` (at least two background samples)."""
+    ipt = replay.instructions_per_tick
+    isr, bg = replay.ticks * ipt, replay.bg_ticks * ipt
+    ran = np.flatnonzero(bg > 0)
+    if ran.size < 2:
+        raise BuildError(f"the split replay ran {ran.size} background samples; need two")
+    warm = bg[ran[1:]]
+    sec = section_sizes(build.example_elf)
+    text, _ = size_text_data(build.example_elf)
+    return SplitCost(float(isr.max()), float(np.median(isr)), float(warm.max()),
+                     float(np.median(warm)), float(bg[ran[0]]), latency, first_latency,
+                     sec.get(".data", 0) + sec.get(".bss", 0), replay.stack_bytes,
+                     replay.bg_stack_bytes, replay.ctx_bytes, text + sec.get(".data", 0))

@@ -12,7 +12,11 @@ SysTick: :mod:`~ballbot_casadi.firmware.cost`) and, built for this PC, as the ho
 A build with a guidance block replays a guided mission instead (:func:`record_guided_log`:
 the figure-eight of the path study, 4 m x 2 m at 0.5 m/s, with noise and QUKF + VUKF, the
 MPC in the compiled mission's period); the replay then also returns the velocity
-references the block gave.
+references the block gave.  With ``latency >= 1`` the log is the guided mission with that
+latency and the build the split one: the replay program runs the background sample
+right after the step that took its snapshot (the main loop of a board runs it while the
+next steps interrupt it; the result is applied at its due period either way) and returns
+its instructions apart (:attr:`ReplayResult.bg_ticks`).
 """
 
 from __future__ import annotations
@@ -55,7 +59,7 @@ REPLAY_ATOL = {"double": 1e-12, "single": 2e-3}
 #: filters) through 60 iterations a sample (the measured differences: README, firmware).
 GUIDED_REPLAY_ATOL = 1e-10
 #: Values in the output header of the replay program (csrc/replay_main.c).
-OUT_HEADER = 7
+OUT_HEADER = 9
 #: Iterations of the instruction-count calibration loop (1 + 2 n instructions).
 CALIB_LOOPS = 100_000
 #: The emulator: Cortex-M7 board, semihosting, one instruction per ns of virtual time.
@@ -109,29 +113,36 @@ def record_log(scenario: Scenario, sim: ClosedLoop | None = None) -> RecordedLog
 
 
 def record_guided_log(n_periods: int = 400, seed: int = 1, guidance: str = "mpc",
-                      path: GuidancePath | None = None) -> RecordedLog:
+                      path: GuidancePath | None = None, latency: int = 0) -> RecordedLog:
     """Run ``path`` (default: :func:`~ballbot_casadi.firmware.sources.default_guidance_path`,
     the figure-eight at 0.5 m/s from its start) for ``n_periods`` as the compiled guided
-    mission with noisy sensors and QUKF + VUKF (seed ``seed``) and keep what the embedded
-    software saw, the torques and the velocity references the guidance gave."""
+    mission with noisy sensors and QUKF + VUKF (seed ``seed``; ``latency``: the mission's
+    guidance latency, replayed by the split build of that latency) and keep what the
+    embedded software saw, the torques and the velocity references the guidance gave."""
     if not isinstance(n_periods, int) or n_periods < 1:
         raise ScenarioError(f"n_periods must be an int >= 1, got {n_periods!r}")
     path = default_guidance_path() if path is None else path
     sc = path_scenario(path, n_periods * TS_CONTROL).replace(estimator="ukf", seed=seed,
                                                               guidance=guidance)
-    law = scenario_law(sc)  # the mission's own law for this scenario (not the firmware's)
+    law = scenario_law(sc, latency)  # the mission's own law for this scenario
     log = run_guided(path, law, sc.duration, scenario=sc)
     inp = sc.inputs()
     refs = np.hstack([inp["q_ref"], inp["dq_ref"], inp["ddq_ref"], inp["v_ref"]])
-    f = firmware_function(sc.controller, sc.estimator, guidance)
+    f = firmware_function(sc.controller, sc.estimator, guidance, latency)
+    fw_law = scenario_law(sc, latency, split=True) if latency else law  # the interrupt step's
     return RecordedLog(np.asarray(log["meas"], float), refs, not sc.cascade,
-                       scenario_values(f, sc, law, path), np.asarray(log["tau"], float),
+                       scenario_values(f, sc, fw_law, path), np.asarray(log["tau"], float),
                        np.asarray(log["v_ref_used"], float))
 
 
-def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild) -> Path:
-    """The binary input file of the replay program (little-endian doubles)."""
-    f = firmware_function(build.controller, build.estimator, build.guidance)
+def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild,
+                       bg_delay: int = 0) -> Path:
+    """The binary input file of the replay program (little-endian doubles); ``bg_delay``
+    (split guidance): periods from a snapshot's step to the step after which the replay
+    runs its background sample (0: right after it; ``>= latency``: too late)."""
+    if not (isinstance(bg_delay, int) and bg_delay >= 0):
+        raise ScenarioError(f"bg_delay must be an int >= 0 periods, got {bg_delay!r}")
+    f = firmware_function(build.controller, build.estimator, build.guidance, build.latency)
     flat = rec.values.flat_params(f)
     n_meas = embedded_readings(f).size
     if rec.meas.shape[1] != n_meas or rec.refs.shape != (rec.n, 15):
@@ -140,7 +151,8 @@ def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild) -> Pa
     guid = np.zeros(0) if build.guidance is None else rec.values.guidance
     if guid is None:
         raise BuildError("the firmware has a guidance block; the replay log has no guidance data")
-    hdr = [rec.n, flat.size, rec.values.c0.size, float(rec.balance_only), CALIB_LOOPS, guid.size]
+    hdr = [rec.n, flat.size, rec.values.c0.size, float(rec.balance_only), CALIB_LOOPS, guid.size,
+           bg_delay]
     data = np.concatenate([hdr, flat, rec.values.c0, guid, np.hstack([rec.meas, rec.refs]).ravel()])
     path.write_bytes(data.astype("<f8").tobytes())
     return path
@@ -150,8 +162,10 @@ def write_replay_input(path: Path, rec: RecordedLog, build: FirmwareBuild) -> Pa
 class ReplayResult:
     """Output of one replay: torques (N, 3), SysTick ticks per step (N), return codes (N),
     the stack high-water mark of one step (bytes), the calibration (ticks, instructions),
-    ``sizeof(ballbot_fw_ctx)``, ``sizeof(ballbot_fw_real)`` and, with a guidance block,
-    the velocity references it gave (N, 3; else N x 0)."""
+    ``sizeof(ballbot_fw_ctx)``, ``sizeof(ballbot_fw_real)``, with a guidance block the
+    velocity references it gave (N, 3; else N x 0) and, with split guidance, the ticks of
+    the background sample run after each step (N, 0 where none ran), its stack bytes and
+    the results that were not ready at their due period (``guidance_late``)."""
 
     tau: np.ndarray
     ticks: np.ndarray
@@ -162,6 +176,9 @@ class ReplayResult:
     ctx_bytes: int
     real_bytes: int
     v_ref: np.ndarray
+    bg_ticks: np.ndarray
+    bg_stack_bytes: int = 0
+    guidance_late: int = 0
 
     @property
     def instructions_per_tick(self) -> float:
@@ -176,8 +193,11 @@ def _read_output(path: Path, n: int) -> ReplayResult:
         raise BuildError(f"replay output {path} has {data.size} values, expected "
                          f"{OUT_HEADER + row * n} (the program stopped early)")
     h, rows = data[:OUT_HEADER], data[OUT_HEADER:].reshape(n, row)
+    extra = rows[:, _ROW:]
+    bg = extra[:, 3].copy() if extra.shape[1] > 3 else np.zeros(n)
     return ReplayResult(rows[:, :3].copy(), rows[:, 3].copy(), rows[:, 4].astype(int), int(h[1]),
-                        float(h[2]), float(h[3]), int(h[4]), int(h[5]), rows[:, _ROW:].copy())
+                        float(h[2]), float(h[3]), int(h[4]), int(h[5]), extra[:, :3].copy(), bg,
+                        int(h[7]), int(h[8]))
 
 
 def _run(cmd: list[str], cwd: Path, what: str, timeout: float) -> None:
@@ -189,20 +209,24 @@ def _run(cmd: list[str], cwd: Path, what: str, timeout: float) -> None:
         raise BuildError(f"{what} failed (exit {res.returncode}): {res.stderr.strip()[-2000:]}")
 
 
-def run_qemu(build: FirmwareBuild, rec: RecordedLog, timeout: float = 600.0) -> ReplayResult:
-    """Replay ``rec`` with the library in QEMU (Cortex-M7, semihosting files in a temp dir)."""
+def run_qemu(build: FirmwareBuild, rec: RecordedLog, timeout: float = 600.0,
+             bg_delay: int = 0) -> ReplayResult:
+    """Replay ``rec`` with the library in QEMU (Cortex-M7, semihosting files in a temp dir;
+    ``bg_delay``: :func:`write_replay_input`)."""
     require(qemu=True)
     with tempfile.TemporaryDirectory(prefix="ballbot-fw-") as tmp:
         d = Path(tmp)
-        write_replay_input(d / "fw_replay_in.bin", rec, build)
+        write_replay_input(d / "fw_replay_in.bin", rec, build, bg_delay)
         _run([*QEMU_COMMAND, "-kernel", str(build.replay_elf)], d, "the QEMU replay", timeout)
         return _read_output(d / "fw_replay_out.bin", rec.n)
 
 
-def run_host(build: FirmwareBuild, rec: RecordedLog, timeout: float = 600.0) -> ReplayResult:
-    """Replay ``rec`` with the same library sources compiled for this PC (the reference)."""
+def run_host(build: FirmwareBuild, rec: RecordedLog, timeout: float = 600.0,
+             bg_delay: int = 0) -> ReplayResult:
+    """Replay ``rec`` with the same library sources compiled for this PC (the reference;
+    ``bg_delay``: :func:`write_replay_input`)."""
     with tempfile.TemporaryDirectory(prefix="ballbot-fw-") as tmp:
         d = Path(tmp)
-        write_replay_input(d / "in.bin", rec, build)
+        write_replay_input(d / "in.bin", rec, build, bg_delay)
         _run([str(build.host_replay), "in.bin", "out.bin"], d, "the host replay", timeout)
         return _read_output(d / "out.bin", rec.n)

@@ -29,6 +29,19 @@ stay in flash), and ``ballbot_fw_defaults.c`` holds a default path
 (:func:`default_guidance_path`) as a constant table.  The block's state ``guide`` is part
 of ``c`` (:func:`~ballbot_casadi.sim.embedded.software_layout`); its start depends on the
 path (the robot's projection onto it, :func:`scenario_values` with ``path``).
+
+Split guidance (issue 18, ``latency >= 1``): the period's block is the guided mission's
+with that latency in its interrupt-step form (:func:`~ballbot_casadi.sim.guided.make_guidance`
+with ``split``: no sample, a snapshot), and the sample Function is generated beside it
+for the background task ``ballbot_fw_guidance_background`` (``csrc/ballbot_fw.h``) as its
+two branches (:data:`~ballbot_casadi.guidance.blocks.MPC_SAMPLE_BRANCHES`: the warm sample
+and the cold first, ``BALLBOT_FW_GUIDANCE_SAMPLE_NEXT`` / ``_FIRST``), which the C picks by
+the snapshot's ``first`` as the sample's ``Function.conditional`` does: the same arithmetic,
+but the work is the larger branch's own generated C's instead of the conditional's (which
+sizes it from CasADi's virtual-machine counts: 40,285 against 11,810 doubles with the
+default MPC).  ``ballbot_fw_config.h`` carries the offsets of the guidance state the C
+reads and writes (the counter, the sample state and its ``first``, ``due``, ``snap``) and
+the work sizes of the period and of the branches.
 """
 
 from __future__ import annotations
@@ -47,6 +60,7 @@ import numpy as np
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.firmware.toolchain import PRECISIONS
+from ballbot_casadi.guidance.blocks import MPC_SAMPLE_BRANCHES
 from ballbot_casadi.guidance.paths import Path as GuidancePath, figure_eight
 from ballbot_casadi.sim.embedded import (
     embedded_readings,
@@ -64,10 +78,12 @@ __all__ = [
     "HAND_WRITTEN",
     "CG_NAME",
     "GUIDANCE_INPUT",
+    "SPLIT_LATENCY",
     "firmware_guidance",
     "guidance_every",
     "default_guidance_path",
     "firmware_function",
+    "background_functions",
     "param_inputs",
     "FirmwareValues",
     "scenario_values",
@@ -85,6 +101,12 @@ GUIDANCE_INPUT = GUIDANCE_CONSTANTS[0]
 _NOT_PARAMS = ("c", "meas", *REFERENCE_INPUTS, "cascade", GUIDANCE_INPUT)
 #: Parameter inputs that are covariance matrices (column-major, diagonal >= 0).
 COVARIANCE_INPUTS = ("Qa", "Ra", "Qv", "Rv")
+#: Latency (periods) of the split build's guidance sample (issue 18): the smallest whose
+#: sample fits :data:`~ballbot_casadi.firmware.cost.SPLIT_MARGIN` times into the time the
+#: interrupt steps leave free until its due period at 480 MHz and 1 IPC
+#: (:func:`~ballbot_casadi.firmware.cost.min_latency`; the measured figures and the
+#: arithmetic: README, firmware; ``make bench --only firmware_split`` reports it again).
+SPLIT_LATENCY = 5
 #: Hand-written C files of the library (package data, csrc/).
 HAND_WRITTEN = ("ballbot_fw.h", "ballbot_fw.c")
 #: Base name of the generated CasADi C file.
@@ -98,10 +120,12 @@ def csrc_path(name: str) -> Path:
     return Path(str(resources.files("ballbot_casadi.firmware") / "csrc" / name))
 
 
-def firmware_guidance(guidance: str | None, controller: str = "flc") -> GuidanceLaw | None:
+def firmware_guidance(guidance: str | None, controller: str = "flc",
+                      latency: int = 0) -> GuidanceLaw | None:
     """The guidance block of the firmware: the guided mission's law (``mpc``: the MPC
     predicting the default velocity loop, as :func:`~ballbot_casadi.sim.guided.scenario_law`
-    builds it for a path scenario; ``pursuit``), or ``None``.
+    builds it for a path scenario; ``pursuit``), or ``None``; ``latency >= 1``: the MPC
+    with that latency, split into the interrupt step's block and a background sample.
 
     Raises
     ------
@@ -116,8 +140,10 @@ def firmware_guidance(guidance: str | None, controller: str = "flc") -> Guidance
     if controller != "flc":
         raise ScenarioError(f"the firmware's guidance runs above the FLC cascade (controller "
                             f"'flc'), got controller {controller!r}")
+    if not (isinstance(latency, int) and latency >= 0):
+        raise ScenarioError(f"guidance latency must be an int >= 0 periods, got {latency!r}")
     return scenario_law(Scenario(name="firmware_guidance", controller="flc", cascade=True,
-                                 duration=TS_CONTROL, guidance=guidance))
+                                 duration=TS_CONTROL, guidance=guidance), latency, latency > 0)
 
 
 def guidance_every(law: GuidanceLaw) -> int:
@@ -132,9 +158,10 @@ def default_guidance_path() -> GuidancePath:
 
 
 def firmware_function(controller: str = "flc", estimator: str = "ukf",
-                      guidance: str | None = None) -> ca.Function:
+                      guidance: str | None = None, latency: int = 0) -> ca.Function:
     """The period ``ballbot_embedded_<controller>_<estimator>`` the compiled mission exports
-    (with ``guidance``: the one the guided mission with that estimator runs).
+    (with ``guidance``: the one the guided mission with that estimator runs; ``latency >=
+    1``: its interrupt step, the sample split off, :func:`firmware_guidance`).
 
     Raises
     ------
@@ -143,8 +170,23 @@ def firmware_function(controller: str = "flc", estimator: str = "ukf",
     """
     if estimator in ("true",) or not isinstance(estimator, str):
         raise ScenarioError(f"the firmware needs an estimator ('ukf' or 'ekf'), got {estimator!r}")
-    law = firmware_guidance(guidance, controller)
+    law = firmware_guidance(guidance, controller, latency)
     return embedded_software(controller, estimator, guidance=None if law is None else law.function)
+
+
+def background_functions(law: GuidanceLaw) -> tuple[ca.Function, ca.Function]:
+    """The split build's background Functions: the MPC sample's branches (warm, first:
+    :data:`~ballbot_casadi.guidance.blocks.MPC_SAMPLE_BRANCHES`), each ``(X, g, k) -> (v,
+    g_next)``.
+
+    Raises
+    ------
+    ScenarioError
+        ``law`` is not the MPC (only its sample runs in the background).
+    """
+    if law.sample is None or law.name != "mpc":
+        raise ScenarioError(f"the background task runs the MPC's sample, not {law.name!r}'s")
+    return tuple(law.sample.find_function(n) for n in MPC_SAMPLE_BRANCHES)  # type: ignore[return-value]
 
 
 def param_inputs(f: ca.Function) -> list[str]:
@@ -203,7 +245,7 @@ def scenario_values(f: ca.Function, scenario: Scenario, law: GuidanceLaw | None 
     if guided and (law is None or path is None):
         raise ScenarioError(f"{f.name()} has a guidance block: give its law and the path")
     # the state at power-on: the Function the compiled mission and the controller FMU use
-    n_guide = law.state.size + 1 if guided else 0  # the period counter first
+    n_guide = law.block_size if guided else 0  # the period counter first
     layout = software_layout(f, scenario.estimator, n_guide)
     observer = "obs" in layout.fields
     n_bal = layout.size_of("bal") if "bal" in layout.fields else 0
@@ -248,11 +290,13 @@ def _strict(src: str) -> str:
     return re.sub(r"(void \w+_(?:release|incref|decref)\(int mem\) \{\n)", r"\1  (void)mem;\n", src)
 
 
-def _codegen(f: ca.Function, real: str) -> tuple[str, str]:
+def _codegen(f: ca.Function, real: str, extra: tuple[ca.Function, ...] = ()) -> tuple[str, str]:
     opts = {"with_header": True, "casadi_real": real, "casadi_int": "int", "with_export": False,
             "verbose": False}
     cg = ca.CodeGenerator(f"{CG_NAME}.c", opts)
     cg.add(f)
+    for e in extra:
+        cg.add(e)
     with tempfile.TemporaryDirectory() as tmp:
         cg.generate(tmp + os.sep)
         c_src = Path(tmp, f"{CG_NAME}.c").read_text()
@@ -293,7 +337,34 @@ def generated_work(f: ca.Function, precision: str = "double") -> tuple[int, int,
     return codegen_work(f, _codegen(f, PRECISIONS[precision])[0])
 
 
-def _config_header(f: ca.Function, real: str, every: int, c_src: str) -> str:
+def _split_lines(f: ca.Function, law: GuidanceLaw | None, estimator: str, c_src: str) -> list[str]:
+    """The config lines of the split guidance (``BALLBOT_FW_GUIDANCE_SPLIT``)."""
+    if law is None or not law.split:
+        return ["#define BALLBOT_FW_GUIDANCE_SPLIT 0"]
+    branches = background_functions(law)
+    sz = np.max([codegen_work(b, c_src) for b in branches], axis=0)
+    off = software_layout(f, estimator, law.block_size).offset("guide")
+    tail = 1 + law.state.size  # the tail's offsets inside the block's state
+    return [
+        "/* Split guidance: the sample runs in the background (ballbot_fw_guidance_background);",
+        "   offsets in c of the block's state and, inside it, of due and snap. */",
+        "#define BALLBOT_FW_GUIDANCE_SPLIT 1",
+        f"#define BALLBOT_FW_GUIDANCE_SAMPLE_NEXT {branches[0].name()}",
+        f"#define BALLBOT_FW_GUIDANCE_SAMPLE_FIRST {branches[1].name()}",
+        f"#define BALLBOT_FW_GUIDE_FIRST {law.state.offset('first')}",
+        f"#define BALLBOT_FW_GUIDANCE_LATENCY {law.latency}",
+        f"#define BALLBOT_FW_GUIDANCE_FIRST_LATENCY {law.first_latency}",
+        f"#define BALLBOT_FW_GUIDE_OFFSET {off}",
+        f"#define BALLBOT_FW_GUIDE_NS {law.state.size}",
+        f"#define BALLBOT_FW_GUIDE_DUE {tail + law.tail.offset('due')}",
+        f"#define BALLBOT_FW_GUIDE_SNAP {tail + law.tail.offset('snap')}",
+        f"#define BALLBOT_FW_GUIDE_NSNAP {law.tail.size_of('snap')}",
+        *(f"#define BALLBOT_FW_BG_SZ_{n} {v}" for n, v in zip(("ARG", "RES", "IW", "W"), sz)),
+    ]
+
+
+def _config_header(f: ca.Function, real: str, every: int, c_src: str,
+                   law: GuidanceLaw | None = None, estimator: str = "ukf") -> str:
     params = param_inputs(f)
     sz_arg, sz_res, sz_iw, sz_w = codegen_work(f, c_src)
     n_guid = f.numel_in(f.index_in(GUIDANCE_INPUT)) if GUIDANCE_INPUT in f.name_in() else 0
@@ -324,6 +395,7 @@ def _config_header(f: ca.Function, real: str, every: int, c_src: str) -> str:
         f"#define BALLBOT_FW_GUIDANCE {1 if n_guid else 0}",
         f"#define BALLBOT_FW_N_GUIDANCE {n_guid}",
         f"#define BALLBOT_FW_GUIDANCE_EVERY {every if n_guid else 0}",
+        *_split_lines(f, law, estimator, c_src),
         f"#define BALLBOT_FW_PARAM_FIELDS(X) {_fields(f, params)}",
         f"#define BALLBOT_FW_REFERENCE_FIELDS(X) {_fields(f, REFERENCE_INPUTS)}",
         f"#define BALLBOT_FW_OUTPUT_FIELDS(X) {_fields(f, outputs, out=True)}",
@@ -368,9 +440,12 @@ def _defaults_source(f: ca.Function, values: FirmwareValues) -> str:
 
 
 def generate_sources(f: ca.Function, precision: str, values: FirmwareValues,
-                     guidance_every: int = 0) -> dict[str, str]:
+                     guidance_every: int = 0, law: GuidanceLaw | None = None,
+                     estimator: str = "ukf") -> dict[str, str]:
     """Every C file of the library: file name -> text (deterministic); ``guidance_every``:
-    periods per sample of the period's guidance block (if it has one).
+    periods per sample of the period's guidance block (if it has one); ``law``: the
+    guidance law of the block (needed when it is split: its sample is generated too, for
+    the background task), ``estimator``: the period's (the state layout).
 
     Raises
     ------
@@ -380,9 +455,10 @@ def generate_sources(f: ca.Function, precision: str, values: FirmwareValues,
     if precision not in PRECISIONS:
         raise ScenarioError(f"unknown precision {precision!r}; allowed: {', '.join(PRECISIONS)}")
     real = PRECISIONS[precision]
-    c_src, h_src = _codegen(f, real)
+    split = law is not None and law.split
+    c_src, h_src = _codegen(f, real, background_functions(law) if split else ())
     files = {f"{CG_NAME}.c": c_src, f"{CG_NAME}.h": h_src,
-             "ballbot_fw_config.h": _config_header(f, real, guidance_every, c_src),
+             "ballbot_fw_config.h": _config_header(f, real, guidance_every, c_src, law, estimator),
              "ballbot_fw_defaults.c": _defaults_source(f, values)}
     for name in HAND_WRITTEN:
         files[name] = csrc_path(name).read_text()

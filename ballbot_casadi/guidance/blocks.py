@@ -60,7 +60,11 @@ from ballbot_casadi.guidance.prediction import NXL
 
 __all__ = ["mpc_state_layout", "pursuit_state_layout", "pursuit_parameters_layout",
            "mpc_parameters", "make_mpc_sample", "make_pursuit_sample", "mpc_initial_state",
-           "pursuit_initial_state", "pursuit_parameters"]
+           "pursuit_initial_state", "pursuit_parameters", "MPC_SAMPLE_BRANCHES"]
+
+#: The MPC sample's two branches (called Functions of ``ballbot_guidance_mpc_sample``, chosen
+#: by its state's ``first``): a later (warm) sample, the cold first sample.
+MPC_SAMPLE_BRANCHES = ("ballbot_guidance_mpc_sample_next", "ballbot_guidance_mpc_sample_first")
 
 
 def mpc_state_layout(L: MpcLayout) -> Layout:
@@ -178,7 +182,7 @@ def make_mpc_sample(mpc: ca.Function, L: MpcLayout, parts: dict[str, Any], confi
         y_new = ca.if_else(ok, y0, zero_y)
         v = ca.mtimes(T0, u_new)
         g_next = ca.vertcat(v, 0.0, x0, u_new, z_new, y_new, res["r_prim"])
-        return ca.Function(f"ballbot_guidance_mpc_sample_{'first' if first else 'next'}",
+        return ca.Function(MPC_SAMPLE_BRANCHES[int(first)],
                            [X, g, k], [v, g_next], ["X", "g", "k"], ["v", "g_next"])
 
     X, g, k = ca.MX.sym("X", NXL), ca.MX.sym("g", S.size), ca.MX.sym("k", K.size)

@@ -13,6 +13,14 @@ reads the loop-model state from the plant state and the velocity controller's st
 (:func:`~ballbot_casadi.sim.path_following.make_loop_state`); the period's own
 ``v_ref`` input gives the yaw-rate reference (its third entry) and is otherwise unused.
 
+Latency (issue 18, a switch of the mission: :func:`mpc_law` ``latency = L``, default 0):
+the sample of period ``k`` gives the reference of periods ``k + L`` on (the cold first
+sample: :func:`first_sample_latency`), the previous sample's reference holding until
+then, as a firmware whose sample runs in a background task applies it; the block's state
+then ends with ``v_prev`` and ``due`` (:func:`latency_layout`).  ``L = 0`` is the block
+without latency, unchanged.  The firmware's interrupt step runs the same block with
+``split`` (no sample; a snapshot of the loop state for the background task).
+
 The path and its obstacles are the parameter ``k_guid`` (the table of
 :mod:`ballbot_casadi.guidance.path_table`), so one compiled mission follows any path.
 :func:`run_guided` runs a path with true state or with noise and the UKFs and returns
@@ -58,8 +66,8 @@ from ballbot_casadi.sim.path_following import make_loop_state, path_scenario, ve
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.steps import make_closed_loop_step, make_estimating_step
 
-__all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "mpc_law", "pursuit_law",
-           "mpc_balance_law",
+__all__ = ["GUIDANCE_LAWS", "GuidanceLaw", "make_guidance", "latency_layout",
+           "first_sample_latency", "mpc_law", "pursuit_law", "mpc_balance_law",
            "guided_software", "guided_simulator", "run_guided", "run_path_scenario",
            "scenario_law", "predictions", "GUIDANCE_EVERY", "PURSUIT_GAINS", "path_metadata",
            "PATH_LOG_SPACING"]
@@ -72,26 +80,73 @@ GUIDANCE_EVERY = 20
 PATH_LOG_SPACING = 0.02
 
 
-def make_guidance(name: str, sample: ca.Function, every: int = GUIDANCE_EVERY) -> ca.Function:
+def latency_layout(latency: int, split: bool = False) -> Layout:
+    """The guidance block's state after ``[count, sample state]`` (module docstring,
+    Latency): none at ``latency = 0``; else ``v_prev`` (2, the reference applied until the
+    last sample's result is due) and ``due`` (1, the count at which it is applied); with
+    ``split`` also ``snap`` (:data:`~ballbot_casadi.guidance.prediction.NXL`, the loop
+    state the sample reads, taken at its sample period for a background task)."""
+    fields = [] if latency == 0 else [("v_prev", 2), ("due", 1)]
+    return Layout("guidance latency state", fields + ([("snap", NXL)] if split else []))
+
+
+def make_guidance(name: str, sample: ca.Function, every: int = GUIDANCE_EVERY,
+                  latency: int = 0, first_latency: int | None = None,
+                  first_index: int | None = None, split: bool = False) -> ca.Function:
     """The period's guidance block ``ballbot_guidance_<name>`` around a sample Function
     ``(X, g, k) -> (v, g_next)`` (module docstring); the sample's state must start with
-    the held velocity reference ``v`` (2)."""
+    the held velocity reference ``v`` (2).
+
+    ``latency`` ``L`` (periods, ``0 <= L < every``): the sample of period ``k`` takes effect
+    at period ``k + L`` (``first_latency`` for the sample whose state has ``first`` set,
+    entry ``first_index`` of the sample state; default ``L``); until then the previous
+    sample's reference holds.  ``L = 0`` is the block without latency (the result applied
+    in its own period).  ``split`` (``L > 0``): the block of a firmware's interrupt step,
+    which does not run the sample: it keeps the sample state, stores the loop state of
+    the sample period in ``snap`` (:func:`latency_layout`) and applies whatever sample
+    state it finds at the due count; the firmware's background task runs ``sample`` on
+    the snapshot and writes its result into the state before the step of the due period.
+    """
     if not (isinstance(every, int) and every >= 1):
         raise ScenarioError(f"guidance every must be an int >= 1 periods, got {every!r}")
+    first_latency = latency if first_latency is None else first_latency
+    for what, lat in (("latency", latency), ("first_latency", first_latency)):
+        if not (isinstance(lat, int) and 0 <= lat < every):
+            raise ScenarioError(f"guidance {what} must be an int in 0..{every - 1} periods "
+                                f"(less than a sample interval), got {lat!r}")
+    if split and latency == 0:
+        raise ScenarioError("a split guidance block (background sample) needs latency >= 1")
     ns = sample.numel_in(1)
     X, gs, k = (ca.MX.sym(n, sample.numel_in(i)) for i, n in enumerate(("X", "gs", "k")))
     hold = ca.Function(f"ballbot_guidance_{name}_hold", [X, gs, k], [gs[0:2], gs],
                        ["X", "g", "k"], ["v", "g_next"])
-    branch = ca.Function.conditional(f"ballbot_guidance_{name}_branch", [sample], hold)
+    E = latency_layout(latency, split)
     loop_state = make_loop_state()
-    x, v_ref, g, z = (ca.MX.sym(n, m) for n, m in (("x", 12), ("v_ref", 3), ("g", ns + 1),
+    x, v_ref, g, z = (ca.MX.sym(n, m) for n, m in (("x", 12), ("v_ref", 3),
+                                                    ("g", ns + 1 + E.size),
                                                     ("z", loop_state.numel_in(1))))
     p, kg, Ts = ca.MX.sym("p", NP), ca.MX.sym("k_guid", k.numel()), ca.MX.sym("Ts")
-    count = g[0]
-    v, g_next = branch(count, loop_state(x, z), g[1:], kg)
+    count, gs_now, tail = g[0], g[1:ns + 1], g[ns + 1:]
+    X_now = loop_state(x, z)
+    if split:  # the interrupt step: no sample; the background task runs it on the snapshot
+        v, g_next = gs_now[0:2], gs_now
+    else:
+        branch = ca.Function.conditional(f"ballbot_guidance_{name}_branch", [sample], hold)
+        v, g_next = branch(count, X_now, gs_now, kg)
+    sampling = count == 0
     count_next = ca.if_else(count + 1 >= every, 0.0, count + 1)
-    return ca.Function(f"ballbot_guidance_{name}", [x, v_ref, g, z, p, kg, Ts],
-                       [ca.vertcat(v, v_ref[2]), ca.vertcat(count_next, g_next)],
+    tail_next = []
+    if latency:
+        first = gs_now[first_index] > 0.5 if first_index is not None else ca.DM(0.0)
+        due = ca.if_else(sampling, ca.if_else(first, first_latency, latency), tail[E["due"]])
+        v_prev = ca.if_else(sampling, gs_now[0:2], tail[E["v_prev"]])
+        v = ca.if_else(count >= due, v, v_prev)
+        tail_next = [v_prev, due]
+    if split:
+        tail_next.append(ca.if_else(sampling, X_now, tail[E["snap"]]))
+    suffix = "" if latency == 0 else f"_l{latency}{'_split' if split else ''}"
+    return ca.Function(f"ballbot_guidance_{name}{suffix}", [x, v_ref, g, z, p, kg, Ts],
+                       [ca.vertcat(v, v_ref[2]), ca.vertcat(count_next, g_next, *tail_next)],
                        ["x", "v_ref", "g", "z", "p", "k_guid", "Ts"], ["v_ref_out", "g_next"])
 
 
@@ -116,6 +171,11 @@ class GuidanceLaw:
         The MPC's condensed prediction (MPC only: predicted positions from the state).
     initial
         The block's own initial-state Function (:meth:`initial_function`), if it has one.
+    sample
+        The sample Function ``(X, g, k) -> (v, g_next)`` the block calls (a firmware's
+        background task runs it alone).
+    latency, first_latency, split
+        As :func:`make_guidance` built ``function`` (``0, 0, False``: no latency).
     """
 
     name: str
@@ -126,6 +186,20 @@ class GuidanceLaw:
     options: tuple = ()
     cond: Condensed | None = None
     initial: ca.Function | None = None
+    sample: ca.Function | None = None
+    latency: int = 0
+    first_latency: int = 0
+    split: bool = False
+
+    @property
+    def tail(self) -> Layout:
+        """The block's state after ``[count, sample state]`` (:func:`latency_layout`)."""
+        return latency_layout(self.latency, self.split)
+
+    @property
+    def block_size(self) -> int:
+        """Entries of the block's state ``g``: counter, sample state, :attr:`tail`."""
+        return 1 + self.state.size + self.tail.size
 
     def parameters(self, path: Path) -> np.ndarray:
         """``k_guid`` of ``path``."""
@@ -142,7 +216,8 @@ class GuidanceLaw:
         if g0.size != self.state.size + 1:
             raise BuildError(f"{self.name} guidance: initial state of {g0.size} entries, the "
                              f"sample's state has {self.state.size} + 1")
-        return g0
+        # with latency: no previous reference (0), nothing due, no snapshot yet
+        return np.concatenate([g0, np.zeros(self.tail.size)])
 
     def initial_function(self) -> ca.Function:
         """``ballbot_guidance_<name>_initial(x0[12], z0, s0) -> g0``: the block's state
@@ -173,23 +248,42 @@ class _Key:
 
 
 @lru_cache(maxsize=None)
-def _mpc_law(p_ctrl: tuple, k_vel: tuple, key: _Key) -> GuidanceLaw:
+def _mpc_parts(p_ctrl: tuple, k_vel: tuple, key: _Key) -> tuple:
     config = key.config
     model = velocity_loop_model(np.array(p_ctrl), np.array(k_vel), config.dt)
     f, L, parts = make_mpc_parts(model, config)
-    sample = make_mpc_sample(f, L, parts, config, PATH_SAMPLES)
+    return make_mpc_sample(f, L, parts, config, PATH_SAMPLES), L, parts
+
+
+@lru_cache(maxsize=None)
+def _mpc_law(p_ctrl: tuple, k_vel: tuple, key: _Key, latency: int, split: bool) -> GuidanceLaw:
+    config = key.config
+    sample, L, parts = _mpc_parts(p_ctrl, k_vel, key)
     every = int(round(config.dt / TS_CONTROL))
-    return GuidanceLaw("mpc", make_guidance("mpc", sample, every), mpc_state_layout(L), L,
-                       config, cond=parts["cond"])
+    S = mpc_state_layout(L)
+    first = first_sample_latency(every) if latency else 0
+    block = make_guidance("mpc", sample, every, latency, first, S.offset("first"), split)
+    return GuidanceLaw("mpc", block, S, L, config, cond=parts["cond"], sample=sample,
+                       latency=latency, first_latency=first, split=split)
 
 
-def mpc_law(p_ctrl: np.ndarray, k_vel: np.ndarray, config: MpcConfig = MpcConfig()) -> GuidanceLaw:
+def first_sample_latency(every: int = GUIDANCE_EVERY) -> int:
+    """Latency (periods) of the MPC's cold first sample when its samples have a latency:
+    ``every - 1``, the longest a sample interval allows (the first sample re-linearises
+    :data:`~ballbot_casadi.guidance.mpc.FIRST_SAMPLE_QPS` times: several warm samples' work)."""
+    return every - 1
+
+
+def mpc_law(p_ctrl: np.ndarray, k_vel: np.ndarray, config: MpcConfig = MpcConfig(),
+            latency: int = 0, split: bool = False) -> GuidanceLaw:
     """The path-following MPC in the slot, predicting the velocity loop of ``p_ctrl``,
-    ``k_vel`` (built once per process and arguments)."""
+    ``k_vel`` (built once per process and arguments); ``latency`` periods from a sample
+    to its reference (the cold first sample: :func:`first_sample_latency`), ``split``:
+    the block of a firmware interrupt step (:func:`make_guidance`)."""
     if abs(round(config.dt / TS_CONTROL) * TS_CONTROL - config.dt) > 1e-9:
         raise ScenarioError(f"MPC dt must be a multiple of {TS_CONTROL} s, got {config.dt!r}")
     return _mpc_law(tuple(np.asarray(p_ctrl, float).ravel()),
-                    tuple(np.asarray(k_vel, float).ravel()), _Key(config))
+                    tuple(np.asarray(k_vel, float).ravel()), _Key(config), latency, bool(split))
 
 
 @lru_cache(maxsize=None)
@@ -222,8 +316,9 @@ PURSUIT_GAINS = (0.6, 1.0)
 @lru_cache(maxsize=None)
 def pursuit_law(lookahead: float = PURSUIT_GAINS[0], k_lat: float = PURSUIT_GAINS[1]) -> GuidanceLaw:
     """Pure pursuit in the slot (10 Hz)."""
-    return GuidanceLaw("pursuit", make_guidance("pursuit", make_pursuit_sample()),
-                       pursuit_state_layout(), options=(("lookahead", lookahead), ("k_lat", k_lat)))
+    sample = make_pursuit_sample()
+    return GuidanceLaw("pursuit", make_guidance("pursuit", sample), pursuit_state_layout(),
+                       options=(("lookahead", lookahead), ("k_lat", k_lat)), sample=sample)
 
 
 @lru_cache(maxsize=None)
@@ -327,14 +422,20 @@ def run_guided(path: Path, law: GuidanceLaw, duration: float, estimator: str = "
                           f"the generated C (a QP that did not converge): {exc}") from None
 
 
-def scenario_law(scenario: Scenario) -> GuidanceLaw:
-    """The guidance law a scenario with a path asks for (its own controller model)."""
+def scenario_law(scenario: Scenario, latency: int = 0, split: bool = False) -> GuidanceLaw:
+    """The guidance law a scenario with a path asks for (its own controller model); the
+    MPC with ``latency`` periods from a sample to its reference (:func:`mpc_law`)."""
     if scenario.guidance == "pursuit":
+        if latency or split:
+            raise ScenarioError("guidance latency is an option of the MPC, not of pursuit")
         return pursuit_law()
     inp = scenario.inputs(periods=(0, 1))
     if scenario.guidance == "mpc_balance":
+        if latency or split:
+            raise ScenarioError("guidance latency is an option of the velocity-feed MPC "
+                                "(guidance = \"mpc\"), not of mpc_balance")
         return mpc_balance_law(inp["p_ctrl"])
-    return mpc_law(inp["p_ctrl"], inp["k_vel"])
+    return mpc_law(inp["p_ctrl"], inp["k_vel"], latency=latency, split=split)
 
 
 def run_path_scenario(scenario: Scenario, sim: ClosedLoop | None = None,

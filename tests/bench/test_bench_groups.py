@@ -37,7 +37,7 @@ def _check(data: dict, keys: set[str]) -> None:
 
 def test_every_group_is_covered_here():
     assert set(BENCHMARKS) == {"model", "fmu", "control", "estimation", "montecarlo", "firmware",
-                               "firmware_mpc", "mpc"}
+                               "firmware_mpc", "firmware_split", "mpc"}
 
 
 def test_model_group(monkeypatch):
@@ -193,3 +193,26 @@ def test_firmware_mpc_group():
     assert data["firmware_mpc_hold_instructions_max"] < data["firmware_mpc_instructions_max"]
     assert data["firmware_mpc_instructions_max"] < data["firmware_mpc_first_instructions"]
     assert data["firmware_mpc_workspace_bytes"] < data["firmware_mpc_guidance_workspace_bytes"]
+
+
+@pytest.mark.firmware
+@pytest.mark.slow
+def test_firmware_split_group():
+    # the split build and the guided missions with latency (minutes the first time; the
+    # lap shortened to 3 s)
+    if missing_tools():
+        assert BENCHMARKS["firmware_split"](n_periods=41) == {"firmware_split_available": 0.0}
+        pytest.skip(f"firmware toolchain missing: {missing_tools()}")
+    data = BENCHMARKS["firmware_split"](n_periods=41, lap_s=3.0)
+    _check(data, {"firmware_split_available", "firmware_split_isr_instructions_max",
+                  "firmware_split_isr_instructions_median", "firmware_split_isr_instructions_target",
+                  "firmware_split_sample_instructions_max", "firmware_split_first_sample_instructions",
+                  "firmware_split_latency_periods", "firmware_split_margin",
+                  "firmware_split_margin_target", "firmware_split_latency_min",
+                  "firmware_split_ram_bytes", "firmware_split_ram_bytes_target",
+                  "firmware_split_flash_bytes", "firmware_split_replay_max_abs_diff",
+                  "firmware_split_lateral_rms_settled_m",
+                  "firmware_split_lateral_rms_settled_latency0_m"})
+    # the interrupt step never runs the QP: a small fraction of a background sample
+    assert data["firmware_split_isr_instructions_max"] < 0.1 * data["firmware_split_sample_instructions_max"]
+    assert data["firmware_split_replay_max_abs_diff"] < 1e-9

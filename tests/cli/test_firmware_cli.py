@@ -23,3 +23,17 @@ def test_unknown_guidance_is_a_usage_error(capsys):
         cli.main(["firmware", "--guidance", "lqr"])
     assert exc.value.code == 2
     assert "invalid choice: 'lqr'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--latency", "5"], "--latency 5 needs --guidance mpc"),
+    (["--latency", "5", "--guidance", "pursuit"], "--latency 5 needs --guidance mpc"),
+    (["--latency", "20", "--guidance", "mpc"], "latency must be an int in 0..19"),
+])
+def test_bad_latency_refused_before_generating(capsys, monkeypatch, args, message):
+    monkeypatch.setattr(fw_build, "generate_sources",
+                        lambda *a, **k: pytest.fail("generated before refusing"))
+    assert cli.main(["firmware", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.startswith("ballbot firmware: error:"), err
+    assert message in err

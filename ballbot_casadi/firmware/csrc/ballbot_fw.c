@@ -5,6 +5,12 @@
  * sensor, as in the host step.  The encoder readings of period 0 are missing (there is no
  * previous count to difference), as in the controller FMU.  A period whose result is not
  * finite is rejected: the torques are 0, the state is kept, the fault is counted.
+ *
+ * Split guidance (ballbot_fw.h): the step of a period whose guidance counter is 0 copies
+ * the snapshot (the loop state the period's block stored, the sample state) for
+ * ballbot_fw_guidance_background and records the due period (this period plus the
+ * latency the block stored); the step of the due period first writes the finished
+ * sample state into the guidance state, so the period's block applies it.
  */
 #include <math.h>
 #include <string.h>
@@ -58,6 +64,10 @@ int ballbot_fw_init(ballbot_fw_ctx *ctx, const ballbot_fw_params *params,
     rc = ballbot_fw_check_params(params);
     if (rc != BALLBOT_FW_OK) return rc;
     memset(ctx, 0, sizeof *ctx);
+#if BALLBOT_FW_GUIDANCE_SPLIT
+    ctx->bg_state = BALLBOT_FW_BG_IDLE;
+    ctx->bg_due = (unsigned long)-1;
+#endif
     ctx->params = *params;
     if (c0 == NULL) c0 = ballbot_fw_default_c0;
     if (!all_finite(c0, BALLBOT_FW_NC)) return BALLBOT_FW_EPARAM;
@@ -77,12 +87,70 @@ int ballbot_fw_set_guidance(ballbot_fw_ctx *ctx, const ballbot_fw_real *data) {
 }
 #endif
 
+#if BALLBOT_FW_GUIDANCE_SPLIT
+int ballbot_fw_guidance_background(ballbot_fw_ctx *ctx) {
+    int ok;
+    if (ctx == NULL) return BALLBOT_FW_EARG;
+    if (ctx->bg_state != BALLBOT_FW_BG_PENDING) return BALLBOT_FW_GUIDANCE_IDLE;
+    ctx->bg_state = BALLBOT_FW_BG_RUNNING; /* the step leaves the snapshot alone now */
+    ctx->bg_arg[0] = ctx->bg_X;
+    ctx->bg_arg[1] = ctx->bg_g;
+    ctx->bg_arg[2] = ctx->guidance;
+    ctx->bg_res[0] = ctx->bg_v;
+    ctx->bg_res[1] = ctx->bg_g_next;
+    /* the sample's two branches, chosen by its state's first as its conditional does */
+    ok = (ctx->bg_g[BALLBOT_FW_GUIDE_FIRST] > 0.5
+              ? BALLBOT_FW_GUIDANCE_SAMPLE_FIRST(ctx->bg_arg, ctx->bg_res, ctx->bg_iw, ctx->bg_w, 0)
+              : BALLBOT_FW_GUIDANCE_SAMPLE_NEXT(ctx->bg_arg, ctx->bg_res, ctx->bg_iw, ctx->bg_w, 0)) == 0 &&
+         all_finite(ctx->bg_g_next, BALLBOT_FW_GUIDE_NS);
+    if (!ok) {
+        ctx->guidance_faults++;
+        ctx->bg_state = BALLBOT_FW_BG_IDLE;
+        return BALLBOT_FW_EFAULT;
+    }
+    ctx->bg_state = BALLBOT_FW_BG_DONE;
+    return BALLBOT_FW_GUIDANCE_RAN;
+}
+
+/* Before the period: the due period applies the finished sample (or counts it late). */
+static void guidance_apply(ballbot_fw_ctx *ctx) {
+    if (ctx->period != ctx->bg_due) return;
+    ctx->bg_due = (unsigned long)-1;
+    if (ctx->bg_state == BALLBOT_FW_BG_DONE) {
+        memcpy(ctx->c + BALLBOT_FW_GUIDE_OFFSET + 1, ctx->bg_g_next, sizeof ctx->bg_g_next);
+        ctx->bg_state = BALLBOT_FW_BG_IDLE;
+    } else {
+        ctx->guidance_late++;
+    }
+}
+
+/* After an accepted period whose counter was 0: the snapshot for the background. */
+static void guidance_snapshot(ballbot_fw_ctx *ctx, unsigned long period) {
+    const ballbot_fw_real *g = ctx->c_next + BALLBOT_FW_GUIDE_OFFSET;
+    if (ctx->bg_state == BALLBOT_FW_BG_RUNNING) { /* the last sample still runs: skip */
+        ctx->guidance_late++;
+        return;
+    }
+    memcpy(ctx->bg_X, g + BALLBOT_FW_GUIDE_SNAP, sizeof ctx->bg_X);
+    memcpy(ctx->bg_g, g + 1, sizeof ctx->bg_g);
+    ctx->bg_due = period + (unsigned long)g[BALLBOT_FW_GUIDE_DUE];
+    ctx->bg_state = BALLBOT_FW_BG_PENDING;
+}
+#endif
+
 int ballbot_fw_step(ballbot_fw_ctx *ctx, const ballbot_fw_real *readings,
                     const ballbot_fw_references *refs, ballbot_fw_real torques[3]) {
     int i, rc = BALLBOT_FW_OK;
+#if BALLBOT_FW_GUIDANCE_SPLIT
+    int sampling;
+#endif
     if (torques == NULL) return BALLBOT_FW_EARG;
     torques[0] = torques[1] = torques[2] = 0;
     if (ctx == NULL || readings == NULL || refs == NULL) return BALLBOT_FW_EARG;
+#if BALLBOT_FW_GUIDANCE_SPLIT
+    guidance_apply(ctx);
+    sampling = ctx->c[BALLBOT_FW_GUIDE_OFFSET] == 0;
+#endif
     for (i = 0; i < BALLBOT_FW_N_READINGS; ++i) {
         int fresh = isfinite(readings[i]) &&
                     !(ctx->period == 0 && i >= BALLBOT_FW_READING_ENC &&
@@ -113,6 +181,9 @@ int ballbot_fw_step(ballbot_fw_ctx *ctx, const ballbot_fw_real *readings,
         ctx->faults++;
         return BALLBOT_FW_EFAULT;
     }
+#if BALLBOT_FW_GUIDANCE_SPLIT
+    if (sampling) guidance_snapshot(ctx, ctx->period - 1);
+#endif
     memcpy(ctx->c, ctx->c_next, sizeof ctx->c);
     for (i = 0; i < 3; ++i) torques[i] = ctx->out.tau_lim[i];
     return rc;

@@ -25,6 +25,17 @@
  *   ballbot_fw_set_guidance(&ctx, my_path_table);   (before the first step)
  * gives another path; the power-on state c0 carries the robot's progress on the path
  * (the default: the default path's start).
+ *
+ * Split guidance (BALLBOT_FW_GUIDANCE_SPLIT 1, a build with latency L =
+ * BALLBOT_FW_GUIDANCE_LATENCY >= 1): the 200 Hz step runs the estimator and the controllers
+ * only; in a period whose guidance counter is 0 it also takes a snapshot (the loop state
+ * and the guidance state) for the sample.  The sample runs in the main loop:
+ *   for (;;) ballbot_fw_guidance_background(&ctx);   (returns at once when nothing is due)
+ * and its result is applied by the step of the period L after the snapshot
+ * (BALLBOT_FW_GUIDANCE_FIRST_LATENCY for the cold first sample), never earlier, so the
+ * firmware is deterministic: it equals the compiled guided mission with that latency.
+ * A result not finished by then is not applied (ctx.guidance_late counts it; the
+ * previous reference holds until the next sample).
  */
 #ifndef BALLBOT_FW_H
 #define BALLBOT_FW_H
@@ -41,6 +52,8 @@ extern "C" {
 #define BALLBOT_FW_EPARAM (-1)     /* a parameter is non-finite or out of range: not applied */
 #define BALLBOT_FW_EFAULT (-2)     /* the period gave NaN/Inf: torques zeroed, state kept */
 #define BALLBOT_FW_EARG (-3)       /* a NULL pointer */
+#define BALLBOT_FW_GUIDANCE_IDLE 0  /* ballbot_fw_guidance_background: no sample pending */
+#define BALLBOT_FW_GUIDANCE_RAN 1   /* ... it ran the pending sample */
 
 /* The mode and references of one period. */
 typedef struct ballbot_fw_references {
@@ -68,6 +81,21 @@ typedef struct ballbot_fw_ctx {
 #if BALLBOT_FW_GUIDANCE
     const ballbot_fw_real *guidance;        /* the guidance data (not copied) */
 #endif
+#if BALLBOT_FW_GUIDANCE_SPLIT
+    /* The background sample: snapshot, result, its state, the period it is due. */
+    volatile int bg_state;                  /* BALLBOT_FW_BG_*: written by step and background */
+    unsigned long bg_due;                   /* the period whose step applies the result */
+    unsigned long guidance_late;            /* results not ready at their due period */
+    unsigned long guidance_faults;          /* samples that gave NaN/Inf (not applied) */
+    ballbot_fw_real bg_X[BALLBOT_FW_GUIDE_NSNAP];   /* snapshot: the loop state */
+    ballbot_fw_real bg_g[BALLBOT_FW_GUIDE_NS];      /* snapshot: the sample state */
+    ballbot_fw_real bg_v[2];                        /* result: the sample's reference */
+    ballbot_fw_real bg_g_next[BALLBOT_FW_GUIDE_NS]; /* result: the next sample state */
+    const ballbot_fw_real *bg_arg[BALLBOT_FW_BG_SZ_ARG];
+    ballbot_fw_real *bg_res[BALLBOT_FW_BG_SZ_RES];
+    casadi_int bg_iw[BALLBOT_FW_BG_SZ_IW + 1];
+    ballbot_fw_real bg_w[BALLBOT_FW_BG_SZ_W + 1];
+#endif
 } ballbot_fw_ctx;
 
 /* The package's default parameters (the controller FMU's start values). */
@@ -91,6 +119,17 @@ int ballbot_fw_step(ballbot_fw_ctx *ctx, const ballbot_fw_real *readings,
  * must outlive the context).  BALLBOT_FW_OK, EPARAM (a value not finite: nothing changed)
  * or EARG. */
 int ballbot_fw_set_guidance(ballbot_fw_ctx *ctx, const ballbot_fw_real *data);
+#endif
+#if BALLBOT_FW_GUIDANCE_SPLIT
+/* Background states (ctx->bg_state). */
+#define BALLBOT_FW_BG_IDLE 0     /* nothing to do */
+#define BALLBOT_FW_BG_PENDING 1  /* a snapshot waits for its sample */
+#define BALLBOT_FW_BG_RUNNING 2  /* the background task runs it */
+#define BALLBOT_FW_BG_DONE 3     /* its result waits for the due period */
+/* The main loop's task: run the pending guidance sample on its snapshot.
+ * BALLBOT_FW_GUIDANCE_RAN, BALLBOT_FW_GUIDANCE_IDLE (nothing pending), EFAULT (the
+ * sample gave NaN/Inf: not applied) or EARG.  Interrupted by the step at any point. */
+int ballbot_fw_guidance_background(ballbot_fw_ctx *ctx);
 #endif
 
 #ifdef __cplusplus

@@ -6,9 +6,11 @@
  * with a 400 MHz core clock, reload 400e6 / 200 - 1.
  *
  * With a guidance block (BALLBOT_FW_GUIDANCE) the context starts on the default path
- * (ballbot_fw_default_guidance_data); the period that runs a guidance sample takes several
- * 5 ms periods on this core (README, firmware), which the overrun counter below records:
- * a real board would run the sample in a background task.
+ * (ballbot_fw_default_guidance_data); inside the period (latency 0) the period that runs a
+ * guidance sample takes several 5 ms periods on this core (README, firmware), which the
+ * overrun counter below records.  The split build (BALLBOT_FW_GUIDANCE_SPLIT) runs the
+ * sample in the main loop instead (ballbot_fw_guidance_background), interrupted by the
+ * timer; its result is applied BALLBOT_FW_GUIDANCE_LATENCY periods after its snapshot.
  */
 #include <math.h>
 #include <stdint.h>
@@ -53,5 +55,10 @@ int main(void) {
     SYST_RVR = CORE_HZ / LOOP_HZ - 1u;
     SYST_CVR = 0;
     SYST_CSR = 7u; /* enable, interrupt, processor clock */
+#if BALLBOT_FW_GUIDANCE_SPLIT
+    for (;;)
+        if (ballbot_fw_guidance_background(&ctx) == BALLBOT_FW_GUIDANCE_IDLE) __asm volatile("wfi");
+#else
     for (;;) __asm volatile("wfi");
+#endif
 }

@@ -5,16 +5,22 @@
  * working directory, instruction counting with SysTick, stack high-water mark by painting).
  *
  * Input (little-endian doubles): n_steps, n_params, nc, balance_only, calib_loops,
- * n_guidance; the parameters (ballbot_fw_params as a flat array); the power-on state c0
+ * n_guidance, bg_delay (split guidance: the background sample runs after the step bg_delay
+ * periods after its snapshot's; 0: right after it); the parameters (ballbot_fw_params as a flat array); the power-on state c0
  * (nc); the guidance data (n_guidance = BALLBOT_FW_N_GUIDANCE values, none without a
  * guidance block); per period the readings (BALLBOT_FW_N_READINGS, NaN = missing) and the
  * references q_ref, dq_ref, ddq_ref, v_ref.
  * Output (doubles): a header of OUT_HEADER values (n_steps, stack bytes of one step,
  * SysTick ticks of the calibration loop, its instruction count, sizeof(ballbot_fw_ctx),
- * sizeof(ballbot_fw_real), ROW_EXTRA); per period tau[3], the step's SysTick ticks, the
- * return code and, with a guidance block, the velocity reference it gave (v_ref_used, 3).
- * The stack is painted before the first 8 periods and, with guidance, before the first 8
- * periods that run a guidance sample.
+ * sizeof(ballbot_fw_real), ROW_EXTRA, stack bytes of the background sample, results
+ * not ready at their due period (ctx.guidance_late)); per period
+ * tau[3], the step's SysTick ticks, the return code and, with a guidance block, the
+ * velocity reference it gave (v_ref_used, 3) and, with split guidance, the SysTick ticks
+ * of the background sample run after the step (0 when none was pending; the main loop of
+ * a board runs it while the next steps interrupt it: the result is applied at its due
+ * period either way).  The stack is painted before the first 8 periods and, with
+ * guidance, before the first 8 periods that run (or snapshot) a guidance sample, and
+ * before the first 8 background samples.
  */
 #include <stdint.h>
 #include <stdio.h>
@@ -22,10 +28,13 @@
 
 #include "ballbot_fw.h"
 
-#define OUT_HEADER 7
-#define N_IN_HEADER 6
+#define OUT_HEADER 9
+#define N_IN_HEADER 7
 #define N_REF 15
-#if BALLBOT_FW_GUIDANCE
+#if BALLBOT_FW_GUIDANCE_SPLIT
+#define ROW_EXTRA 4
+static ballbot_fw_real guidance_data[BALLBOT_FW_N_GUIDANCE]; /* flash on a real board */
+#elif BALLBOT_FW_GUIDANCE
 #define ROW_EXTRA 3
 static ballbot_fw_real guidance_data[BALLBOT_FW_N_GUIDANCE]; /* flash on a real board */
 #else
@@ -44,6 +53,16 @@ static ballbot_fw_params params;
 extern uint32_t __stack_bottom;
 
 static uint32_t ticks(void) { return SYST_CVR; }
+static void paint_stack(uintptr_t sp) {
+    uintptr_t a;
+    for (a = (uintptr_t)&__stack_bottom; a < sp; a += 4) *(volatile uint32_t *)a = PAINT;
+}
+static unsigned long used_stack(uintptr_t sp) {
+    uintptr_t a;
+    for (a = (uintptr_t)&__stack_bottom; a < sp; a += 4)
+        if (*(volatile uint32_t *)a != PAINT) break;
+    return (unsigned long)(sp - a);
+}
 static uint32_t elapsed(uint32_t t0, uint32_t t1) { return (t0 - t1) & 0xFFFFFFu; }
 static uintptr_t stack_pointer(void) {
     uintptr_t sp;
@@ -74,7 +93,9 @@ static int replay(FILE *in, FILE *out) {
     ballbot_fw_references refs;
     long k, n;
     int i, rc;
-    unsigned long stack_max = 0;
+    unsigned long stack_max = 0, bg_stack_max = 0;
+    int bg_runs = 0;
+    long bg_at = -1;
     if (read_doubles(in, hdr, N_IN_HEADER) || (int)hdr[1] != N_PAR || (int)hdr[2] != BALLBOT_FW_NC ||
         (int)hdr[5] != BALLBOT_FW_N_GUIDANCE) {
         fprintf(stderr, "replay: input header does not match the library (%d params, nc %d, "
@@ -122,7 +143,7 @@ static int replay(FILE *in, FILE *out) {
     oh[6] = ROW_EXTRA;
     if (write_doubles(out, oh, OUT_HEADER)) return 3;
     for (k = 0; k < n; ++k) {
-        double row[5 + ROW_EXTRA];
+        double row[5 + ROW_EXTRA + 1];
         uint32_t t0, t1;
         int paint = k < 8;
         if (read_doubles(in, buf, BALLBOT_FW_N_READINGS + N_REF)) return 2;
@@ -137,19 +158,14 @@ static int replay(FILE *in, FILE *out) {
         paint = paint || (k % BALLBOT_FW_GUIDANCE_EVERY == 0 && k < 8 * BALLBOT_FW_GUIDANCE_EVERY);
 #endif
 #ifdef BALLBOT_FW_TARGET
-        uintptr_t sp = stack_pointer() - 16u, a;
-        if (paint)
-            for (a = (uintptr_t)&__stack_bottom; a < sp; a += 4) *(volatile uint32_t *)a = PAINT;
+        uintptr_t sp = stack_pointer() - 16u;
+        if (paint) paint_stack(sp);
 #endif
         t0 = ticks();
         rc = ballbot_fw_step(&ctx, meas, &refs, tau);
         t1 = ticks();
 #ifdef BALLBOT_FW_TARGET
-        if (paint) {
-            for (a = (uintptr_t)&__stack_bottom; a < sp; a += 4)
-                if (*(volatile uint32_t *)a != PAINT) break;
-            if (sp - a > stack_max) stack_max = (unsigned long)(sp - a);
-        }
+        if (paint && used_stack(sp) > stack_max) stack_max = used_stack(sp);
 #endif
         for (i = 0; i < 3; ++i) row[i] = (double)tau[i];
         row[3] = (double)elapsed(t0, t1);
@@ -157,10 +173,38 @@ static int replay(FILE *in, FILE *out) {
 #if BALLBOT_FW_GUIDANCE
         for (i = 0; i < 3; ++i) row[5 + i] = (double)ctx.out.v_ref_used[i];
 #endif
+#if BALLBOT_FW_GUIDANCE_SPLIT
+        row[8] = 0;
+        if (ctx.bg_state == BALLBOT_FW_BG_PENDING && bg_at < 0) bg_at = k + (long)hdr[6];
+        if (ctx.bg_state == BALLBOT_FW_BG_PENDING && k >= bg_at) { /* the main loop's task */
+            int brc;
+            bg_at = -1;
+#ifdef BALLBOT_FW_TARGET
+            int bg_paint = bg_runs < 8;
+            if (bg_paint) paint_stack(sp);
+#endif
+            t0 = ticks();
+            brc = ballbot_fw_guidance_background(&ctx);
+            t1 = ticks();
+#ifdef BALLBOT_FW_TARGET
+            if (bg_paint && used_stack(sp) > bg_stack_max) bg_stack_max = used_stack(sp);
+#endif
+            row[8] = (double)elapsed(t0, t1);
+            if (brc < 0) row[4] = (double)brc;
+            bg_runs++;
+        }
+#endif
         if (write_doubles(out, row, 5 + ROW_EXTRA)) return 3;
         (void)paint;
     }
     oh[1] = (double)stack_max;
+    oh[7] = (double)bg_stack_max;
+#if BALLBOT_FW_GUIDANCE_SPLIT
+    oh[8] = (double)ctx.guidance_late;
+#endif
+    (void)bg_runs;
+    (void)bg_at;
+    (void)bg_stack_max;
     if (fseek(out, 0, SEEK_SET) != 0 || write_doubles(out, oh, OUT_HEADER)) return 3;
     return 0;
 }
