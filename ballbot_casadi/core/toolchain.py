@@ -57,6 +57,7 @@ __all__ = [
     "build_lock",
     "Library",
     "run_tool",
+    "build_log_summary",
 ]
 
 #: Strict C99 flags every generated file must compile with.
@@ -212,8 +213,34 @@ def _log_tool(log: Path, cmd: list[str], what: str, cpu0: resource.struct_rusage
     entry = {"what": what, "tool": Path(cmd[0]).name, "sources": sources, "flags": flags,
              "cpu_s": round(cpu1.ru_utime + cpu1.ru_stime - cpu0.ru_utime - cpu0.ru_stime, 3),
              "wall_s": round(wall, 3), "pid": os.getpid()}
+    log.parent.mkdir(parents=True, exist_ok=True)
     with open(log, "a") as f:  # one short write per line: safe to share between processes
         f.write(json.dumps(entry) + "\n")
+
+
+def build_log_summary(log: Path, offset: int = 0) -> dict:
+    """Compiles recorded in a ``$BALLBOT_BUILD_LOG`` file (see :func:`run_tool`) from byte
+    ``offset`` on.
+
+    Returns
+    -------
+    dict
+        ``compiles`` (tool runs reading a ``.c`` file), ``cpu_s`` (their child CPU
+        seconds) and ``repeated``: ``[(what, times, cpu_s)]`` of the same sources compiled
+        more than once by the same tool (flags may differ: work a shared build might save).
+    """
+    with open(log, "rb") as f:
+        f.seek(offset)
+        entries = [json.loads(line) for line in f.read().decode().splitlines() if line.strip()]
+    compiles = [e for e in entries if e["sources"]]
+    groups: dict[str, list[dict]] = {}
+    for e in compiles:
+        key = json.dumps([e["tool"], sorted(e["sources"].items())])
+        groups.setdefault(key, []).append(e)
+    repeated = [(g[0]["what"], len(g), round(sum(e["cpu_s"] for e in g), 3))
+                for g in groups.values() if len(g) > 1]
+    return {"compiles": len(compiles), "cpu_s": round(sum(e["cpu_s"] for e in compiles), 3),
+            "repeated": sorted(repeated, key=lambda r: -r[2])}
 
 
 @contextlib.contextmanager

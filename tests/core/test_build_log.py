@@ -55,3 +55,26 @@ def test_without_the_variable_nothing_is_logged(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     tc.build_library("log_probe", _functions(), root=tmp_path / "b")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]
+
+
+def _line(what: str, tool: str, sources: dict, cpu: float, flags=("-O3",)) -> str:
+    return json.dumps({"what": what, "tool": tool, "sources": sources, "flags": list(flags),
+                       "cpu_s": cpu, "wall_s": 2 * cpu, "pid": 1}) + "\n"
+
+
+def test_the_summary_counts_compiles_and_names_the_same_sources_compiled_again(tmp_path):
+    log = tmp_path / "builds.jsonl"
+    old = _line("compiling old", "gcc", {"o.c": "00"}, 100.0)
+    log.write_text(old + _line("compiling a", "gcc", {"a.c": "aa"}, 20.0, ("-c",))
+                   + _line("linking a (shared)", "gcc", {}, 0.5, ("-shared",))
+                   + _line("archiving a", "ar", {}, 0.1)
+                   + _line("compiling the FMU", "gcc", {"a.c": "aa", "f.c": "ff"}, 30.0)
+                   + _line("compiling the FMU again", "gcc", {"f.c": "ff", "a.c": "aa"}, 31.0, ("-O2",))
+                   + _line("cross-compiling a.c", "arm-none-eabi-gcc", {"a.c": "aa"}, 25.0)
+                   + _line("compiling a (other C)", "gcc", {"a.c": "ab"}, 19.0))
+    s = tc.build_log_summary(log, offset=len(old.encode()))  # the lines before a run skipped
+    assert s["compiles"] == 5
+    assert s["cpu_s"] == pytest.approx(20.0 + 30.0 + 31.0 + 25.0 + 19.0, abs=1e-9)
+    # same tool and the same sources (flags aside) twice; another compiler or other C is not
+    assert s["repeated"] == [("compiling the FMU", 2, 61.0)]
+    assert tc.build_log_summary(log)["compiles"] == 6

@@ -13,6 +13,7 @@ import pytest
 from fmpy import extract
 
 from ballbot_casadi.cli import main
+from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.controller.controller import (
     V_REF_USED_NAMES,
@@ -57,7 +58,10 @@ def _scenario():
 
 @functools.lru_cache(maxsize=None)
 def _build():
-    return build_fmu_from_spec(controller_spec(path=_scenario()))
+    # in the folder write_sil_ssp builds this scenario's path FMU in (its per-scenario
+    # default): the same generated C, so one compile serves this module and the SIL tests
+    return build_fmu_from_spec(controller_spec(path=_scenario()),
+                               build_root() / "fmu" / "path" / _scenario().name)
 
 
 @pytest.fixture(scope="module")
