@@ -231,7 +231,13 @@ def build_log_summary(log: Path, offset: int = 0) -> dict:
     """
     with open(log, "rb") as f:
         f.seek(offset)
-        entries = [json.loads(line) for line in f.read().decode().splitlines() if line.strip()]
+        lines = f.read().decode(errors="replace").splitlines()
+    entries = []
+    for line in lines:
+        with contextlib.suppress(ValueError):  # a torn line (a killed writer) is skipped
+            e = json.loads(line)
+            if isinstance(e, dict) and isinstance(e.get("sources"), dict):
+                entries.append(e)
     compiles = [e for e in entries if e["sources"]]
     groups: dict[str, list[dict]] = {}
     for e in compiles:

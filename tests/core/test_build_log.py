@@ -71,7 +71,8 @@ def test_the_summary_counts_compiles_and_names_the_same_sources_compiled_again(t
                    + _line("compiling the FMU", "gcc", {"a.c": "aa", "f.c": "ff"}, 30.0)
                    + _line("compiling the FMU again", "gcc", {"f.c": "ff", "a.c": "aa"}, 31.0, ("-O2",))
                    + _line("cross-compiling a.c", "arm-none-eabi-gcc", {"a.c": "aa"}, 25.0)
-                   + _line("compiling a (other C)", "gcc", {"a.c": "ab"}, 19.0))
+                   + _line("compiling a (other C)", "gcc", {"a.c": "ab"}, 19.0)
+                   + '{"what": "torn li\n')  # a writer killed mid-line: skipped
     s = tc.build_log_summary(log, offset=len(old.encode()))  # the lines before a run skipped
     assert s["compiles"] == 5
     assert s["cpu_s"] == pytest.approx(20.0 + 30.0 + 31.0 + 25.0 + 19.0, abs=1e-9)
