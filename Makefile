@@ -19,9 +19,9 @@ venv: $(STAMP)
 codegen: $(STAMP)
 	$(PY) -m ballbot_casadi.cli codegen
 
-## Run the test suite.
+## Run the test suite (the 15 slowest tests and this run's C compiles, from the build log, at the end).
 test: $(STAMP)
-	$(PY) -m pytest -q --durations=15
+	BALLBOT_BUILD_LOG=$(CURDIR)/build/test_builds.jsonl $(PY) -m pytest -q --durations=15
 
 ## Main job: build, analyse, simulate the default robot, write report and plots under build/demo.
 demo: $(STAMP)

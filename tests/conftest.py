@@ -12,6 +12,31 @@ import numpy as np
 import pytest
 
 REFERENCE = Path(__file__).resolve().parent.parent.parent / "shared" / "reference"
+#: Where this run's lines of ``$BALLBOT_BUILD_LOG`` start (path, byte offset).
+_BUILD_LOG_START = pytest.StashKey[tuple]()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    log = os.environ.get("BALLBOT_BUILD_LOG")
+    if log:
+        config.stash[_BUILD_LOG_START] = (Path(log), Path(log).stat().st_size
+                                          if Path(log).is_file() else 0)
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config: pytest.Config) -> None:
+    """With ``$BALLBOT_BUILD_LOG`` (``make test`` sets it): this run's C compiles, their
+    compiler CPU seconds and the sources compiled more than once, so a CI log shows
+    when a change starts building the same C twice."""
+    from ballbot_casadi.core.toolchain import build_log_summary
+
+    start = config.stash.get(_BUILD_LOG_START, None)
+    if start is None or not start[0].is_file():
+        return
+    s = build_log_summary(*start)
+    terminalreporter.write_sep("=", f"C compiles: {s['compiles']}, {s['cpu_s']:.0f} s compiler CPU "
+                                    f"(log {start[0]})")
+    for what, times, cpu in s["repeated"]:
+        terminalreporter.write_line(f"same sources compiled {times}x: {what} ({cpu:.1f} s CPU)")
 
 
 @pytest.fixture(scope="session")

@@ -29,10 +29,12 @@ import hashlib
 import json
 import os
 import re
+import resource
 import shlex
 import shutil
 import subprocess
 import tempfile
+import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterable, Iterator, Sequence
@@ -55,6 +57,7 @@ __all__ = [
     "build_lock",
     "Library",
     "run_tool",
+    "build_log_summary",
 ]
 
 #: Strict C99 flags every generated file must compile with.
@@ -177,7 +180,14 @@ class Library:
 
 
 def run_tool(cmd: list[str], what: str) -> None:
-    """Run a compiler/archiver command; raise :class:`BuildError` with its stderr on failure."""
+    """Run a compiler/archiver command; raise :class:`BuildError` with its stderr on failure.
+
+    With ``$BALLBOT_BUILD_LOG`` set to a file, each call appends one JSON line to it
+    (:func:`_log_tool`): what was built, from which sources (their SHA-256), the
+    command and the child CPU and wall seconds, so duplicate compiles can be counted.
+    """
+    log = os.environ.get("BALLBOT_BUILD_LOG")
+    cpu0, t0 = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
     try:
         res = subprocess.run(cmd, capture_output=True, text=True)
     except FileNotFoundError:
@@ -185,8 +195,58 @@ def run_tool(cmd: list[str], what: str) -> None:
                          "CC") from None
     except OSError as exc:
         raise BuildError(f"{what}: cannot run {cmd[0]!r}: {exc}") from None
+    if log:
+        _log_tool(Path(log), cmd, what, cpu0, time.perf_counter() - t0)
     if res.returncode != 0:
         raise BuildError(f"{what} failed ({' '.join(cmd)}):\n{res.stderr[-4000:]}")
+
+
+def _log_tool(log: Path, cmd: list[str], what: str, cpu0: resource.struct_rusage,
+              wall: float) -> None:
+    """Append one JSON line on a finished tool run to ``log`` (see :func:`run_tool`)."""
+    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    sources = {}
+    for a in cmd:
+        if a.endswith(".c") and Path(a).is_file():
+            sources[Path(a).name] = hashlib.sha256(Path(a).read_bytes()).hexdigest()[:16]
+    flags = [a for a in cmd[1:] if a.startswith("-") and not a.startswith(("-o", "-I"))]
+    entry = {"what": what, "tool": Path(cmd[0]).name, "sources": sources, "flags": flags,
+             "cpu_s": round(cpu1.ru_utime + cpu1.ru_stime - cpu0.ru_utime - cpu0.ru_stime, 3),
+             "wall_s": round(wall, 3), "pid": os.getpid()}
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with open(log, "a") as f:  # one short write per line: safe to share between processes
+        f.write(json.dumps(entry) + "\n")
+
+
+def build_log_summary(log: Path, offset: int = 0) -> dict:
+    """Compiles recorded in a ``$BALLBOT_BUILD_LOG`` file (see :func:`run_tool`) from byte
+    ``offset`` on.
+
+    Returns
+    -------
+    dict
+        ``compiles`` (tool runs reading a ``.c`` file), ``cpu_s`` (their child CPU
+        seconds) and ``repeated``: ``[(what, times, cpu_s)]`` of the same sources compiled
+        more than once by the same tool (flags may differ: work a shared build might save).
+    """
+    with open(log, "rb") as f:
+        f.seek(offset)
+        lines = f.read().decode(errors="replace").splitlines()
+    entries = []
+    for line in lines:
+        with contextlib.suppress(ValueError):  # a torn line (a killed writer) is skipped
+            e = json.loads(line)
+            if isinstance(e, dict) and isinstance(e.get("sources"), dict):
+                entries.append(e)
+    compiles = [e for e in entries if e["sources"]]
+    groups: dict[str, list[dict]] = {}
+    for e in compiles:
+        key = json.dumps([e["tool"], sorted(e["sources"].items())])
+        groups.setdefault(key, []).append(e)
+    repeated = [(g[0]["what"], len(g), round(sum(e["cpu_s"] for e in g), 3))
+                for g in groups.values() if len(g) > 1]
+    return {"compiles": len(compiles), "cpu_s": round(sum(e["cpu_s"] for e in compiles), 3),
+            "repeated": sorted(repeated, key=lambda r: -r[2])}
 
 
 @contextlib.contextmanager
@@ -272,10 +332,11 @@ def _compile_library(lib: Library, c_src: str, h_src: str, ccmd: list[str]) -> N
         tsrc.write_text(c_src)
         thdr.write_text(h_src)
         obj = tmp / f"{lib.name}.o"
-        run_tool([*ccmd, *CFLAGS, "-shared", "-o", str(tmp / lib.shared.name), str(tsrc), "-lm"],
-                 f"compiling {lib.name} (shared)")
-        run_tool([*ccmd, *CFLAGS, "-c", "-o", str(obj), str(tsrc)],
-                 f"compiling {lib.name} (object)")
+        # one compile (CFLAGS has -fPIC): the shared library is linked from the same object
+        # the static archive holds, so both carry identical code at half the gcc time
+        run_tool([*ccmd, *CFLAGS, "-c", "-o", str(obj), str(tsrc)], f"compiling {lib.name}")
+        run_tool([*ccmd, *CFLAGS, "-shared", "-o", str(tmp / lib.shared.name), str(obj), "-lm"],
+                 f"linking {lib.name} (shared)")
         run_tool(["ar", "rcs", str(tmp / lib.static.name), str(obj)], f"archiving {lib.name}")
         for p in lib.files:
             os.replace(tmp / p.name, p)  # never rewrite a file in place (mapped copies live on)

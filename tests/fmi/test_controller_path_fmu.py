@@ -20,6 +20,7 @@ from fmpy.validation import validate_fmu
 
 from ballbot_casadi.cli import main
 from ballbot_casadi.core.params import PARAM_NAMES
+from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.fmi.controller.controller import (
     V_REF_USED_NAMES,
@@ -72,12 +73,16 @@ def _spec():
 
 @functools.lru_cache(maxsize=None)
 def _build():
-    return build_fmu_from_spec(_spec())
+    # in the folder write_sil_ssp / sil_controller builds this scenario's path FMU in (its
+    # per-scenario default): the same generated C, so one compile serves this module and
+    # the SIL tests
+    return build_fmu_from_spec(_spec(), build_root() / "fmu" / "path" / _scenario().name)
 
 
 @functools.lru_cache(maxsize=None)
 def _build3():
-    return build_fmu_from_spec(_spec(), fmi_version=3)
+    return build_fmu_from_spec(_spec(), build_root() / "fmu3" / "path" / _scenario().name,
+                               fmi_version=3)
 
 
 @pytest.fixture(scope="module")
