@@ -141,3 +141,17 @@ def test_tilt_reference_stops_at_the_limit_moving_outward_only(vel):
     _, _, _, z_next = _run(vel, x, np.zeros(3), z, _gains(K, tilt_max=0.1))
     np.testing.assert_allclose(z_next[Z["theta_r"]], [0.1, -0.0999 + TS * 0.05], rtol=1e-12)
     np.testing.assert_allclose(z_next[Z["dtheta_r"]], [0.0, 0.05], rtol=1e-12)
+
+
+def test_a_tilt_reference_beyond_the_limit_moving_back_keeps_its_rate(vel):
+    """After a limit change theta_r lies beyond tilt_max: it is clamped to the limit, but a
+    rate pointing back inside is kept (only an outward rate is zeroed)."""
+    K = np.zeros((2, 12))
+    x = np.zeros(12)
+    x[STATE["q"]] = [1.0, 0.0, 0.0, 0.0]
+    z = np.zeros(Z.size)
+    z[Z["theta_r"]] = [0.12, -0.12]
+    z[Z["dtheta_r"]] = [-0.01, 0.01]
+    _, _, _, z_next = _run(vel, x, np.zeros(3), z, _gains(K, tilt_max=0.1))
+    np.testing.assert_allclose(z_next[Z["theta_r"]], [0.1, -0.1], rtol=1e-12)
+    np.testing.assert_allclose(z_next[Z["dtheta_r"]], [-0.01, 0.01], rtol=1e-12)
