@@ -101,3 +101,32 @@ def test_each_weight_moves_the_cost(parts):
     vs = base["v_s"].copy()
     vs[1] += 0.2
     assert cost(dict(base, v_s=vs)) == pytest.approx(CFG.w_speed * 0.04, rel=1e-12)
+
+
+def test_step_rows_read_speed_progress_rate_and_progress_of_each_node(parts):
+    """Per node k = 1..N: four speed-octagon rows ``D8 v_k / (v_max margin cos(pi/8))``,
+    then ``ds_k >= 0`` and ``s_k - s_max <= 0`` (hard), as rows of the blocked inputs plus
+    the initial state's part in the bounds."""
+    from ballbot_casadi.core.constants import THESIS_LIMITS
+    from ballbot_casadi.guidance.mpc import polygon
+
+    L, extra = parts
+    cond, A_c = extra["cond"], np.asarray(extra["A_c"])
+    d8, f8 = polygon(8)
+    vmax = THESIS_LIMITS["v_max"] * CFG.margin
+    rng = np.random.default_rng(4)
+    x0, _, blocks = _inputs(rng, L)
+    _, _, lo, hi, _ = (np.asarray(v, float).ravel() for v in
+                       extra["qp_data"](x0, L.pack(**blocks)))
+    for k in range(1, L.N + 1):
+        r = (k - 1) * 6
+        Gk, Pk = cond.Gamma[k], cond.Phi[k]
+        np.testing.assert_allclose(A_c[r:r + 4], d8 @ Gk[0:2] / (vmax * f8), rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(A_c[r + 4], Gk[NXL + 1], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(A_c[r + 5], Gk[NXL], rtol=1e-9, atol=1e-12)
+        # bounds: the rows' x0 parts moved to the bounds
+        np.testing.assert_allclose(lo[r + 4], -Pk[NXL + 1] @ x0, rtol=1e-9, atol=1e-12)
+        assert np.isinf(hi[r + 4]) and np.isinf(lo[r + 5])
+        np.testing.assert_allclose(hi[r + 5], 10.0 - Pk[NXL] @ x0, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(hi[r:r + 4], 1.0 - d8 @ Pk[0:2] @ x0 / (vmax * f8), rtol=1e-9,
+                                   atol=1e-12)
