@@ -116,3 +116,19 @@ def test_refused_tables_name_their_key(spec, key):
     with pytest.raises(ScenarioError) as err:
         path_from_spec(spec)
     assert err.value.key == key and "\n" not in str(err.value)
+
+
+def test_pure_pursuit_at_the_end_of_an_open_path_commands_exactly_zero_without_warnings():
+    import warnings
+
+    from ballbot_casadi.guidance.pure_pursuit import PurePursuit
+
+    path = line_path((0.0, 0.0), (2.0, 0.0), speed=0.4)
+    pp = PurePursuit(path, lookahead=0.3, k_lat=0.0)
+    x = np.zeros(14)
+    x[12:14] = [2.5, 0.0]  # past the end: projected onto it, where the ramp's speed is zero
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        v = pp.step(x)
+    np.testing.assert_array_equal(v, [0.0, 0.0])
+    assert pp.progress() == pytest.approx(2.0, abs=1e-9)
