@@ -25,7 +25,7 @@ def _quats(roll_deg, pitch_deg):
                      for r, p in zip(roll_deg, pitch_deg)])
 
 
-def _log(gain, fall_at=None, axis="roll"):
+def _log(gain, fall_at=None, axis="roll", other_ref=0.0):
     t = np.round(np.arange(0.0, T_END + TS / 2, TS), 10)
     phi = 2 * np.pi * (F0 * t + 0.5 * (F1 - F0) / T_END * t**2)
     ref = 5.0 * np.sin(phi)
@@ -34,7 +34,8 @@ def _log(gain, fall_at=None, axis="roll"):
     if fall_at is not None:
         track = np.where(t >= fall_at, 40.0, track)
         other = np.where(t >= fall_at, 50.0, other)
-    zero = np.zeros_like(t)
+    zero = np.zeros_like(t) + other_ref  # the other axis's reference
+    other = other + other_ref
     if axis == "roll":
         q_ref, q = _quats(ref, zero), _quats(track, other)
     else:
@@ -97,3 +98,10 @@ def test_pitch_chirp_reads_pitch_and_watches_roll():
     assert m["chirp_axis"] == "pitch"
     np.testing.assert_allclose(m["response"]["gain_db"], 20 * np.log10(0.5), atol=1e-6)
     assert m["cross_axis_onset_s"] == pytest.approx(5.01, abs=1e-9)
+
+
+def test_cross_axis_error_is_measured_from_a_nonzero_reference():
+    """The other axis held at 2 deg by its reference: its error is still 0.02 (t - 0.005)."""
+    m = chirp_metrics(_log(0.5, other_ref=2.0))
+    assert m["cross_axis_onset_s"] == pytest.approx(5.01, abs=1e-9)
+    assert m["cross_axis_error_max_deg"] == pytest.approx(0.02 * (T_END - 0.005), rel=1e-5)
