@@ -1,0 +1,73 @@
+"""Closed-loop analysis helpers against closed forms: the -3 dB and sensitivity bandwidths
+(interpolated crossings, a loss at the first grid point, the low-frequency normalisation),
+the discrete frequency response and the ZOH of a scalar system, the second-order bandwidth."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.analysis import closed_loop as cla
+
+
+def test_bandwidths_of_a_scaled_first_order_lag():
+    w = np.logspace(-2, 2, 4001)
+    H = 2.5 / (1j * w + 1.0)  # DC gain 2.5: both bandwidths normalise by it
+    assert cla.bandwidth_3db(w, np.abs(H)) == pytest.approx(1.0, rel=2e-3)
+    assert cla.bandwidth_sensitivity(w, H) == pytest.approx(1.0, rel=2e-3)
+    grid = np.array([0.5, 1.0, 2.0])
+    assert cla.bandwidth_sensitivity(grid, np.array([1.0, 1.0, 1.0])) is None  # S = 0 throughout
+    assert cla.bandwidth_3db(grid, np.ones(3)) is None
+
+
+def test_interpolated_crossings_by_hand():
+    grid = np.array([1.0, 10.0, 100.0])
+    # dB: 0, -1, -5.0206: crosses -3.0103 halfway (in log-frequency) between 10 and 100
+    mag = 10 ** (np.array([0.0, -1.0, -5.0206]) / 20)
+    assert cla.bandwidth_3db(grid, mag) == pytest.approx(10 ** 1.5, rel=1e-9)
+    # dB: 0, -6.0206: crosses halfway between 1 and 10
+    mag = 10 ** (np.array([0.0, -6.0206, -9.0]) / 20)
+    assert cla.bandwidth_3db(grid, mag) == pytest.approx(10 ** 0.5, rel=1e-9)
+    # sensitivity |1 - H|: 0 at 1, 0.5 at 10, 1.0 at 100 (log-interpolated between 10 and 100)
+    frac = (math.log10(1 / math.sqrt(2)) - math.log10(0.5)) / (0.0 - math.log10(0.5))
+    got = cla.bandwidth_sensitivity(grid, np.array([1.0, 0.5, 0.0]))
+    assert got == pytest.approx(10 ** (1.0 + frac), rel=1e-9)
+
+
+def test_first_point_loss_returns_the_first_frequency():
+    # |T| 3 dB down at the first point relative to itself cannot happen; at the second:
+    assert cla.bandwidth_3db(np.array([0.7, 7.0]), np.array([1.0, 0.1])) < 7.0
+    # the sensitivity uses H / |H[0]|: -1 at the first point gives S = 2 there
+    assert cla.bandwidth_sensitivity(np.array([0.7, 7.0]), np.array([-3.0, 1.0])) == 0.7
+
+
+def test_zoh_and_discrete_response_of_a_scalar_lag():
+    a, b, Ts = -2.0, 3.0, 0.1
+    Ad, Bd = cla.zoh(np.array([[a]]), np.array([[b]]), Ts)
+    assert Ad[0, 0] == pytest.approx(math.exp(a * Ts), rel=1e-12)
+    assert Bd[0, 0] == pytest.approx(b * (math.exp(a * Ts) - 1) / a, rel=1e-12)
+    w = np.array([0.0, 5.0])
+    G = cla.dfreq(Ad, Bd, np.array([[1.0]]), w, Ts)
+    z = np.exp(1j * w * Ts)
+    np.testing.assert_allclose(G[:, 0, 0], Bd[0, 0] / (z - Ad[0, 0]), rtol=1e-12)
+    assert G[0, 0, 0].real == pytest.approx(-b / a, rel=1e-12)  # the DC gain survives the ZOH
+
+
+@pytest.mark.parametrize("kp,kd", [(100.0, 20.0), (400.0, 10.0), (50.0, 30.0)])
+def test_second_order_bandwidth_solves_the_half_power_equation(kp, kd):
+    w = cla._second_order_bw(kp, kd)
+    T = kp / (-(w**2) + 1j * kd * w + kp)
+    assert abs(T) ** 2 == pytest.approx(0.5, rel=1e-12)
+
+
+def test_discrete_stability_counts_neutral_modes():
+    Ad = np.diag([1.0, 1.0 + 1e-9, 0.5, -0.8])
+    d = cla._discrete_stability(Ad, 0.01)
+    assert d["n_neutral_modes"] == 2
+    assert d["max_real_pole"] == pytest.approx(math.log(0.8) / 0.01, rel=1e-12)
+    assert d["stable_apart_from_neutral"]
+    d = cla._discrete_stability(np.diag([1.0, 1.2]), 0.01)
+    assert not d["stable_apart_from_neutral"]
+    assert d["max_real_pole"] == pytest.approx(math.log(1.2) / 0.01, rel=1e-12)

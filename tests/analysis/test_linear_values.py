@@ -1,0 +1,158 @@
+"""Linear analysis on hand-built reduced models with known eigenvectors (closed-form references).
+
+A reduced model is built in scaled coordinates as ``A_s = V diag(a) V^-1`` with a chosen
+right eigenvector, then unscaled with :data:`STATE_SCALE`, so the modal energies, the
+dominant states and the Gramian horizon of :func:`controllability` have closed forms:
+for a simple real eigenvalue ``a`` with unit left eigenvector ``u``,
+``u^T W(T) u = |u^T B|^2 (e^{2 a T} - 1) / (2 a)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import control
+import numpy as np
+import pytest
+
+from ballbot_casadi import load_params
+from ballbot_casadi.analysis import linear as an
+from ballbot_casadi.model import linearization as lz
+
+NAMES = lz.REDUCED_STATE_NAMES
+
+
+@pytest.fixture(scope="module")
+def lin():
+    return lz.linearize(load_params())
+
+
+def _model(lin, a, V, B_s, tau_max=2.0):
+    """LinearModel whose *scaled* reduced model is ``(V diag(a) V^-1, B_s)``."""
+    S = an.STATE_SCALE
+    A_s = V @ np.diag(a) @ np.linalg.inv(V)
+    Ar = A_s * S[:, None] / S[None, :]
+    Br = B_s * S[:, None] / tau_max
+    return replace(lin, Ar=Ar, Br=Br, tau_max=tau_max)
+
+
+def _energy(a, u, B, T):
+    u = u / np.linalg.norm(u)
+    return 1.0 / (float(np.sum((u @ B) ** 2)) * (np.exp(2 * a * T) - 1) / (2 * a))
+
+
+A_EIG = np.array([0.7, -0.4, -1.1, -1.6, 1.9, -2.3, -2.9, -3.4, 0.3, -4.2])
+
+
+def _setup(lin):
+    v = np.zeros(10)
+    v[[0, 1, 2]] = np.sqrt([0.8, 0.11, 0.09])  # mode 0 lives on x (80 %), y (11 %), v1 (9 %)
+    V = np.eye(10)
+    V[:, 0] = v
+    rng = np.random.default_rng(5)
+    B_s = rng.normal(size=(10, 3))
+    return V, B_s, _model(lin, A_EIG, V, B_s)
+
+
+def test_state_scaling_round_trips_the_hand_built_model(lin):
+    V, B_s, m = _setup(lin)
+    A, B = an.state_scaling(m)
+    np.testing.assert_allclose(A, V @ np.diag(A_EIG) @ np.linalg.inv(V), atol=1e-12)
+    np.testing.assert_allclose(B, B_s, atol=1e-12)
+
+
+def test_state_scale_is_the_documented_envelope():
+    """1 m, 5 deg tilt (quaternion units sin(2.5 deg)), 1 rad heading, 0.5 m/s, 20 deg/s, 1 rad/s."""
+    t, r = np.sin(np.radians(2.5)), 0.5 * np.radians(20.0)
+    np.testing.assert_allclose(an.STATE_SCALE, [1, 1, t, t, np.sin(0.5), 0.5, 0.5, r, r, 0.5],
+                               rtol=1e-15)
+
+
+def test_modal_energies_dominant_states_and_weakest_mode_match_closed_form(lin):
+    V, B_s, m = _setup(lin)
+    T = 0.8
+    c = an.controllability(m, horizon=T)
+    assert c["horizon"] == T and c["rank"] == 10 and c["n"] == 10
+    assert all(e["controllable"] for e in c["pbh"])
+    U = np.linalg.inv(V)  # rows: left eigenvectors
+    by_eig = {round(md["eigenvalues"][0].real, 9): md for md in c["modes"]}
+    assert sorted(by_eig) == sorted(np.round(A_EIG, 9))
+    for i, a in enumerate(A_EIG):
+        md = by_eig[round(a, 9)]
+        assert md["energy"] == pytest.approx(_energy(a, U[i], B_s, T), rel=1e-7)
+        assert len(md["eigenvalues"]) == 1
+        if i == 0:
+            # right eigenvector weights 0.8, 0.11, 0.09: all above 10 % of the largest
+            assert md["dominant_states"] == ["x", "y", "v1"]
+        else:
+            assert md["dominant_states"] == [NAMES[i]]
+    energies = {a: _energy(a, U[i], B_s, T) for i, a in enumerate(A_EIG)}
+    a_weak = max(energies, key=energies.get)
+    assert c["weakest_mode"]["eigenvalues"][0].real == pytest.approx(a_weak, abs=1e-9)
+    assert c["weakest_mode"]["energy"] == pytest.approx(energies[a_weak], rel=1e-7)
+
+
+def test_dominant_state_threshold_is_ten_percent_of_the_largest(lin):
+    """Weights 0.8, 0.11, 0.09: 0.11 and 0.09 both exceed 0.1 * 0.8, nothing else does."""
+    v = np.zeros(10)
+    v[[3, 5, 9]] = np.sqrt([0.8, 0.11, 0.09])
+    V = np.eye(10)
+    V[:, 3] = v
+    m = _model(lin, A_EIG, V, np.random.default_rng(2).normal(size=(10, 3)))
+    md = {round(x["eigenvalues"][0].real, 9): x for x in an.controllability(m)["modes"]}
+    assert md[round(A_EIG[3], 9)]["dominant_states"] == ["v2", "dx", "dv3"]
+    # weights 0.9, 0.095, 0.005: the last is below 10 % of the largest
+    v[[3, 5, 9]] = np.sqrt([0.9, 0.095, 0.005])
+    V[:, 3] = v
+    m = _model(lin, A_EIG, V, np.random.default_rng(2).normal(size=(10, 3)))
+    md = {round(x["eigenvalues"][0].real, 9): x for x in an.controllability(m)["modes"]}
+    assert md[round(A_EIG[3], 9)]["dominant_states"] == ["v2", "dx"]
+
+
+def test_fast_mode_shortens_the_horizon_to_thirty_over_its_rate(lin):
+    a = A_EIG.copy()
+    a[7] = -60.0
+    V, B_s, _ = _setup(lin)
+    c = an.controllability(_model(lin, a, V, B_s), horizon=1.0)
+    assert c["horizon"] == pytest.approx(30.0 / 60.0, rel=1e-12)
+
+
+def test_uncontrolled_mode_is_flagged_by_pbh_and_rank(lin):
+    V, B_s, _ = _setup(lin)
+    B0 = B_s.copy()
+    B0[6] = 0.0  # with V = I off column 0, mode 6 is decoupled: no input reaches it
+    c = an.controllability(_model(lin, A_EIG, V, B0))
+    assert c["rank"] == 9
+    flagged = [e for e in c["pbh"] if not e["controllable"]]
+    assert len(flagged) == 1 and flagged[0]["eigenvalue"].real == pytest.approx(A_EIG[6], abs=1e-9)
+
+
+def test_mode_groups_pair_conjugates_and_repeated_eigenvalues():
+    A = np.zeros((6, 6))
+    A[:2, :2] = [[1.0, 2.0], [-2.0, 1.0]]  # 1 +- 2j
+    A[2, 2] = A[3, 3] = -3.0
+    A[4, 4], A[5, 5] = 0.5, -0.7
+    groups = an.mode_groups(A)
+    sizes = sorted((len(g), round(float(np.max(g.real)), 6)) for g in groups)
+    assert sizes == [(1, -0.7), (1, 0.5), (2, -3.0), (2, 1.0)]
+    pair = next(g for g in groups if np.any(g.imag != 0))
+    np.testing.assert_allclose(sorted(pair.imag), [-2.0, 2.0], atol=1e-12)
+
+
+def test_singular_values_of_a_known_system():
+    """G(s) = diag(1/(s+1), 2/(s+3)): singular values sorted, |G(jw)| per channel."""
+    sys = control.ss(np.diag([-1.0, -3.0]), np.diag([1.0, 2.0]), np.eye(2), np.zeros((2, 2)))
+    w = np.array([0.0, 1.0, 10.0])
+    sv = an.singular_values(sys, w)
+    g1, g2 = 1 / np.sqrt(1 + w**2), 2 / np.sqrt(9 + w**2)
+    np.testing.assert_allclose(sv, np.column_stack([np.maximum(g1, g2), np.minimum(g1, g2)]),
+                               rtol=1e-12)
+
+
+def test_channel_outputs_pick_the_named_reduced_states(lin):
+    for name, (idx, outs) in an.CHANNELS.items():
+        sys = an.channel_system(lin, name)
+        C = np.asarray(sys.C)
+        assert C.shape == (len(idx), 10) and list(sys.output_labels) == list(outs)
+        np.testing.assert_array_equal(np.argmax(C, axis=1), idx)
+        assert np.count_nonzero(C) == len(idx)
