@@ -28,16 +28,17 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import STATE, STATE_DXY, STATE_XY
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
-from ballbot_casadi.guidance.prediction import NXL, LoopModel
+from ballbot_casadi.control.velocity import design_model
+from ballbot_casadi.guidance.prediction import NXL, LoopModel, open_loop_period
 from ballbot_casadi.guidance.prediction_full import reduction_residual, sampled_loop_model
-from ballbot_casadi.model.dynamics import make_ode
+from ballbot_casadi.model.dynamics import make_jacobians, make_ode
 from ballbot_casadi.sim.embedded import software_blocks
 from ballbot_casadi.sim.path_following import make_loop_state
 from ballbot_casadi.sim.ports import PERIOD_CONSTANTS
 from ballbot_casadi.sim.steps import make_closed_loop_step
 
 __all__ = ["loop_step", "full_loop_model", "upright_state", "reduced_nonlinear_loop",
-           "lift_function", "NW"]
+           "lift_function", "ClippedLoop", "NW"]
 
 #: Size of the closed loop's state ``w = [x (12), z (8)]``.
 NW = STATE.size + Z.size
@@ -174,3 +175,78 @@ def reduced_nonlinear_loop(inp: Mapping[str, Any], dt: float, n_sub: int = N_SUB
 
 def _w(lift: ca.Function, X: Any, w_ref: Any) -> Any:
     return lift(X, w_ref)
+
+
+class ClippedLoop:
+    """The NMPC's reduced nonlinear model: the shipped closed-velocity-loop model with the
+    velocity controller's own limits.
+
+    Per control period ``X+ = Phi X + Ga a(X, v_ref) + Gv v_ref`` (the design model of
+    the velocity loop with the position, :func:`~ballbot_casadi.guidance.prediction.open_loop_period`),
+    where ``a`` is the tilt-reference acceleration the *actual* velocity controller
+    (``ballbot_velocity``) computes on the lifted state (:func:`lift_function`): the LQR
+    law with its clips (tilt-acceleration bound, tilt-rate and braking limits, the speed
+    limit of ``v_ref``).  Without a clip active it equals the shipped linear model; the
+    plant's trigonometric nonlinearity (sin 5 deg vs 5 deg: 0.13 %) is left out.
+
+    Calling it with ``(X[14 x N], v_ref[2 x N])`` returns the MPC step ``dt`` (``m``
+    periods, ``v_ref`` held) and its outputs with Jacobians, the ``linearise`` protocol of
+    :class:`~ballbot_casadi.guidance.nmpc.NonlinearPathMPC`: ``(X_next, A, B, y, C, D)``,
+    ``y = [acc (2); tilt_acc (2)]`` at the step's start.
+    """
+
+    def __init__(self, inp: Mapping[str, Any], dt: float) -> None:
+        Ac, Bc, _, _ = design_model(make_jacobians(), inp["p_ctrl"], float(inp["Ts"]))
+        Ts = float(inp["Ts"])
+        self.m = int(round(dt / Ts))
+        self.Phi, self.Ga, self.Gv, Acont, Bcont = open_loop_period(Ac, Bc, Ts)
+        self.acc_x, self.acc_a = Acont[0:2], Bcont[0:2, 0:2]
+        blocks, _ = software_blocks("flc", "ukf", observer=False)
+        X, v = ca.SX.sym("X", NXL), ca.SX.sym("v_ref", 2)
+        w = lift_function()(X, ca.DM(upright_state(inp)))
+        x, z = w[:STATE.size], w[STATE.size:]
+        out = blocks.velocity(x, ca.vertcat(v, 0.0), z, inp["p_ctrl"], inp["k_vel"], Ts)
+        a = (out[3][Z["dtheta_r"]] - z[Z["dtheta_r"]]) / Ts
+        self._a = ca.Function("ballbot_clipped_loop_a", [X, v],
+                              [a, ca.jacobian(a, X), ca.jacobian(a, v)])
+        self.dt = float(dt)
+
+    def step(self, X: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """One MPC step of the model from ``X`` (14) with ``v_ref`` (2) held."""
+        X, v = np.asarray(X, float).copy(), np.asarray(v, float)
+        for _ in range(self.m):
+            a = np.asarray(self._a(X, v)[0], float).ravel()
+            X = self.Phi @ X + self.Ga @ a + self.Gv @ v
+        return X
+
+    def __call__(self, Xs: np.ndarray, vs: np.ndarray) -> tuple[np.ndarray, ...]:
+        Xs, vs = np.asarray(Xs, float), np.asarray(vs, float)
+        N = Xs.shape[1]
+        fa = self._a.map(N)
+        X = Xs.copy()
+        JX = np.tile(np.eye(NXL)[:, :, None], (1, 1, N))  # dX/dX0 per node (14, 14, N)
+        Jv = np.zeros((NXL, 2, N))
+        y = C = D = None
+        # the speed limit divides by |v_ref|: at exactly 0 its derivative is 0 * inf, so
+        # the controller is evaluated at |v_ref| >= 1e-9 m/s per axis (see full_loop_model)
+        v_eval = np.where(np.abs(vs) < _V_LIN, _V_LIN, vs)
+        for i in range(self.m):
+            a, da_X, da_v = (np.asarray(o, float) for o in fa(X, v_eval))
+            da_X = np.stack([da_X[:, NXL * k:NXL * (k + 1)] for k in range(N)], axis=2)
+            da_v = np.stack([da_v[:, 2 * k:2 * (k + 1)] for k in range(N)], axis=2)
+            if i == 0:
+                acc = self.acc_x @ X + self.acc_a @ a
+                y = np.vstack([acc, a])
+                C = np.concatenate([np.vstack([self.acc_x + self.acc_a @ da_X[:, :, k], da_X[:, :, k]])
+                                    for k in range(N)], axis=1)
+                D = np.concatenate([np.vstack([self.acc_a @ da_v[:, :, k], da_v[:, :, k]])
+                                    for k in range(N)], axis=1)
+            # per node: A_per = Phi + Ga da/dX, B_per = Ga da/dv + Gv
+            A_per = self.Phi[:, :, None] + np.einsum("ij,jkn->ikn", self.Ga, da_X)
+            B_per = np.einsum("ij,jkn->ikn", self.Ga, da_v) + self.Gv[:, :, None]
+            JX = np.einsum("ijn,jkn->ikn", A_per, JX)
+            Jv = np.einsum("ijn,jkn->ikn", A_per, Jv) + B_per
+            X = self.Phi @ X + self.Ga @ a + self.Gv @ vs
+        A = np.concatenate([JX[:, :, k] for k in range(N)], axis=1)
+        B = np.concatenate([Jv[:, :, k] for k in range(N)], axis=1)
+        return X, A, B, y, C, D
