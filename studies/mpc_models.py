@@ -33,6 +33,7 @@ import numpy as np
 
 from ballbot_casadi.analysis.metrics import limit_metrics
 from ballbot_casadi.analysis.path_metrics import path_metrics
+from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.guidance.mpc import MpcConfig, PathMPC
 from ballbot_casadi.guidance.nmpc import NonlinearPathMPC
 from ballbot_casadi.guidance.paths import Path
@@ -99,7 +100,8 @@ MPC_MODEL_VARIANTS: tuple[ModelVariant, ...] = (
     ModelVariant("full", "linear: exact linearisation of the sampled closed loop (3D model, "
                  "FLC, velocity LQR, RK4 plant) at upright, same QP and ADMM", _full),
     ModelVariant("nmpc", "nonlinear (Python only): the velocity loop with the velocity "
-                 "controller's own limits, RTI along the shifted solution (LTV), OSQP", _nmpc),
+                 "controller's own limits, RTI along the shifted solution (LTV, condensed), "
+                 "HiGHS", _nmpc),
 )
 
 #: The metrics of :func:`variant_metrics` (units in the names).
@@ -209,6 +211,37 @@ def mpc_models_metrics(logs: Sequence[SimulationLog],
     return out
 
 
+#: A variant replaces the shipped default only if it beats it by this factor on the
+#: lateral RMS of every course, completing it no worse, inside the §7.1 limits.
+DECISION_MARGIN = 0.9
+
+
+def decide(m: Mapping[str, Any], variants: Sequence[ModelVariant] = MPC_MODEL_VARIANTS,
+           limits: Mapping[str, float] | None = None) -> tuple[str, str]:
+    """``(name, reason)``: the variant the numbers ``m`` choose (the shipped default unless
+    another one is better by :data:`DECISION_MARGIN` on every course, see above)."""
+    lim = {"peak_tilt_deg": math.degrees(THESIS_LIMITS["tilt_max"]),
+           "peak_tilt_rate_deg_s": math.degrees(THESIS_LIMITS["tilt_rate_max"])}
+    lim.update(limits or {})
+    base = variants[0].name
+
+    def ok(v: str, c: str) -> bool:
+        return (all(m.get(f"{c}_{v}_{k}", math.inf) <= b for k, b in lim.items())
+                and m.get(f"{c}_{v}_completed", 0.0) >= m.get(f"{c}_{base}_completed", 0.0)
+                and m.get(f"{c}_{v}_min_clearance_m", math.inf) > 0.0)
+
+    better = [v.name for v in variants[1:]
+              if all(ok(v.name, c) and m.get(f"{c}_{v.name}_lateral_rms_cm", math.inf)
+                     <= DECISION_MARGIN * m.get(f"{c}_{base}_lateral_rms_cm", math.nan)
+                     for c in COURSES)]
+    if not better:
+        return base, (f"no variant beats `{base}` by {100 * (1 - DECISION_MARGIN):.0f} % on the "
+                      "lateral RMS of every course inside the §7.1 limits without losing "
+                      "completion or clearance: the shipped model stays the default")
+    best = min(better, key=lambda v: m[f"fig8_{v}_lateral_rms_cm"])
+    return best, f"`{best}` beats `{base}` on every course: switch"
+
+
 def _cell(v: Any, fmt: str) -> str:
     return "—" if v is None or not np.isfinite(v) else f"{v:{fmt}}"
 
@@ -227,7 +260,9 @@ def mpc_models_report_lines(m: Mapping[str, Any],
     rows = [f"| {c} | {v.name} | " + " | ".join(_cell(m.get(f"{c}_{v.name}_{k}"), _FORMATS[k])
                                               for k in VARIANT_METRICS) + " |"
             for c in COURSES for v in variants]
+    name, reason = decide(m, variants)
     return ["## Prediction models of the path MPC (issue 18)", "",
+            f"**Decision (from the numbers below): `{name}`** - {reason}.", "",
             *(f"* `{v.name}`: {v.description}" for v in variants), "",
             head, "| " + " | ".join(["---"] * (len(VARIANT_METRICS) + 2)) + " |", *rows, "",
             "Units in the column names; true state; the Python driver for every variant; "

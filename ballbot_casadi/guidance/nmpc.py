@@ -14,12 +14,17 @@ trajectory kept as the constant terms ``c_k``),
 
 ``X_{k+1} = A_k X_k + B_k v_k + c_k``,  ``y_k = C_k X_k + D_k v_k + d_k``,
 
-and the QP in the states ``X_1..X_N`` (with the progress ``s, ds``), the blocked inputs and
-one slack per soft row is solved by a CasADi ``conic`` plugin (``osqp`` by default,
-``qrqp`` as the independent check) through :func:`casadi.qpsol`.  This controller is a
-Python-only option: the linearisation is a compiled Function handed in, the QP is solved
-by the plugin's library, nothing of it is generated into the mission's C (the comparison
-of issue 18 says whether it is worth that).
+condensed onto the blocked inputs each sample (``X_k = Mx_k ub + rx_k``).  The QP in the
+blocked inputs and one slack per soft row (QP size: ``qp_size``) is solved through
+:func:`casadi.qpsol` by a CasADi ``conic`` plugin: ``highs`` by default (active set:
+exact, and faster here than OSQP, which also stops at its iteration limit on some
+samples; the study's report has the times); ``osqp`` (ADMM) is the independent check of
+the tests; ``daqp`` and ``qrqp`` are accepted but failed on this QP.
+
+This controller is a Python-only option: the linearisation is a Python callable
+(numpy and the CasADi interpreter), the QP solver a plugin library; nothing of it is
+generated into the mission's C.  The comparison of issue 18 (``ballbot study
+mpc_models``) says whether that would be worth doing.
 """
 
 from __future__ import annotations
@@ -39,7 +44,7 @@ from ballbot_casadi.guidance.prediction import NXL
 __all__ = ["NonlinearPathMPC", "NMPC_SOLVERS"]
 
 #: The conic plugins the NMPC's QP may use.
-NMPC_SOLVERS = ("osqp", "qrqp")
+NMPC_SOLVERS = ("osqp", "daqp", "highs", "qrqp")
 #: Rows of the linearised outputs y: ball acceleration (2), tilt-reference acceleration (2).
 NY = 4
 
@@ -58,11 +63,11 @@ class NonlinearPathMPC:
         As for :class:`~ballbot_casadi.guidance.mpc.PathMPC` (``config.solver`` is
         ignored: ``solver`` chooses the plugin).
     solver
-        ``osqp`` or ``qrqp``.
+        One of :data:`NMPC_SOLVERS`.
     """
 
     def __init__(self, linearise: Callable[..., tuple], path: Path, config: MpcConfig = MpcConfig(),
-                 solver: str = "osqp", solver_options: dict | None = None) -> None:
+                 solver: str = "highs", solver_options: dict | None = None) -> None:
         if solver not in NMPC_SOLVERS:
             raise ScenarioError(f"NMPC solver {solver!r} not allowed; allowed: "
                                 f"{', '.join(NMPC_SOLVERS)}")
@@ -185,7 +190,9 @@ class NonlinearPathMPC:
             # rows are normalised by their bounds: 1e-4 of a limit is ample
             opts["osqp"] = {"verbose": False, "eps_abs": 1e-4, "eps_rel": 1e-4,
                             "max_iter": 10000, "polish": True}
-        else:
+        elif self.solver == "highs":
+            opts["highs"] = {"output_flag": False}
+        elif self.solver == "qrqp":
             opts.update({"print_iter": False, "print_header": False, "print_info": False,
                          "max_iter": 2000})
         opts.update(solver_options)

@@ -29,7 +29,12 @@ from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import STATE, STATE_DXY, STATE_XY
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
 from ballbot_casadi.control.velocity import design_model
-from ballbot_casadi.guidance.prediction import NXL, LoopModel, open_loop_period
+from ballbot_casadi.guidance.prediction import (
+    NXL,
+    LoopModel,
+    closed_velocity_loop,
+    open_loop_period,
+)
 from ballbot_casadi.guidance.prediction_full import reduction_residual, sampled_loop_model
 from ballbot_casadi.model.dynamics import make_jacobians, make_ode
 from ballbot_casadi.sim.embedded import software_blocks
@@ -192,7 +197,9 @@ class ClippedLoop:
     Calling it with ``(X[14 x N], v_ref[2 x N])`` returns the MPC step ``dt`` (``m``
     periods, ``v_ref`` held) and its outputs with Jacobians, the ``linearise`` protocol of
     :class:`~ballbot_casadi.guidance.nmpc.NonlinearPathMPC`: ``(X_next, A, B, y, C, D)``,
-    ``y = [acc (2); tilt_acc (2)]`` at the step's start.
+    ``y = [acc (2); tilt_acc (2)]`` at the step's start: the accelerations the LQR
+    *demands* (linear, as in the shipped model), so the soft rows keep the demand inside
+    the clip's bound while the dynamics predict what the clip does.
     """
 
     def __init__(self, inp: Mapping[str, Any], dt: float) -> None:
@@ -200,7 +207,13 @@ class ClippedLoop:
         Ts = float(inp["Ts"])
         self.m = int(round(dt / Ts))
         self.Phi, self.Ga, self.Gv, Acont, Bcont = open_loop_period(Ac, Bc, Ts)
-        self.acc_x, self.acc_a = Acont[0:2], Bcont[0:2, 0:2]
+        # the constrained outputs: the LQR's *demanded* accelerations, linear as in the
+        # shipped model (a clipped output has no gradient where it clips, so a
+        # Gauss-Newton step could not pull it back inside its bound)
+        lin = closed_velocity_loop(Ac, Bc, np.asarray(inp["k_vel"], float)[:24].reshape(2, 12),
+                                   Ts, dt)
+        self.Cy = np.vstack([lin.C["acc"], lin.C["tilt_acc"]])
+        self.Dy = np.vstack([lin.D["acc"], lin.D["tilt_acc"]])
         blocks, _ = software_blocks("flc", "ukf", observer=False)
         X, v = ca.SX.sym("X", NXL), ca.SX.sym("v_ref", 2)
         w = lift_function()(X, ca.DM(upright_state(inp)))
@@ -234,13 +247,6 @@ class ClippedLoop:
             a, da_X, da_v = (np.asarray(o, float) for o in fa(X, v_eval))
             da_X = np.stack([da_X[:, NXL * k:NXL * (k + 1)] for k in range(N)], axis=2)
             da_v = np.stack([da_v[:, 2 * k:2 * (k + 1)] for k in range(N)], axis=2)
-            if i == 0:
-                acc = self.acc_x @ X + self.acc_a @ a
-                y = np.vstack([acc, a])
-                C = np.concatenate([np.vstack([self.acc_x + self.acc_a @ da_X[:, :, k], da_X[:, :, k]])
-                                    for k in range(N)], axis=1)
-                D = np.concatenate([np.vstack([self.acc_a @ da_v[:, :, k], da_v[:, :, k]])
-                                    for k in range(N)], axis=1)
             # per node: A_per = Phi + Ga da/dX, B_per = Ga da/dv + Gv
             A_per = self.Phi[:, :, None] + np.einsum("ij,jkn->ikn", self.Ga, da_X)
             B_per = np.einsum("ij,jkn->ikn", self.Ga, da_v) + self.Gv[:, :, None]
@@ -249,4 +255,5 @@ class ClippedLoop:
             X = self.Phi @ X + self.Ga @ a + self.Gv @ vs
         A = np.concatenate([JX[:, :, k] for k in range(N)], axis=1)
         B = np.concatenate([Jv[:, :, k] for k in range(N)], axis=1)
-        return X, A, B, y, C, D
+        y = self.Cy @ Xs + self.Dy @ vs
+        return X, A, B, y, np.tile(self.Cy, (1, N)), np.tile(self.Dy, (1, N))

@@ -68,3 +68,23 @@ def test_prediction_errors_use_the_applied_references() -> None:
     moved = lambda X0, vs: X0[12:14] + np.outer(np.arange(len(vs) + 1), 0.1 * vs[0, :1].repeat(2) * [1, 0])  # noqa: E731
     err = MM.prediction_errors(X, v, moved, horizon=2)
     np.testing.assert_allclose(err, [0.0, 0.0, 0.0], atol=1e-15)
+
+
+def _metrics(rms: dict, tilt: float = 3.0, completed: float = 1.0) -> dict:
+    m = {}
+    for c in MM.COURSES:
+        for v in ("shipped", "full", "nmpc"):
+            m.update({f"{c}_{v}_lateral_rms_cm": rms[v], f"{c}_{v}_peak_tilt_deg": 3.0,
+                      f"{c}_{v}_peak_tilt_rate_deg_s": 5.0, f"{c}_{v}_completed": 1.0,
+                      f"{c}_{v}_min_clearance_m": 0.15})
+    m.update({f"{c}_nmpc_peak_tilt_deg": tilt for c in MM.COURSES})
+    m.update({f"{c}_nmpc_completed": completed for c in MM.COURSES})
+    return m
+
+
+def test_decision_keeps_the_default_unless_a_variant_is_clearly_better() -> None:
+    assert MM.decide(_metrics({"shipped": 1.0, "full": 0.95, "nmpc": 0.95}))[0] == "shipped"
+    assert MM.decide(_metrics({"shipped": 1.0, "full": 0.95, "nmpc": 0.5}))[0] == "nmpc"
+    # better tracking bought with a §7.1 excess or a lost completion does not count
+    assert MM.decide(_metrics({"shipped": 1.0, "full": 1.0, "nmpc": 0.5}, tilt=5.5))[0] == "shipped"
+    assert MM.decide(_metrics({"shipped": 1.0, "full": 1.0, "nmpc": 0.5}, completed=0.0))[0] == "shipped"
