@@ -262,9 +262,10 @@ EVIDENCE_NOTE = [
     "the QP it solves (exact active set along the LTV linearisation instead of 60 ADMM "
     "iterations; 10.5 m of progress in 27 s against the shipped run's 11.0 m), not in its "
     "model; not investigated further.",
-    "* Cost: one NMPC sample takes 135-160 ms median wall-clock from Python (linearisation "
-    "30-60 ms, HiGHS the rest; 300 variables, 530 rows), against the shipped block's 0.6 ms "
-    "p99 in generated C (`make bench`); the `full` model costs nothing at run time (a "
+    "* Cost: one NMPC sample took 53-156 ms median, 87-272 ms p99 wall-clock from Python "
+    "in two runs on this loaded machine (linearisation 20-60 ms, HiGHS the rest; 300 "
+    "variables, 530 rows), the linear MPCs 1.2-31 ms median in the CasADi interpreter and "
+    "0.6 ms p99 as generated C (`make bench`); the `full` model costs nothing at run time (a "
     "different constant matrix in the same generated solver) but 2 s to build.",
     "* Decision: the shipped design model stays the default.  `full` is kept as an option "
     "(`sim.prediction_models.full_loop_model`, a drop-in `LoopModel`); `nmpc` stays a "
