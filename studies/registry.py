@@ -28,6 +28,7 @@ never decide pass/fail.
 ``thesis_tuning``  the complete system with the thesis's QUKF tuning (1e-5): failure, diagnosis
 ``yaw_seeds``      mean yaw error of the velocity profile over noise seeds (§9.3.2)
 ``path``           path following: figure-eight and obstacle course, MPC beside pure pursuit
+``mpc_models``     the path MPC's prediction models compared on the same courses (issue 18)
 ================== ==========================================================================
 """
 
@@ -60,6 +61,7 @@ from ballbot_casadi.studies import chirp as CH
 from ballbot_casadi.studies import com as COM
 from ballbot_casadi.studies import estimators as E
 from ballbot_casadi.studies import lag as LAG
+from ballbot_casadi.studies import mpc_models as MM
 from ballbot_casadi.studies import path as PATH
 from ballbot_casadi.studies import predecessor as PRE
 from ballbot_casadi.studies import robustness as ROB
@@ -362,6 +364,11 @@ STUDIES: Mapping[str, Study] = MappingProxyType({s.name: s for s in (
                 "minimum clearance >= 0.10 m on the obstacle course (issue 18)", ""),
            Spec("obstacles_mpc_path_completed", "==", 1.0, "the obstacle course is completed", "")),
           plot=PATH.path_plots, report=PATH.path_report_lines, controllers=("flc",)),
+    Study("mpc_models", "which prediction model serves the path MPC best: the shipped design "
+          "model, the exact linearisation of the sampled closed loop, an RTI NMPC on the loop "
+          "with the controller's limits (figure-eight and obstacle course, true state; issue 18)",
+          ("path_obstacles_mpc", "path_fig8_mpc"), MM.mpc_models_metrics, specs=(),
+          report=MM.mpc_models_report_lines, controllers=("flc",)),
     Study("velocity", "velocity profile like thesis Fig. 9.3 (§9.2), also at the thesis's 1 m/s² "
           "acceleration limit (§7.1)", ("velocity",), VEL.velocity_study_metrics, expand=VEL.accel_limit_expand),
     Study("chirp", "roll chirp 3 deg, 0.05 -> 5 Hz over 100 s: bandwidth, saturation, fall "

@@ -86,7 +86,7 @@ from ballbot_casadi.guidance.qp_admm import admm_iterate, kkt_constant
 __all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "make_mpc_parts", "mpc_library",
            "workspace_bytes", "dual_shift_index", "FIRST_SAMPLE_QPS", "input_shift_matrix",
            "NX_MPC", "NU_MPC",
-           "polygon"]
+           "polygon", "path_window"]
 
 #: Rows per node k = 1..N: speed octagon (4, soft), ds >= 0 and s <= s_max (hard).
 _N_STEP_ROWS = 6
@@ -493,6 +493,44 @@ def mpc_library(f: ca.Function, root: Any = None) -> tuple[Library, ca.Function]
     return lib, load_library(lib, [f.name()])[f.name()]
 
 
+def path_window(path: Path, config: MpcConfig, s_bar: np.ndarray, pos: np.ndarray
+                ) -> dict[str, np.ndarray]:
+    """The path-dependent parameters at a guessed trajectory (progress ``s_bar`` and
+    positions ``pos`` at the nodes 0..N): ``path_p``, ``path_t`` (window), ``s_bar``,
+    ``v_s`` (progress-speed reference), ``w_lat`` (lateral weight, relaxed near an
+    obstacle), ``obs_n``, ``obs_b`` (the obstacle half-planes, module docstring) and
+    ``s_max`` (end of an open path)."""
+    N, M = config.N, config.n_obstacles
+    pp, pt = path.window(s_bar)
+    obs_n = np.zeros((M, N + 1, 2))
+    obs_b = -1.0 * np.ones((M, N + 1))
+    w_lat = np.ones(N + 1)
+    lat = np.column_stack([-pt[:, 1], pt[:, 0]])
+    for j, ob in enumerate(path.obstacles):
+        c = np.asarray(ob.center)
+        r_safe = ob.radius + config.clearance
+        # pass on the side of the path away from the centre (left if on the path);
+        # where the guessed position is beside the circle (|along| < r_safe, along the
+        # path tangent), keep it at least sqrt(r_safe^2 - along^2) to that side of the
+        # centre: a half-plane parallel to the path, so it bounds the lateral offset
+        # and never blocks the progress (the circle's boundary at that abscissa)
+        side = -np.sign(np.sum(lat * (c - pp), axis=1))
+        side[side == 0] = 1.0
+        along = np.sum(pt * (pos - c), axis=1)
+        beside = np.abs(along) < r_safe
+        n = lat * side[:, None]
+        obs_n[j, beside] = n[beside]
+        obs_b[j, beside] = (np.sum(n * c, axis=1)
+                            + np.sqrt(np.maximum(r_safe**2 - along**2, 0.0)))[beside]
+        # relax the lateral weight where the path point is near the obstacle
+        near = np.linalg.norm(pp - c, axis=1) < r_safe + 0.3
+        w_lat[near] = np.minimum(w_lat[near], config.obstacle_relax)
+    s_max = np.inf if path.closed else path.length
+    return {"path_p": pp, "path_t": pt, "s_bar": np.asarray(s_bar, float),
+            "v_s": path.reference_speed(s_bar), "w_lat": w_lat, "obs_n": obs_n, "obs_b": obs_b,
+            "s_max": np.array([min(s_max, 1e9)])}
+
+
 class PathMPC:
     """The MPC with its warm start: parameters from a :class:`Path`, shift, one QP per call.
 
@@ -544,37 +582,9 @@ class PathMPC:
 
     def parameters(self, x0: np.ndarray, u_guess: np.ndarray) -> np.ndarray:
         """Parameter vector from the guessed trajectory: path window, speeds, obstacle normals."""
-        L, N, M = self.layout, self.config.N, self.config.n_obstacles
         X = self.cond.states(x0, u_guess)
-        s_bar, pos = X[:, NXL], X[:, 12:14]
-        pp, pt = self.path.window(s_bar)
-        obs_n = np.zeros((M, N + 1, 2))
-        obs_b = -1.0 * np.ones((M, N + 1))
-        w_lat = np.ones(N + 1)
-        lat = np.column_stack([-pt[:, 1], pt[:, 0]])
-        for j, ob in enumerate(self.path.obstacles):
-            c = np.asarray(ob.center)
-            r_safe = ob.radius + self.config.clearance
-            # pass on the side of the path away from the centre (left if on the path);
-            # where the guessed position is beside the circle (|along| < r_safe, along the
-            # path tangent), keep it at least sqrt(r_safe^2 - along^2) to that side of the
-            # centre: a half-plane parallel to the path, so it bounds the lateral offset
-            # and never blocks the progress (the circle's boundary at that abscissa)
-            side = -np.sign(np.sum(lat * (c - pp), axis=1))
-            side[side == 0] = 1.0
-            along = np.sum(pt * (pos - c), axis=1)
-            beside = np.abs(along) < r_safe
-            n = lat * side[:, None]
-            obs_n[j, beside] = n[beside]
-            obs_b[j, beside] = (np.sum(n * c, axis=1)
-                                + np.sqrt(np.maximum(r_safe**2 - along**2, 0.0)))[beside]
-            # relax the lateral weight where the path point is near the obstacle
-            near = np.linalg.norm(pp - c, axis=1) < r_safe + 0.3
-            w_lat[near] = np.minimum(w_lat[near], self.config.obstacle_relax)
-        s_max = np.inf if self.path.closed else self.path.length
-        return L.pack(v_prev=self.v_prev, path_p=pp, path_t=pt, s_bar=s_bar,
-                      v_s=self.path.reference_speed(s_bar), w_lat=w_lat, obs_n=obs_n,
-                      obs_b=obs_b, s_max=[min(s_max, 1e9)])
+        w = path_window(self.path, self.config, X[:, NXL], X[:, 12:14])
+        return self.layout.pack(v_prev=self.v_prev, **w)
 
     def rows(self, u: np.ndarray, p: np.ndarray) -> np.ndarray:
         """``A u`` of the QP with parameters ``p`` (the ADMM's ``z`` of a warm start)."""

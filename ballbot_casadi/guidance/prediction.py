@@ -28,7 +28,7 @@ import scipy.linalg
 
 from ballbot_casadi.errors import ShapeError
 
-__all__ = ["LoopModel", "closed_velocity_loop", "NXL"]
+__all__ = ["LoopModel", "closed_velocity_loop", "open_loop_period", "NXL"]
 
 #: States of the closed velocity loop model: X (12) and position (2).
 NXL = 14
@@ -57,6 +57,24 @@ class LoopModel:
         return np.array(xs)
 
 
+def open_loop_period(Ac: np.ndarray, Bc: np.ndarray, Ts: float
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One control period of the design model augmented with the position, before the
+    LQR closes it: ``x+ = Phi x + Ga a + Gv v_ref`` (exact ZOH, ``a`` and ``v_ref`` held),
+    and the continuous ``(Acont, Bcont)`` on ``[X, p]`` and inputs ``[a, v_ref]``."""
+    n = NXL
+    Acont = np.zeros((n, n))
+    Acont[:12, :12] = Ac
+    Acont[12:14, 0:2] = np.eye(2)
+    Bcont = np.zeros((n, 4))
+    Bcont[:12, 0:2] = Bc
+    Bcont[10:12, 2:4] = -np.eye(2)
+    M = np.zeros((n + 4, n + 4))
+    M[:n, :n], M[:n, n:] = Acont, Bcont
+    Md = scipy.linalg.expm(M * Ts)
+    return Md[:n, :n], Md[:n, n:n + 2], Md[:n, n + 2:], Acont, Bcont
+
+
 def closed_velocity_loop(Ac: np.ndarray, Bc: np.ndarray, K: np.ndarray, Ts: float,
                          dt: float) -> LoopModel:
     """Build the :class:`LoopModel` (see the module docstring).
@@ -80,17 +98,7 @@ def closed_velocity_loop(Ac: np.ndarray, Bc: np.ndarray, K: np.ndarray, Ts: floa
     if m < 1 or abs(m * Ts - dt) > 1e-9 * dt:
         raise ShapeError(f"dt = {dt} s must be an integer multiple of Ts = {Ts} s")
     n = NXL
-    # continuous augmented system: states [X, p], inputs [a, v_ref]
-    Acont = np.zeros((n, n))
-    Acont[:12, :12] = Ac
-    Acont[12:14, 0:2] = np.eye(2)
-    Bcont = np.zeros((n, 4))
-    Bcont[:12, 0:2] = Bc
-    Bcont[10:12, 2:4] = -np.eye(2)
-    M = np.zeros((n + 4, n + 4))
-    M[:n, :n], M[:n, n:] = Acont, Bcont
-    Md = scipy.linalg.expm(M * Ts)
-    Phi, Ga, Gv = Md[:n, :n], Md[:n, n:n + 2], Md[:n, n + 2:]
+    Phi, Ga, Gv, Acont, Bcont = open_loop_period(Ac, Bc, Ts)
     Kx = np.zeros((2, n))
     Kx[:, :12] = K
     E = np.zeros((n, 2))

@@ -80,7 +80,7 @@ def test_dict_round_trip_and_json():
 
 def test_study_scenarios_definitions():
     assert STUDY_NAMES == ("zero", "sine", "sine_asym", "robustness", "com", "lag", "push", "path",
-                           "velocity", "chirp", "estimators", "predecessor", "full", "full_cascade",
+                           "mpc_models", "velocity", "chirp", "estimators", "predecessor", "full", "full_cascade",
                            "thesis_tuning", "yaw_seeds")
     with pytest.raises(ScenarioError, match="allowed: zero"):
         study_scenarios("nosuchstudy")

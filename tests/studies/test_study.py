@@ -45,8 +45,9 @@ def results(sim, study_out) -> dict:
     return _Results(sim, study_out)
 
 
-#: Studies of several 100 s runs with estimators: slow tests.
-_LONG = ("yaw_seeds", "thesis_tuning", "predecessor")
+#: Studies of several 100 s runs with estimators, and the MPC model comparison (its NMPC
+#: runs in Python): slow tests.
+_LONG = ("yaw_seeds", "thesis_tuning", "predecessor", "mpc_models")
 #: Studies whose spec waits for other work (name -> reason): none today.
 _PENDING: dict[str, str] = {}
 

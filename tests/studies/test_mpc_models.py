@@ -1,0 +1,90 @@
+"""The prediction-model comparison's variant table and its row, computed by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.core.layout import STATE
+from ballbot_casadi.studies import mpc_models as MM
+from ballbot_casadi.studies.registry import STUDIES
+
+
+def test_variant_table_is_defined_once_with_the_shipped_default_first() -> None:
+    names = [v.name for v in MM.MPC_MODEL_VARIANTS]
+    assert names[0] == "shipped" and len(set(names)) == len(names)
+    assert {"full", "nmpc"} <= set(names)
+    assert all(callable(v.build) and v.description for v in MM.MPC_MODEL_VARIANTS)
+    units = ("_cm", "_m", "_deg", "_deg_s", "_nm", "_ms_median", "_ms_p99")
+    counts = ("completed", "qp_variables", "qp_rows", "failures")
+    assert all(k.endswith(units) or k in counts for k in MM.VARIANT_METRICS)
+    study = STUDIES["mpc_models"]
+    assert study.files == ("path_obstacles_mpc", "path_fig8_mpc")
+    lines = MM.mpc_models_report_lines({"fig8_shipped_lateral_rms_cm": 1.234})
+    row = next(line for line in lines if line.startswith("| fig8 | shipped |"))
+    assert "| 1.23 |" in row and row.count("|") == len(MM.VARIANT_METRICS) + 3
+
+
+def _tiny_log():
+    """4 s on a 2 m line at 0.5 m/s, 1 cm to the left of it, upright, 0.5 N m commanded."""
+    n = 801
+    t = np.arange(n) * 0.005
+    x = np.zeros((n, STATE.size))
+    x[:, STATE["x"]] = (0.5 * t)[:, None]
+    x[:, STATE["y"]] = 0.01
+    x[:, STATE["dx"]] = 0.5
+    x[:, STATE["q"].start] = 1.0
+    log = {"time": t, "state": x, "z": np.zeros((n, 8)),
+           "tau_cmd": np.tile([0.5, -0.25, 0.0], (n - 1, 1)),
+           "q_ref": np.tile([1.0, 0, 0, 0], (n - 1, 1)), "dq_ref": np.zeros((n - 1, 4))}
+    scenario = {"path": {"type": "line", "start": [0.0, 0.0], "end": [2.0, 0.0], "speed": 0.5},
+                "obstacles": [[1.0, 0.31, 0.1]]}
+    return scenario, log
+
+
+def test_a_row_by_hand() -> None:
+    scenario, log = _tiny_log()
+    v_ref = np.tile([0.5, 0.0], (40, 1))
+    step_s = np.linspace(0.001, 0.040, 40)  # 1 .. 40 ms
+    stay = lambda X0, v: np.tile(X0[12:14], (len(v) + 1, 1))  # noqa: E731 - predicts no motion
+    row = MM.variant_metrics(scenario, log, 2.0, v_ref, step_s, stay,
+                             {"variables": 30, "rows": 530}, 3)
+    assert set(row) == set(MM.VARIANT_METRICS)
+    hand = {"lateral_rms_cm": 1.0, "lateral_max_cm": 1.0,
+            "min_clearance_m": 0.31 - 0.01 - 0.1,  # the obstacle 0.30 m beside the trace
+            "completed": 1.0, "peak_tilt_deg": 0.0, "peak_tilt_rate_deg_s": 0.0,
+            "peak_torque_nm": 0.5,
+            "pred_err_2s_rms_cm": 100.0, "pred_err_2s_max_cm": 100.0,  # 2 s at 0.5 m/s
+            "step_ms_median": 20.5, "step_ms_p99": 39.61,
+            "qp_variables": 30.0, "qp_rows": 530.0, "failures": 3.0}
+    for k, v in hand.items():
+        assert row[k] == pytest.approx(v, rel=1e-9, abs=1e-9), k
+
+
+def test_prediction_errors_use_the_applied_references() -> None:
+    X = np.zeros((5, 14))
+    X[:, 12] = [0.0, 0.1, 0.2, 0.3, 0.4]
+    v = np.ones((4, 2))
+    moved = lambda X0, vs: X0[12:14] + np.outer(np.arange(len(vs) + 1), 0.1 * vs[0, :1].repeat(2) * [1, 0])  # noqa: E731
+    err = MM.prediction_errors(X, v, moved, horizon=2)
+    np.testing.assert_allclose(err, [0.0, 0.0, 0.0], atol=1e-15)
+
+
+def _metrics(rms: dict, tilt: float = 3.0, completed: float = 1.0) -> dict:
+    m = {}
+    for c in MM.COURSES:
+        for v in ("shipped", "full", "nmpc"):
+            m.update({f"{c}_{v}_lateral_rms_cm": rms[v], f"{c}_{v}_peak_tilt_deg": 3.0,
+                      f"{c}_{v}_peak_tilt_rate_deg_s": 5.0, f"{c}_{v}_completed": 1.0,
+                      f"{c}_{v}_min_clearance_m": 0.15})
+    m.update({f"{c}_nmpc_peak_tilt_deg": tilt for c in MM.COURSES})
+    m.update({f"{c}_nmpc_completed": completed for c in MM.COURSES})
+    return m
+
+
+def test_decision_keeps_the_default_unless_a_variant_is_clearly_better() -> None:
+    assert MM.decide(_metrics({"shipped": 1.0, "full": 0.95, "nmpc": 0.95}))[0] == "shipped"
+    assert MM.decide(_metrics({"shipped": 1.0, "full": 0.95, "nmpc": 0.5}))[0] == "nmpc"
+    # better tracking bought with a §7.1 excess or a lost completion does not count
+    assert MM.decide(_metrics({"shipped": 1.0, "full": 1.0, "nmpc": 0.5}, tilt=5.5))[0] == "shipped"
+    assert MM.decide(_metrics({"shipped": 1.0, "full": 1.0, "nmpc": 0.5}, completed=0.0))[0] == "shipped"
