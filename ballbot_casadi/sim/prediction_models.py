@@ -25,7 +25,7 @@ import casadi as ca
 import numpy as np
 
 from ballbot_casadi.core import quaternion as Q
-from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
+from ballbot_casadi.core.constants import N_SUB
 from ballbot_casadi.core.layout import STATE, STATE_DXY, STATE_XY
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
 from ballbot_casadi.control.velocity import design_model
@@ -239,7 +239,7 @@ class ClippedLoop:
         X = Xs.copy()
         JX = np.tile(np.eye(NXL)[:, :, None], (1, 1, N))  # dX/dX0 per node (14, 14, N)
         Jv = np.zeros((NXL, 2, N))
-        y = C = D = None
+        y = None
         # the speed limit divides by |v_ref|: at exactly 0 its derivative is 0 * inf, so
         # the controller is evaluated at |v_ref| >= 1e-9 m/s per axis (see full_loop_model)
         v_eval = np.where(np.abs(vs) < _V_LIN, _V_LIN, vs)
