@@ -82,7 +82,8 @@ def _replay(ticks, stack=1200, ctx=40000):
     n = len(ticks)
     return ReplayResult(np.zeros((n, 3)), np.asarray(ticks, float), np.zeros(n, int), stack,
                         calib_ticks=5000.0, calib_instructions=200000.0,
-                        ctx_bytes=ctx, real_bytes=8, v_ref=np.zeros((n, 0)))
+                        ctx_bytes=ctx, real_bytes=8, v_ref=np.zeros((n, 0)),
+                        bg_ticks=np.zeros(n))
 
 
 def test_firmware_cost_from_sizes_and_a_replay(monkeypatch, tmp_path):

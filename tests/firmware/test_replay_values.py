@@ -32,15 +32,15 @@ def test_recorded_log_counts_periods_by_rows():
 
 
 def _write(path, n, extra, header_n=None, drop=0):
-    hdr = [n if header_n is None else header_n, 1536, 11.0, 200001.0, 41000, 8, extra]
+    hdr = [n if header_n is None else header_n, 1536, 11.0, 200001.0, 41000, 8, extra, 256, 2]
     rows = np.arange(n * (5 + extra), dtype=float).reshape(n, 5 + extra)
     rows[:, 4] = np.arange(n) % 2  # return codes
-    data = np.concatenate([hdr, rows.ravel()])[: (7 + rows.size) - drop]
+    data = np.concatenate([hdr, rows.ravel()])[: (len(hdr) + rows.size) - drop]
     path.write_bytes(data.astype("<f8").tobytes())
     return rows
 
 
-@pytest.mark.parametrize("extra", [0, 3])
+@pytest.mark.parametrize("extra", [0, 3, 4])
 def test_output_file_is_read_row_by_row(tmp_path, extra):
     n = 6
     rows = _write(tmp_path / "out.bin", n, extra)
@@ -52,9 +52,12 @@ def test_output_file_is_read_row_by_row(tmp_path, extra):
     assert (res.stack_bytes, res.ctx_bytes, res.real_bytes) == (1536, 41000, 8)
     assert res.calib_ticks == 11.0 and res.calib_instructions == 200001.0
     assert res.instructions_per_tick == pytest.approx(200001.0 / 11.0)
-    assert res.v_ref.shape == (n, extra)
-    np.testing.assert_array_equal(res.v_ref, rows[:, 5:])
-    assert R.OUT_HEADER == 7
+    # extra columns: up to 3 velocity references, then the background sample's ticks
+    assert res.v_ref.shape == (n, min(extra, 3))
+    np.testing.assert_array_equal(res.v_ref, rows[:, 5:8])
+    np.testing.assert_array_equal(res.bg_ticks, rows[:, 8] if extra > 3 else np.zeros(n))
+    assert (res.bg_stack_bytes, res.guidance_late) == (256, 2)
+    assert R.OUT_HEADER == 9
 
 
 def test_a_short_or_mislabelled_output_is_a_build_error(tmp_path):
