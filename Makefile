@@ -20,8 +20,11 @@ codegen: $(STAMP)
 	$(PY) -m ballbot_casadi.cli codegen
 
 ## Run the test suite (the 15 slowest tests and this run's C compiles, from the build log, at the end).
+## Slow tests included; TEST_WORKERS processes (pytest-xdist), whole test files per process.
+TEST_WORKERS ?= 2
 test: $(STAMP)
-	BALLBOT_BUILD_LOG=$(CURDIR)/build/test_builds.jsonl $(PY) -m pytest -q --durations=15
+	BALLBOT_BUILD_LOG=$(CURDIR)/build/test_builds.jsonl $(PY) -m pytest -q --durations=15 \
+		-n $(TEST_WORKERS) --dist loadfile
 
 ## Main job: build, analyse, simulate the default robot, write report and plots under build/demo.
 demo: $(STAMP)
