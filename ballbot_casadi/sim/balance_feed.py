@@ -55,7 +55,13 @@ from ballbot_casadi.guidance.prediction import NXL
 from ballbot_casadi.guidance.shape_model import ShapeGains
 from ballbot_casadi.model.dynamics import NP, make_jacobians
 from ballbot_casadi.sim.closed_loop import ClosedLoop
-from ballbot_casadi.sim.path_following import PathRun, make_loop_state, path_scenario
+from ballbot_casadi.sim.path_following import (
+    PathRun,
+    chunks_log,
+    make_loop_state,
+    path_scenario,
+    simulate_chunk,
+)
 from ballbot_casadi.sim.ports import PERIOD_SEQUENCES, REFERENCE_SEQUENCES
 
 __all__ = ["shape_gains", "balance_state_layout", "make_balance_guidance",
@@ -203,16 +209,7 @@ def run_balance_path(path: Path, mpc: PathMPC, duration: float, sim: ClosedLoop 
         fed = [key for key in REFERENCE_SEQUENCES if key != "v_ref"]  # q_ref, dq_ref, ddq_ref
         for j, key in enumerate(fed):
             seq[key] = np.array([q[j] for q in qs])
-        out = sim.simulate("flc", **{**inp, **seq}, xz0=xz)
-        xz = out.pop("xz_final")
-        x, z = out["state"][-1], out["z"][-1]
-        for key, val in out.items():
-            if key in ("time", "state", "z"):
-                val = val[:-1]
-            parts.setdefault(key, []).append(val)
-    log = {k: np.concatenate(v) for k, v in parts.items()}
-    log["state"] = np.vstack([log["state"], x])
-    log["z"] = np.vstack([log["z"], z])
-    log["time"] = np.arange(log["state"].shape[0]) * Ts
+        xz, x, z = simulate_chunk(sim, "flc", {**inp, **seq}, xz, parts)
+    log = chunks_log(parts, x, z, Ts)
     return PathRun(log, np.array(t_g), np.array(a_log), np.array(mpc.solve_s), np.array(prog),
                    preds)

@@ -40,7 +40,7 @@ from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.ports import PERIOD_SEQUENCES
 from ballbot_casadi.sim.scenario import Scenario
 
-__all__ = ["Guidance", "velocity_loop_model", "make_loop_state", "run_path", "PathRun",
+__all__ = ["Guidance", "simulate_chunk", "chunks_log", "velocity_loop_model", "make_loop_state", "run_path", "PathRun",
            "path_scenario"]
 
 
@@ -130,15 +130,27 @@ def run_path(path: Path, guidance: Guidance, duration: float, guidance_period: f
         for key in PERIOD_SEQUENCES:
             if key != "v_ref":
                 seq[key] = inp[key][:m]
-        out = sim.simulate(controller, **seq, xz0=xz)
-        xz = out.pop("xz_final")
-        x, z = out["state"][-1], out["z"][-1]
-        for key, val in out.items():
-            if key in ("time", "state", "z"):
-                val = val[:-1]
-            parts.setdefault(key, []).append(val)
+        xz, x, z = simulate_chunk(sim, controller, seq, xz, parts)
+    log = chunks_log(parts, x, z)
+    return PathRun(log, np.array(t_g), np.array(v_log), np.array(solve), np.array(prog), preds)
+
+
+def simulate_chunk(sim: ClosedLoop, controller: str, seq: dict, xz, parts: dict) -> tuple:
+    """Simulate one guidance sample's periods from ``xz`` with the sequences ``seq`` and
+    append the log's rows to ``parts`` (the last row of time, state and z is the next
+    chunk's first, so it is left out); the next ``xz`` and the last state and z."""
+    out = sim.simulate(controller, **seq, xz0=xz)
+    xz = out.pop("xz_final")
+    for key, val in out.items():
+        parts.setdefault(key, []).append(val[:-1] if key in ("time", "state", "z") else val)
+    return xz, out["state"][-1], out["z"][-1]
+
+
+def chunks_log(parts: dict, x: np.ndarray, z: np.ndarray, Ts: float = TS_CONTROL) -> dict:
+    """The log of the chunks in ``parts`` (:func:`simulate_chunk`), closed with the last
+    state ``x`` and velocity-controller state ``z``, time on the control period ``Ts``."""
     log = {k: np.concatenate(v) for k, v in parts.items()}
     log["state"] = np.vstack([log["state"], x])
     log["z"] = np.vstack([log["z"], z])
-    log["time"] = np.arange(log["state"].shape[0]) * TS_CONTROL
-    return PathRun(log, np.array(t_g), np.array(v_log), np.array(solve), np.array(prog), preds)
+    log["time"] = np.arange(log["state"].shape[0]) * Ts
+    return log
