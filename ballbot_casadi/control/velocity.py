@@ -94,6 +94,7 @@ __all__ = [
     "measured_tilt",
     "equilibrium_tilt",
     "tilt_heading_quaternion",
+    "tilt_heading_reference",
 ]
 
 VELOCITY_NZ = Z.size
@@ -342,13 +343,15 @@ def velocity_initial_state(x0: Any) -> np.ndarray:
     return z
 
 
-def _reference_function() -> ca.Function:
-    """``(s, ds, dds) -> (q, dq, ddq)`` for ``s = [theta_x, theta_y, psi]``, by AD."""
+def tilt_heading_reference(name: str = "tilt_heading_reference") -> ca.Function:
+    """``(s, ds, dds) -> (q, dq, ddq)`` for ``s = [theta_x, theta_y, psi]``, by AD: the
+    quaternion reference of a tilt and heading and its first two derivatives (Function
+    ``name``; the velocity controller's and the balance-feed guidance's references)."""
     s, ds, dds = ca.SX.sym("s", 3), ca.SX.sym("ds", 3), ca.SX.sym("dds", 3)
     q = tilt_heading_quaternion(s[0], s[1], s[2])
     dq = ca.jtimes(q, s, ds)
     ddq = ca.jtimes(dq, ca.vertcat(s, ds), ca.vertcat(ds, dds))
-    return ca.Function("tilt_heading_reference", [s, ds, dds], [q, dq, ddq])
+    return ca.Function(name, [s, ds, dds], [q, dq, ddq])
 
 
 def make_velocity_controller() -> ca.Function:
@@ -404,7 +407,7 @@ def make_velocity_controller() -> ca.Function:
     alpha = ca.fmin(ca.fmax(k_r * (rr - r_r), -yacc_max), yacc_max)
 
     # quaternion reference and its exact derivatives along the reference model
-    q_ref, dq_ref, ddq_ref = _reference_function()(
+    q_ref, dq_ref, ddq_ref = tilt_heading_reference()(
         ca.vertcat(th_r, psi_r), ca.vertcat(dth_r, r_r), ca.vertcat(a, alpha)
     )
 

@@ -43,7 +43,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ballbot_casadi.control.velocity import equilibrium_tilt, tilt_heading_quaternion
+from ballbot_casadi.control.velocity import equilibrium_tilt, tilt_heading_reference
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
 from ballbot_casadi.core.layout import Layout
@@ -112,12 +112,9 @@ def balance_state_layout(L: MpcLayout) -> Layout:
 
 
 def _references() -> ca.Function:
-    """``(s, ds, dds) -> (q, dq, ddq)`` for ``s = [theta_x, theta_y, psi]`` (by AD)."""
-    s, ds, dds = ca.SX.sym("s", 3), ca.SX.sym("ds", 3), ca.SX.sym("dds", 3)
-    q = tilt_heading_quaternion(s[0], s[1], s[2])
-    dq = ca.jtimes(q, s, ds)
-    ddq = ca.jtimes(dq, ca.vertcat(s, ds), ca.vertcat(ds, dds))
-    return ca.Function("ballbot_guidance_mpc_balance_reference", [s, ds, dds], [q, dq, ddq])
+    """``(s, ds, dds) -> (q, dq, ddq)`` for ``s = [theta_x, theta_y, psi]`` (the velocity
+    controller's :func:`~ballbot_casadi.control.velocity.tilt_heading_reference`)."""
+    return tilt_heading_reference("ballbot_guidance_mpc_balance_reference")
 
 
 def make_balance_guidance(sample: ca.Function, L: MpcLayout, every: int) -> ca.Function:
