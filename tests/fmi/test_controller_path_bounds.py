@@ -1,0 +1,101 @@
+"""The path-following controller FMU's checks of its path parameters at their boundaries:
+each limit's own value is accepted and the nearest value beyond it refused with one logged
+line naming what was wrong (``ctrl_path_check`` in fmu/controller/controller_path.c).  The
+same scenario as tests/fmi/test_controller_path_fmu.py, so the same cached build."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+from fmpy import extract
+
+from ballbot_casadi.core.toolchain import build_root
+from ballbot_casadi.fmi.controller.controller import controller_spec, controller_values
+from ballbot_casadi.fmi.controller.path import S0_TOL, TANGENT_TOL, V_MAX, path_law
+from ballbot_casadi.fmi.masters.adapter import FmuSlave
+from ballbot_casadi.fmi.package import build_fmu_from_spec
+from ballbot_casadi.sim.guided import guided_software
+from ballbot_casadi.sim.scenario.file import parse_scenario
+
+pytestmark = [pytest.mark.needs_cc, pytest.mark.fmi_extra]
+
+#: tests/fmi/test_controller_path_fmu.py's scenario (closed figure-eight from its start).
+SCENARIO = {"name": "sil_path_fig8", "duration_s": 5.0, "cascade": True, "estimator": "ukf",
+            "seed": 3, "guidance": "mpc",
+            "path": {"type": "figure_eight", "length": 4.0, "width": 2.0, "speed": 0.5},
+            "obstacle": [{"x": 0.848, "y": 0.865, "r": 0.1}, {"x": 0.0, "y": -3.0, "r": 0.2}]}
+
+
+@functools.lru_cache(maxsize=None)
+def _scenario():
+    return parse_scenario(SCENARIO).scenario
+
+
+@functools.lru_cache(maxsize=None)
+def _fmu():
+    sc = _scenario()
+    return build_fmu_from_spec(controller_spec(path=sc), build_root() / "fmu" / "path" / sc.name).fmu
+
+
+@functools.lru_cache(maxsize=None)
+def _values():
+    sc = _scenario()
+    law = path_law(sc)
+    return controller_values(sc, guided_software(law, "ukf"), law)
+
+
+@pytest.fixture(scope="module")
+def unzipped(tmp_path_factory):
+    return extract(str(_fmu()), unzipdir=str(tmp_path_factory.mktemp("bounds")))
+
+
+def _init(unzipped, **over):
+    """Errors logged by the FMU initialised with the build values changed by ``over``."""
+    logs = []
+    slave = FmuSlave(unzipped, "ctrl", logger=lambda status, category, msg: logs.append((status, msg)))
+    try:
+        slave.setup(0.0, {**_values(), **over})
+        slave.exit_initialization()
+    except Exception:  # noqa: BLE001 - the refusal is judged from the log
+        pass
+    return [m for s, m in logs if s >= 3]
+
+
+def test_every_limit_itself_is_accepted(unzipped):
+    """At once: the speed at v_max, an open path, an obstacle of radius 0 over the start (no
+    obstacle), a tangent's norm off by half the tolerance, the start 0.9 S0_TOL along the
+    path from the robot (the robot starts at the figure-eight's start, arc length 0)."""
+    v = _values()
+    assert v["path_s0"] == pytest.approx(0.0, abs=1e-6)
+    f = 1 + 0.5 * TANGENT_TOL
+    assert _init(unzipped, path_speed=V_MAX, path_closed=0.0, obstacle1_x=v["path_p0_x"],
+                 obstacle1_y=v["path_p0_y"], obstacle1_r=0.0, path_t5_x=f * v["path_t5_x"],
+                 path_t5_y=f * v["path_t5_y"], path_s0=0.9 * S0_TOL) == []
+
+
+def test_path_s0_on_a_closed_path_its_length_is_its_start(unzipped):
+    """Arc length 0 and L are the same point of a closed path; beyond [0, L] is refused."""
+    L = _values()["path_length"]
+    assert _init(unzipped, path_s0=L) == []
+    errors = _init(unzipped, path_s0=L + 1e-9)
+    assert len(errors) == 1 and "must be in [0, path_length" in errors[0], errors
+
+
+@pytest.mark.parametrize("over, needle", [
+    ({"path_speed": float(np.nextafter(V_MAX, np.inf))}, "need a length > 0, closed 0 or 1"),
+    ({"path_s0": 1.5 * S0_TOL}, "must be the start's projection on the path"),
+    ({"path_t5_x": "2tol"}, "path_t5 = ["),
+    ({"obstacle1_x": "p0+0.05", "obstacle1_r": 0.1}, "covers the path's start (path_p0)"),
+])
+def test_the_nearest_value_beyond_a_limit_is_refused(unzipped, over, needle):
+    v = _values()
+    over = dict(over)
+    if over.get("path_t5_x") == "2tol":
+        f = 1 + 2 * TANGENT_TOL
+        over.update(path_t5_x=f * v["path_t5_x"], path_t5_y=f * v["path_t5_y"])
+    if over.get("obstacle1_x") == "p0+0.05":  # the disc's edge 5 cm beyond the start
+        over.update(obstacle1_x=v["path_p0_x"] + 0.05, obstacle1_y=v["path_p0_y"])
+    errors = _init(unzipped, **over)
+    assert len(errors) == 1 and needle in errors[0] and "\n" not in errors[0], errors
