@@ -63,6 +63,13 @@ def _init(unzipped, **over):
     return [m for s, m in logs if s >= 3]
 
 
+def test_the_limits_are_the_documented_values():
+    """path_s0 within 1 cm of the projection (the table's ~1 cm spacing), tangents unit within
+    1e-6, speed up to the thesis §7.1 v_max of 0.5 m/s: by hand, since the C checks take
+    these constants from the same module."""
+    assert (S0_TOL, TANGENT_TOL, V_MAX) == (0.01, 1e-6, 0.5)
+
+
 def test_every_limit_itself_is_accepted(unzipped):
     """At once: the speed at v_max, an open path, an obstacle of radius 0 over the start (no
     obstacle), a tangent's norm off by half the tolerance, the start 0.9 S0_TOL along the
