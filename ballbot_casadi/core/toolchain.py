@@ -19,6 +19,14 @@ replaced, never rewritten in place).
 
 The compiler is ``cc`` or ``$CC`` (default ``gcc``), split like a shell word list, so
 ``CC="ccache gcc"`` works; a missing compiler raises :class:`BuildError`.
+
+A library may *link* others (``links``): its generated C calls their Functions by name
+(a ``casadi.external`` of a linked library inside the exported Functions, see
+:func:`linked_function`) instead of carrying their code, and its shared library holds
+their static archives, so a large Function shared by several libraries (the
+path-following MPC of every guided mission variant) is generated and compiled once.  The
+library's hash covers the hashes of what it links; the linked libraries are verified
+before the link.
 """
 
 from __future__ import annotations
@@ -51,6 +59,7 @@ __all__ = [
     "compiler_command",
     "generate_sources",
     "build_library",
+    "linked_function",
     "verify_library",
     "load_library",
     "cached_file",
@@ -167,6 +176,7 @@ class Library:
     static: Path
     digest: str
     status: str = field(default="cached", compare=False)
+    links: tuple["Library", ...] = field(default=(), compare=False)
 
     @property
     def folder(self) -> Path:
@@ -177,6 +187,12 @@ class Library:
     def files(self) -> tuple[Path, ...]:
         """Source, header, shared and static library."""
         return (self.source, self.header, self.shared, self.static)
+
+    @property
+    def archives(self) -> tuple[Path, ...]:
+        """The static archives a program linking this library needs: its own, then those
+        of the libraries it links (:func:`build_library` ``links``), depth first."""
+        return (self.static, *(a for lib in self.links for a in lib.archives))
 
 
 def run_tool(cmd: list[str], what: str) -> None:
@@ -276,6 +292,7 @@ def build_library(
     functions: Iterable[ca.Function],
     root: Path | None = None,
     cc: str | Sequence[str] | None = None,
+    links: Sequence[Library] = (),
 ) -> Library:
     """Generate, write and compile a shared and a static library (cached by hash, verified).
 
@@ -289,6 +306,10 @@ def build_library(
         Build root, default :func:`build_root`.
     cc
         C compiler command, default ``$CC`` or ``gcc`` (see :func:`compiler_command`).
+    links
+        Libraries whose Functions ``functions`` call as externals (:func:`linked_function`):
+        their static archives are linked into the shared library (which then needs
+        nothing else), their hashes enter this library's hash.
 
     Returns
     -------
@@ -298,16 +319,23 @@ def build_library(
     Raises
     ------
     BuildError
-        No functions, compiler missing or compilation failed.
+        No functions, compiler missing, a linked library damaged or compilation failed.
     """
     root = build_root() if root is None else Path(root)
     ccmd = compiler_command(cc)
+    links = tuple(links)
+    for dep in links:
+        problem = verify_library(dep)
+        if problem is not None:
+            raise BuildError(f"library {name!r} links {dep.name} ({dep.folder}), which is "
+                             f"damaged ({problem}); build it again with build_library first")
     c_src, h_src = generate_sources(name, functions)
     digest = hashlib.sha256(
-        "\0".join([c_src, h_src, *ccmd, *CFLAGS, ca.__version__]).encode()
+        "\0".join([c_src, h_src, *ccmd, *CFLAGS, ca.__version__,
+                   *(f"link:{dep.name}:{dep.digest}" for dep in links)]).encode()
     ).hexdigest()[:16]
     out = root / "codegen"
-    lib = _library_paths(name, out / digest, digest)
+    lib = replace(_library_paths(name, out / digest, digest), links=links)
     problem = verify_library(lib)
     if problem is None:
         return lib
@@ -335,14 +363,36 @@ def _compile_library(lib: Library, c_src: str, h_src: str, ccmd: list[str]) -> N
         # one compile (CFLAGS has -fPIC): the shared library is linked from the same object
         # the static archive holds, so both carry identical code at half the gcc time
         run_tool([*ccmd, *CFLAGS, "-c", "-o", str(obj), str(tsrc)], f"compiling {lib.name}")
-        run_tool([*ccmd, *CFLAGS, "-shared", "-o", str(tmp / lib.shared.name), str(obj), "-lm"],
-                 f"linking {lib.name} (shared)")
+        # linked libraries: their archives after the object; -Bsymbolic binds the calls to
+        # the copy inside this library (another loaded library may export the same name)
+        deps = [str(a) for dep in lib.links for a in dep.archives]
+        bind = ["-Wl,-Bsymbolic"] if deps else []
+        run_tool([*ccmd, *CFLAGS, "-shared", *bind, "-o", str(tmp / lib.shared.name), str(obj),
+                  *deps, "-lm"], f"linking {lib.name} (shared)")
         run_tool(["ar", "rcs", str(tmp / lib.static.name), str(obj)], f"archiving {lib.name}")
         for p in lib.files:
             os.replace(tmp / p.name, p)  # never rewrite a file in place (mapped copies live on)
         write_manifest(folder, [p.name for p in lib.files], MANIFEST)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def linked_function(f: ca.Function, root: Path | None = None,
+                    cc: str | Sequence[str] | None = None) -> tuple[Library, ca.Function]:
+    """``f`` compiled alone into the library ``<f's name>`` (cached by hash, verified) and
+    a ``casadi.external`` of it with ``f``'s name, inputs and outputs.
+
+    A Function built on the external in place of ``f`` generates C that calls ``f`` by
+    name (declared ``extern``) instead of carrying its code; compile it with
+    ``build_library(..., links=[library])``.  The external's Python evaluation runs the
+    compiled ``f``.
+    """
+    lib = build_library(f.name(), [f], root, cc)
+    ext = load_library(lib, [f.name()])[f.name()]
+    if (ext.name_in(), ext.name_out()) != (f.name_in(), f.name_out()):
+        raise BuildError(f"linked {f.name()}: the compiled Function's ports {ext.name_in()} -> "
+                         f"{ext.name_out()} differ from {f.name_in()} -> {f.name_out()}")
+    return lib, ext
 
 
 def cached_file(target: Path, make: Callable[[Path], None], key: str = "") -> Path:

@@ -18,7 +18,7 @@ need no regeneration.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import casadi as ca
 import numpy as np
@@ -99,6 +99,10 @@ class ClosedLoop:
         Custom ``steps`` hold the torque one period (built with ``actuation_delay``,
         :func:`~ballbot_casadi.sim.steps.make_estimating_step`): missions of them are run
         with ``actuation_delay=True``.
+    links
+        Libraries whose Functions custom ``steps`` call as externals (e.g. the guided
+        mission's separately compiled MPC, :func:`~ballbot_casadi.core.toolchain.linked_function`),
+        linked into their library (:func:`~ballbot_casadi.core.toolchain.build_library`).
 
     Notes
     -----
@@ -116,6 +120,7 @@ class ClosedLoop:
         estimator: str = "true",
         library: str = "ballbot_closed_loop_custom",
         actuation_delay: bool = False,
+        links: Sequence[Library] = (),
     ) -> None:
         if not isinstance(n_sub, (int, np.integer)) or isinstance(n_sub, bool) or n_sub < 1:
             raise ScenarioError(f"n_sub must be an int >= 1, got {n_sub!r}")
@@ -129,7 +134,7 @@ class ClosedLoop:
             lib = None
             if compiled:
                 funcs = [g for f in steps.values() for g in (f, make_chunk(f))]
-                lib = build_library(library, funcs, root)
+                lib = build_library(library, funcs, root, links=links)
             self._variants[(self.n_sub, estimator, bool(actuation_delay))] = MissionVariant(
                 steps, lib, self.use_driver)
         else:

@@ -9,7 +9,8 @@ see ``make bench``).  This module generates a few lines of C glue,
 ``ballbot_cl_step_<ctrl>`` for the remainder, reading and writing numpy buffers in
 place.  A ``(N, m)`` C-ordered numpy array has the memory layout of CasADi's
 column-major ``(m, N)`` matrix, so no transposes are needed.  The glue is compiled
-against the static closed-loop library and cached next to it.
+against the static closed-loop library (and the archives of the libraries it links) and
+cached next to it.
 """
 
 from __future__ import annotations
@@ -107,8 +108,10 @@ class MissionDriver:
     def _compile(src: str, lib: Library, so: Path, ccmd: list[str]) -> None:
         c = so.with_suffix(".c")
         c.write_text(src)
-        cmd = [*ccmd, *CFLAGS, "-shared", "-I", str(lib.header.parent), "-o", str(so),
-               str(c), str(lib.static), "-lm"]
+        # a library that links others (a separately compiled MPC): their archives too
+        bind = ["-Wl,-Bsymbolic"] if lib.links else []
+        cmd = [*ccmd, *CFLAGS, "-shared", *bind, "-I", str(lib.header.parent), "-o", str(so),
+               str(c), *map(str, lib.archives), "-lm"]
         run_tool(cmd, "compiling the mission driver")
 
     def run(self, controller: str, n: int, args: Sequence[np.ndarray]) -> list[np.ndarray]:

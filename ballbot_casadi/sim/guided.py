@@ -31,12 +31,15 @@ the log (``v_ref_used``: the references, ``guide``: the laws' state, from which
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, partial
+from typing import Callable
+
 import casadi as ca
 import numpy as np
 
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
 from ballbot_casadi.core.layout import Layout
+from ballbot_casadi.core.toolchain import Library, linked_function
 from ballbot_casadi.errors import BuildError, ScenarioError, SolverError
 from ballbot_casadi.guidance.blocks import (
     make_mpc_sample,
@@ -176,6 +179,11 @@ class GuidanceLaw:
         background task runs it alone).
     latency, first_latency, split
         As :func:`make_guidance` built ``function`` (``0, 0, False``: no latency).
+    relink
+        ``relink(f)``: the block built around ``f`` in place of :attr:`sample` (same
+        ports); the host's compiled missions build it on the separately compiled sample
+        (:func:`~ballbot_casadi.core.toolchain.linked_function`), so every variant links
+        the one compiled MPC instead of generating it again (``None``: compiled whole).
     """
 
     name: str
@@ -190,6 +198,7 @@ class GuidanceLaw:
     latency: int = 0
     first_latency: int = 0
     split: bool = False
+    relink: Callable[[ca.Function], ca.Function] | None = None
 
     @property
     def tail(self) -> Layout:
@@ -263,8 +272,11 @@ def _mpc_law(p_ctrl: tuple, k_vel: tuple, key: _Key, latency: int, split: bool) 
     S = mpc_state_layout(L)
     first = first_sample_latency(every) if latency else 0
     block = make_guidance("mpc", sample, every, latency, first, S.offset("first"), split)
+    # the split block (a firmware's interrupt step) does not call the sample: nothing to link
+    relink = None if split else partial(make_guidance, "mpc", every=every, latency=latency,
+                                        first_latency=first, first_index=S.offset("first"))
     return GuidanceLaw("mpc", block, S, L, config, cond=parts["cond"], sample=sample,
-                       latency=latency, first_latency=first, split=split)
+                       latency=latency, first_latency=first, split=split, relink=relink)
 
 
 def first_sample_latency(every: int = GUIDANCE_EVERY) -> int:
@@ -295,7 +307,8 @@ def _mpc_balance_law(p_ctrl: tuple, key: _Key) -> GuidanceLaw:
     every = int(round(config.dt / TS_CONTROL))
     state = balance_state_layout(L)
     return GuidanceLaw("mpc_balance", make_balance_guidance(sample, L, every), state, L, config,
-                       cond=parts["cond"], initial=balance_initial_function(state))
+                       cond=parts["cond"], initial=balance_initial_function(state), sample=sample,
+                       relink=partial(make_balance_guidance, L=L, every=every))
 
 
 def mpc_balance_law(p_ctrl: np.ndarray, config: MpcConfig = BALANCE_FEED_CONFIG) -> GuidanceLaw:
@@ -355,8 +368,13 @@ def guided_software(law: GuidanceLaw, estimator: str = "ukf") -> ca.Function:
 
 
 @lru_cache(maxsize=None)
-def _simulator(function: ca.Function, estimator: str, actuation_delay: bool = False
-               ) -> ClosedLoop:
+def _simulator(function: ca.Function, estimator: str, actuation_delay: bool = False,
+               sample: ca.Function | None = None,
+               relink: Callable[[ca.Function], ca.Function] | None = None) -> ClosedLoop:
+    links: tuple[Library, ...] = ()
+    if sample is not None and relink is not None:  # the sample compiled once, linked
+        library, compiled_sample = linked_function(sample)
+        function, links = relink(compiled_sample), (library,)
     blocks, est = (software_blocks("flc", estimator) if estimator != "true"
                    else software_blocks("flc", "ukf"))
     if estimator == "true":
@@ -370,7 +388,7 @@ def _simulator(function: ca.Function, estimator: str, actuation_delay: bool = Fa
                                     actuation_delay=actuation_delay)
     name = f"{function.name()}_{estimator}{'_delayed' if actuation_delay else ''}"
     return ClosedLoop(steps={"flc": step}, estimator=estimator, library=name,
-                      actuation_delay=actuation_delay)
+                      actuation_delay=actuation_delay, links=links)
 
 
 def guided_simulator(law: GuidanceLaw, estimator: str = "true",
@@ -378,14 +396,15 @@ def guided_simulator(law: GuidanceLaw, estimator: str = "true",
     """The compiled closed loop (FLC cascade, the guidance block in the period) reading
     the true state or, with ``estimator`` ``ukf`` / ``ekf``, the embedded software's
     estimate (:func:`guided_software`; built and compiled once per process, cached by
-    hash on disk).  ``actuation_delay`` (an estimator only): the torque of period ``k``
-    acts in period ``k + 1`` (the loop of a Jacobi co-simulation master)."""
+    hash on disk; an MPC's sample is compiled on its own and linked,
+    :attr:`GuidanceLaw.relink`).  ``actuation_delay`` (an estimator only): the torque of
+    period ``k`` acts in period ``k + 1`` (the loop of a Jacobi co-simulation master)."""
     if estimator not in ("true", "ukf", "ekf"):
         raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, ukf, ekf")
     if actuation_delay and estimator == "true":
         raise ScenarioError("actuation_delay needs an estimator (the loop of the controller "
                             "FMU): ukf or ekf")
-    return _simulator(law.function, estimator, bool(actuation_delay))
+    return _simulator(law.function, estimator, bool(actuation_delay), law.sample, law.relink)
 
 
 def run_guided(path: Path, law: GuidanceLaw, duration: float, estimator: str = "true",
