@@ -103,6 +103,7 @@ from ballbot_casadi.sim.ports import (
 )
 
 __all__ = [
+    "DEFAULT_ESTIMATOR",
     "ESTIMATOR_FILTERS",
     "MATCHED_VELOCITY",
     "ADAPTIVE_VELOCITY",
@@ -142,6 +143,11 @@ ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ek
                                                     "ekf_heading": ("qekf_heading", "vekf"),
                                                     "ukf_consistent": ("qukf", "vukf"),
                                                     "ukf_adaptive": ("qukf", "vukf")}
+#: The estimator the embedded software runs unless told otherwise: the default of the
+#: controller FMU, the SIL, the firmware and the guided mission (a key of
+#: :data:`ESTIMATOR_FILTERS`).  Scenario files name theirs; a scenario without one reads
+#: the true state.
+DEFAULT_ESTIMATOR = "ukf"
 #: Estimator choices whose velocity filter has the matched model of issue 22
 #: (``make_vukf(..., matched=True)``): the encoders' body-rate term from the gyro reading
 #: (estimation.velocity.encoder_rate), the period's acceleration noise on the velocity
@@ -509,7 +515,7 @@ def _balance(controller: str) -> ca.Function:
 
 
 @lru_cache(maxsize=None)
-def embedded_software(controller: str = "flc", estimator: str = "ukf",
+def embedded_software(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR,
                       observer: bool = True, guidance: ca.Function | None = None) -> ca.Function:
     """The package's embedded software ``ballbot_embedded_<controller>_<estimator>``
     (:func:`make_embedded_step`, with the COM observer unless ``observer`` is false, and

@@ -67,6 +67,7 @@ from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES, X0_PREFIX
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_player_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.system.ssp import SspComponent, SspConnection, SspSystem, write_ssp
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, ESTIMATOR_FILTERS
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
@@ -175,7 +176,7 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
     return values
 
 
-def sil_connections(plant_variables: Sequence[str], estimator: str = "ukf"
+def sil_connections(plant_variables: Sequence[str], estimator: str = DEFAULT_ESTIMATOR
                     ) -> list[SspConnection]:
     """The SIL connections: the readings ``estimator`` reads
     (:func:`~ballbot_casadi.fmi.controller.controller.reading_names`), the torques, the
@@ -206,7 +207,7 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the SIL runs the embedded software, "
-                            "which reads sensors; set estimator = 'ukf' or 'ekf'")
+                            f"which reads sensors; set estimator = one of {', '.join(ESTIMATOR_FILTERS)}")
     if scenario.sensor_dropouts:  # refused, never silently dropped
         raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_dropout]] rows, which the "
                             "SSP cannot express (the FMUs have no dropout input); remove them "
