@@ -50,9 +50,10 @@ def _cmd_firmware(args: argparse.Namespace) -> int:
         if not args.verify:
             return 0
         if args.guidance is None:
-            rec = record_log(replay_scenario(args.verify))
+            rec = record_log(replay_scenario(args.verify, estimator=args.estimator))
         else:
-            rec = record_guided_log(args.verify, guidance=args.guidance, latency=args.latency)
+            rec = record_guided_log(args.verify, guidance=args.guidance, latency=args.latency,
+                                    estimator=args.estimator)
         double = build_firmware(args.controller, args.estimator, "double", guidance=args.guidance,
                                 latency=args.latency)
         host = run_host(double, rec)

@@ -170,9 +170,10 @@ class _Controller3:
         return np.array(self.fmu.getFloat64(self.vr(*names)))
 
 
-def test_the_fmi3_controller_equals_the_compiled_embedded_step():
+@pytest.mark.parametrize("est", ["ukf", "ukf_adaptive"])
+def test_the_fmi3_controller_equals_the_compiled_embedded_step(est):
     rng = np.random.default_rng(11)
-    fmu, ref = _Controller3(controller3()), _Reference()
+    fmu, ref = _Controller3(controller3("flc", est)), _Reference("flc", est)
     fmu.fmu.enterInitializationMode(startTime=0.0)
     fmu.fmu.exitInitializationMode()
     fmu.fmu.setFloat64(fmu.vr("v_ref_x", "v_ref_y", "yaw_rate_ref"), list(VREF))
