@@ -144,16 +144,18 @@ ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ek
                                                     "ukf_consistent": ("qukf", "vukf"),
                                                     "ukf_adaptive": ("qukf", "vukf")}
 #: The estimator the embedded software runs unless told otherwise: the default of the
-#: controller FMU, the SIL, the firmware and the guided mission (a key of
-#: :data:`ESTIMATOR_FILTERS`).  Scenario files name theirs; a scenario without one reads
-#: the true state.
-DEFAULT_ESTIMATOR = "ukf"
+#: controller FMU (``BallbotController`` is the FLC with it), the SIL, the firmware and the
+#: guided mission (a key of :data:`ESTIMATOR_FILTERS`): the QUKF with the matched VUKF
+#: adapting its acceleration random walk (:data:`ADAPTIVE_VELOCITY`, issue 22: consistent
+#: on every shipped UKF scenario).  The thesis's filters are ``"ukf"``, a switch.  Scenario
+#: files name theirs; a scenario without one reads the true state.
+DEFAULT_ESTIMATOR = "ukf_adaptive"
 #: Estimator choices whose velocity filter has the matched model of issue 22
 #: (``make_vukf(..., matched=True)``): the encoders' body-rate term from the gyro reading
 #: (estimation.velocity.encoder_rate), the period's acceleration noise on the velocity
 #: (estimation.velocity.period_acceleration_noise) and the attitude error as a slowly
-#: varying accelerometer offset (estimation.velocity.attitude_offset_noise).  A choice,
-#: not the default (the README compares it with the thesis-model "ukf").
+#: varying accelerometer offset (estimation.velocity.attitude_offset_noise).  The README
+#: compares it with the thesis-model "ukf".
 MATCHED_VELOCITY = frozenset({"ukf_consistent", "ukf_adaptive"})
 #: Estimator choices whose (matched) velocity filter adapts its acceleration random walk
 #: online (``make_vukf(..., adaptive=WalkAdaptation())``,

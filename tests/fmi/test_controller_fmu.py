@@ -69,7 +69,7 @@ def _function_args(values: dict, cascade: float = 1.0) -> dict:
 class _Reference:
     """The compiled embedded step run period by period (the mission's controller)."""
 
-    def __init__(self, controller: str = "flc", estimator: str = "ukf"):
+    def __init__(self, controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR):
         self.f = compiled_embedded(controller, estimator)
         self.values = default_values(controller, estimator)
         x0 = np.array([self.values[n] for n in X0_NAMES])

@@ -329,7 +329,7 @@ def test_the_fmi3_path_fmu_validates_and_equals_the_fmi2_one():
     assert validate_fmu(str(b3.fmu)) == []
     md2, md3 = read_model_description(str(b2.fmu)), read_model_description(str(b3.fmu))
     assert (md2.fmiVersion, md3.fmiVersion) == ("2.0", "3.0")
-    assert md3.coSimulation.modelIdentifier == PATH_MODEL_IDENTIFIER
+    assert md3.coSimulation.modelIdentifier == _spec().model_identifier
     v2 = {v.name: v for v in md2.modelVariables}
     v3 = {v.name: v for v in md3.modelVariables}
     assert set(v3) == set(v2) | {"time"}

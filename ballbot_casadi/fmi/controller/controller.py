@@ -568,7 +568,8 @@ def controller_spec(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR,
     """The controller FMU of ``controller`` with ``estimator`` (Co-Simulation only).
 
     With ``path`` (a scenario with a ``[path]``; its controller and estimator replace the
-    arguments) the path-following variant ``BallbotControllerPath[_ekf]``: the embedded
+    arguments) the path-following variant ``BallbotControllerPath[_<est>]`` (no suffix with
+    :data:`~ballbot_casadi.sim.embedded.DEFAULT_ESTIMATOR`): the embedded
     software with the scenario's MPC guidance (:func:`path_embedded_function`), the path
     table and ``path_s0`` as parameters (start values from the scenario,
     :mod:`~ballbot_casadi.fmi.controller.path`), the outputs :data:`V_REF_USED_NAMES`,

@@ -6,10 +6,11 @@ The system (:func:`sil_system`, written by :func:`write_sil_ssp`, ``make sil``):
   scenario's plant parameters, sensor parameters, noise switch, heading-sensor switch
   and seed (a 32-bit signed Integer in the FMU), internal step ``Ts / n_sub`` and sensor
   period ``Ts``;
-* ``controller`` - ``BallbotController.fmu`` (:mod:`~ballbot_casadi.fmi.controller.controller`)
-  with the scenario's controller and filter models, gains, tuning and state at power-on;
+* ``controller`` - ``BallbotController[_<ctrl>_<est>].fmu`` (the scenario's controller and
+  estimator, :func:`~ballbot_casadi.fmi.controller.controller.model_identifier`;
+  :mod:`~ballbot_casadi.fmi.controller.controller`) with the scenario's controller and filter models, gains, tuning and state at power-on;
   a scenario with a ``[path]`` (and ``[[obstacle]]`` rows) gets the path-following
-  variant ``BallbotControllerPath.fmu`` (built per scenario under ``<fmu>/path/<name>/``:
+  variant ``BallbotControllerPath[_<est>].fmu`` (built per scenario under ``<fmu>/path/<name>/``:
   its MPC predicts with the scenario's controller model) with the path table, the
   obstacles and ``path_s0`` in the parameter set (:mod:`~ballbot_casadi.fmi.controller.path`);
 * ``reference`` - ``BallbotReference.fmu`` (:mod:`~ballbot_casadi.fmi.reference_player.player`),
