@@ -1,7 +1,7 @@
 """Replay a recorded sensor log through the firmware: in QEMU (Cortex-M7) and on the host.
 
 The log comes from a compiled mission (:func:`~ballbot_casadi.sim.closed_loop.run_scenario`)
-with noisy sensors and QUKF + VUKF in the loop (:func:`replay_scenario`: the roll sine of
+with noisy sensors and the default estimator in the loop (:func:`replay_scenario`: the roll sine of
 the ``full`` study, with a gyroscope drop-out so the predict-only path runs too).  Its
 readings, the scenario's references, parameters and power-on state go into one binary
 input file (layout in ``csrc/replay_main.c``); the replay program steps the library and
@@ -10,7 +10,7 @@ semihosting and ``-icount shift=0`` (one instruction = 1 ns of virtual time, rea
 SysTick: :mod:`~ballbot_casadi.firmware.cost`) and, built for this PC, as the host reference.
 
 A build with a guidance block replays a guided mission instead (:func:`record_guided_log`:
-the figure-eight of the path study, 4 m x 2 m at 0.5 m/s, with noise and QUKF + VUKF, the
+the figure-eight of the path study, 4 m x 2 m at 0.5 m/s, with noise and the default estimator, the
 MPC in the compiled mission's period); the replay then also returns the velocity
 references the block gave.  With ``latency >= 1`` the log is the guided mission with that
 latency and the build the split one: the replay program runs the background sample
