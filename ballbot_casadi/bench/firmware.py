@@ -1,6 +1,7 @@
 """Firmware benchmark (issue 21): instructions per period, RAM and flash on the Cortex-M7.
 
-Targets: ``firmware_step_instructions`` (FLC + QUKF + VUKF + COM observer, worst period of
+Targets: ``firmware_step_instructions`` (FLC + the default estimator
+:data:`~ballbot_casadi.sim.embedded.DEFAULT_ESTIMATOR` + COM observer, worst period of
 a 200-period QEMU replay) <= 200,000 per 5 ms period; ``firmware_ram_bytes`` (context +
 worst stack + static) <= 32 KiB; ``firmware_flash_bytes`` (the linked 200 Hz example) <=
 256 KiB.  Without the cross toolchain the group reports ``firmware_available = 0``.
@@ -8,7 +9,7 @@ worst stack + static) <= 32 KiB; ``firmware_flash_bytes`` (the linked 200 Hz exa
 Group ``firmware_mpc`` (issue 18: the path-following MPC on the Cortex-M7): the double
 build with the guided mission's MPC in the period (10 Hz inside the 200 Hz step), a
 :func:`~ballbot_casadi.firmware.replay.record_guided_log` replay of the figure-eight (noise,
-QUKF + VUKF) in QEMU, :func:`~ballbot_casadi.firmware.cost.guided_cost`:
+the default estimator) in QEMU, :func:`~ballbot_casadi.firmware.cost.guided_cost`:
 
 ``firmware_mpc_instructions_max``, ``firmware_mpc_instructions_median``
     Instructions of a period with a warm guidance sample (one QP, the real-time
@@ -35,7 +36,7 @@ QUKF + VUKF) in QEMU, :func:`~ballbot_casadi.firmware.cost.guided_cost`:
 Group ``firmware_split`` (issue 18: the MPC split off the 200 Hz interrupt into a
 background task, :data:`~ballbot_casadi.firmware.sources.SPLIT_LATENCY` periods from its
 snapshot to its reference): the split double build replaying the guided figure-eight
-with that latency (noise, QUKF + VUKF) in QEMU, :func:`~ballbot_casadi.firmware.cost.split_cost`:
+with that latency (noise, the default estimator) in QEMU, :func:`~ballbot_casadi.firmware.cost.split_cost`:
 
 ``firmware_split_isr_instructions_max``, ``_median``
     The interrupt step over every period (snapshot periods included); target 200,000,

@@ -24,7 +24,7 @@ from ballbot_casadi.firmware.replay import (
 )
 from ballbot_casadi.firmware.sources import SPLIT_LATENCY, firmware_guidance, guidance_every
 from ballbot_casadi.firmware.toolchain import PRECISIONS, ToolchainMissing
-from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, ESTIMATOR_FILTERS
 from ballbot_casadi.sim.guided import GUIDANCE_LAWS
 
 __all__ = ["add_parser"]
@@ -50,9 +50,10 @@ def _cmd_firmware(args: argparse.Namespace) -> int:
         if not args.verify:
             return 0
         if args.guidance is None:
-            rec = record_log(replay_scenario(args.verify))
+            rec = record_log(replay_scenario(args.verify, estimator=args.estimator))
         else:
-            rec = record_guided_log(args.verify, guidance=args.guidance, latency=args.latency)
+            rec = record_guided_log(args.verify, guidance=args.guidance, latency=args.latency,
+                                    estimator=args.estimator)
         double = build_firmware(args.controller, args.estimator, "double", guidance=args.guidance,
                                 latency=args.latency)
         host = run_host(double, rec)
@@ -104,8 +105,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("firmware", help="cross-compile the embedded software for Cortex-M7 "
                        "(static library, C API header, 200 Hz example); --verify: QEMU replay")
     p.add_argument("--controller", default="flc", help="balance controller (default flc)")
-    p.add_argument("--estimator", default="ukf", choices=list(ESTIMATOR_FILTERS),
-                   help="filters (default ukf: QUKF + VUKF)")
+    p.add_argument("--estimator", default=DEFAULT_ESTIMATOR, choices=list(ESTIMATOR_FILTERS),
+                   help=f"filters (default {DEFAULT_ESTIMATOR})")
     p.add_argument("--precision", default="double", choices=list(PRECISIONS),
                    help="casadi_real: double (fpv5-d16) or single (float, fpv5-sp-d16)")
     p.add_argument("--guidance", choices=list(GUIDANCE_LAWS), default=None,

@@ -20,6 +20,7 @@ from ballbot_casadi.fmi.package import FMI_VERSIONS, build_fmu_from_spec
 from ballbot_casadi.fmi.masters.ssp_run import MASTERS
 from ballbot_casadi.fmi.system.sil import write_sil_ssp
 from ballbot_casadi.fmi.system.ssp_check import MAX_STEPS
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, ESTIMATOR_FILTERS
 from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.sil import SIL_OUTPUTS, run_sil
@@ -150,7 +151,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "software; other controller/estimator pairs as separate FMUs)")
     c.add_argument("--controller", default="flc", help="balance controller: "
                    + ", ".join(f"{n} (default)" if n == "flc" else n for n in BALANCE_CONTROLLERS))
-    c.add_argument("--estimator", default="ukf", help="estimators: ukf (default), ekf")
+    c.add_argument("--estimator", default=DEFAULT_ESTIMATOR, choices=list(ESTIMATOR_FILTERS),
+                   help=f"filters (default {DEFAULT_ESTIMATOR})")
     c.add_argument("--scenario", default=None, help="a scenario file or shipped name with a "
                    "[path] (guidance mpc): build the path-following variant "
                    "BallbotControllerPath with its path, obstacles and gains as start values "

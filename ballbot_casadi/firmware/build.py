@@ -43,6 +43,7 @@ from ballbot_casadi.firmware.sources import (
     scenario_values,
 )
 from ballbot_casadi.firmware.toolchain import ARM_CPU_FLAGS, PRECISIONS, require, tool_version
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["FW_CFLAGS", "SINGLE_CFLAGS", "FirmwareBuild", "build_firmware", "default_scenario"]
@@ -96,7 +97,7 @@ class FirmwareBuild:
         return self.folder / "stack_usage.txt"
 
 
-def default_scenario(controller: str = "flc", estimator: str = "ukf") -> Scenario:
+def default_scenario(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR) -> Scenario:
     """The scenario of the library's default parameters: upright at rest, velocity cascade
     on, the package's default gains and the thesis's filter tuning (the controller FMU's)."""
     return Scenario(name="firmware_default", controller=controller, estimator=estimator,
@@ -107,7 +108,8 @@ def _cflags(precision: str, cpu: Sequence[str]) -> list[str]:
     return [*cpu, *FW_CFLAGS, *(SINGLE_CFLAGS if precision == "single" else ())]
 
 
-def build_firmware(controller: str = "flc", estimator: str = "ukf", precision: str = "double",
+def build_firmware(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR,
+                   precision: str = "double",
                    values: FirmwareValues | None = None, root: Path | None = None,
                    lib_cpu_flags: Sequence[str] | None = None,
                    guidance: str | None = None, latency: int = 0) -> FirmwareBuild:

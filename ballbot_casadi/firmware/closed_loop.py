@@ -41,7 +41,7 @@ from ballbot_casadi.firmware.sources import CG_NAME, firmware_function, generate
 from ballbot_casadi.firmware.toolchain import PRECISIONS, tool_version
 from ballbot_casadi.model.dynamics import make_wheel_speeds
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.embedded import software_blocks
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, ESTIMATOR_FILTERS, software_blocks
 from ballbot_casadi.sim.library import MissionVariant
 from ballbot_casadi.sim.log import SimulationLog
 from ballbot_casadi.sim.scenario import Scenario
@@ -53,7 +53,7 @@ __all__ = ["host_period_library", "FirmwarePeriod", "firmware_step", "FirmwareLo
 _CTYPE = {"double": (ctypes.c_double, np.float64), "single": (ctypes.c_float, np.float32)}
 
 
-def host_period_library(controller: str = "flc", estimator: str = "ukf",
+def host_period_library(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR,
                         precision: str = "double", root: Path | None = None) -> Path:
     """The firmware's generated period compiled for this PC as a shared library (cached).
 
@@ -96,8 +96,8 @@ class FirmwarePeriod(ca.Callback):
     outputs widened back to double; dense, column-major, as the generated C lays them out.
     """
 
-    def __init__(self, controller: str = "flc", estimator: str = "ukf", precision: str = "double",
-                 root: Path | None = None) -> None:
+    def __init__(self, controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR,
+                 precision: str = "double", root: Path | None = None) -> None:
         ca.Callback.__init__(self)
         self._f = firmware_function(controller, estimator)
         self.precision = precision
@@ -154,8 +154,8 @@ class FirmwarePeriod(ca.Callback):
         return [ca.DM(f.sparsity_out(i), o.astype(float)) for i, o in enumerate(self._out)]
 
 
-def firmware_step(period: FirmwarePeriod, controller: str = "flc", estimator: str = "ukf",
-                  n_sub: int = N_SUB) -> ca.Function:
+def firmware_step(period: FirmwarePeriod, controller: str = "flc",
+                  estimator: str = DEFAULT_ESTIMATOR, n_sub: int = N_SUB) -> ca.Function:
     """The estimating step of the compiled mission with ``period`` as its embedded software."""
     blocks, est = software_blocks(controller, estimator)
     return make_estimating_step(blocks.balance, blocks.velocity, est.ode, make_wheel_speeds(), est,
@@ -167,8 +167,8 @@ class FirmwareLoop(ClosedLoop):
     estimating step with the host-compiled firmware period (evaluated by CasADi, the
     plant and sensors as CasADi Functions, the period through ctypes)."""
 
-    def __init__(self, controller: str = "flc", estimator: str = "ukf", precision: str = "double",
-                 n_sub: int = N_SUB, root: Path | None = None) -> None:
+    def __init__(self, controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR,
+                 precision: str = "double", n_sub: int = N_SUB, root: Path | None = None) -> None:
         if balance_state_size(controller):
             raise ScenarioError(f"the firmware loop runs balance controllers without own state; "
                                 f"{controller!r} has one")
@@ -193,6 +193,6 @@ def run_firmware_scenario(scenario: Scenario, precision: str = "double",
     of ``precision`` as the embedded software (see the module docstring)."""
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the firmware loop needs an estimator "
-                            "(estimator = 'ukf' or 'ekf')")
+                            f"(estimator = one of {', '.join(ESTIMATOR_FILTERS)})")
     loop = FirmwareLoop(scenario.controller, scenario.estimator, precision, scenario.n_sub, root)
     return run_scenario(scenario, loop)

@@ -1,7 +1,7 @@
 """Replay a recorded sensor log through the firmware: in QEMU (Cortex-M7) and on the host.
 
 The log comes from a compiled mission (:func:`~ballbot_casadi.sim.closed_loop.run_scenario`)
-with noisy sensors and QUKF + VUKF in the loop (:func:`replay_scenario`: the roll sine of
+with noisy sensors and the default estimator in the loop (:func:`replay_scenario`: the roll sine of
 the ``full`` study, with a gyroscope drop-out so the predict-only path runs too).  Its
 readings, the scenario's references, parameters and power-on state go into one binary
 input file (layout in ``csrc/replay_main.c``); the replay program steps the library and
@@ -10,7 +10,7 @@ semihosting and ``-icount shift=0`` (one instruction = 1 ns of virtual time, rea
 SysTick: :mod:`~ballbot_casadi.firmware.cost`) and, built for this PC, as the host reference.
 
 A build with a guidance block replays a guided mission instead (:func:`record_guided_log`:
-the figure-eight of the path study, 4 m x 2 m at 0.5 m/s, with noise and QUKF + VUKF, the
+the figure-eight of the path study, 4 m x 2 m at 0.5 m/s, with noise and the default estimator, the
 MPC in the compiled mission's period); the replay then also returns the velocity
 references the block gave.  With ``latency >= 1`` the log is the guided mission with that
 latency and the build the split one: the replay program runs the background sample
@@ -40,7 +40,7 @@ from ballbot_casadi.firmware.sources import (
 from ballbot_casadi.firmware.toolchain import require
 from ballbot_casadi.guidance.paths import Path as GuidancePath
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.embedded import embedded_readings
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, embedded_readings
 from ballbot_casadi.sim.guided import run_guided, scenario_law
 from ballbot_casadi.sim.path_following import path_scenario
 from ballbot_casadi.sim.scenario import Scenario
@@ -69,12 +69,15 @@ QEMU_COMMAND = ("qemu-system-arm", "-M", "mps2-an500", "-cpu", "cortex-m7", "-no
 _ROW = 5  # tau (3), ticks, return code (then the header's ROW_EXTRA values: v_ref_used)
 
 
-def replay_scenario(n_periods: int = 200, seed: int = 1) -> Scenario:
+def replay_scenario(n_periods: int = 200, seed: int = 1,
+                    estimator: str = DEFAULT_ESTIMATOR) -> Scenario:
     """The recorded mission: roll sine 3 deg at 0.5 Hz (study ``full``), noisy sensors,
-    QUKF + VUKF, FLC in the thesis mode, the gyroscope missing for 50 ms at 0.3 s."""
+    the filters of ``estimator`` (default: the firmware's,
+    :data:`~ballbot_casadi.sim.embedded.DEFAULT_ESTIMATOR`), FLC in the thesis mode, the
+    gyroscope missing for 50 ms at 0.3 s."""
     if not isinstance(n_periods, int) or n_periods < 1:
         raise ScenarioError(f"n_periods must be an int >= 1, got {n_periods!r}")
-    return Scenario(name="firmware_replay", controller="flc", estimator="ukf",
+    return Scenario(name="firmware_replay", controller="flc", estimator=estimator,
                     duration=n_periods * TS_CONTROL, feedforward="none", seed=seed,
                     attitude={"roll": {"type": "sine", "amplitude_deg": 3.0, "frequency_hz": 0.5}},
                     estimator_tuning={"rate_process_var": 3e-5, "acc_bias_process_var": 2e-8},
@@ -113,16 +116,18 @@ def record_log(scenario: Scenario, sim: ClosedLoop | None = None) -> RecordedLog
 
 
 def record_guided_log(n_periods: int = 400, seed: int = 1, guidance: str = "mpc",
-                      path: GuidancePath | None = None, latency: int = 0) -> RecordedLog:
+                      path: GuidancePath | None = None, latency: int = 0,
+                      estimator: str = DEFAULT_ESTIMATOR) -> RecordedLog:
     """Run ``path`` (default: :func:`~ballbot_casadi.firmware.sources.default_guidance_path`,
     the figure-eight at 0.5 m/s from its start) for ``n_periods`` as the compiled guided
-    mission with noisy sensors and QUKF + VUKF (seed ``seed``; ``latency``: the mission's
-    guidance latency, replayed by the split build of that latency) and keep what the
+    mission with noisy sensors and the filters of ``estimator`` (seed ``seed``;
+    ``latency``: the mission's guidance latency, replayed by the split build of that
+    latency) and keep what the
     embedded software saw, the torques and the velocity references the guidance gave."""
     if not isinstance(n_periods, int) or n_periods < 1:
         raise ScenarioError(f"n_periods must be an int >= 1, got {n_periods!r}")
     path = default_guidance_path() if path is None else path
-    sc = path_scenario(path, n_periods * TS_CONTROL).replace(estimator="ukf", seed=seed,
+    sc = path_scenario(path, n_periods * TS_CONTROL).replace(estimator=estimator, seed=seed,
                                                               guidance=guidance)
     law = scenario_law(sc, latency)  # the mission's own law for this scenario
     log = run_guided(path, law, sc.duration, scenario=sc)

@@ -63,6 +63,8 @@ from ballbot_casadi.firmware.toolchain import PRECISIONS
 from ballbot_casadi.guidance.blocks import MPC_SAMPLE_BRANCHES
 from ballbot_casadi.guidance.paths import Path as GuidancePath, figure_eight
 from ballbot_casadi.sim.embedded import (
+    DEFAULT_ESTIMATOR,
+    ESTIMATOR_FILTERS,
     embedded_readings,
     embedded_software,
     initial_controller_state,
@@ -157,7 +159,7 @@ def default_guidance_path() -> GuidancePath:
     return figure_eight(4.0, 2.0, speed=0.5)
 
 
-def firmware_function(controller: str = "flc", estimator: str = "ukf",
+def firmware_function(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR,
                       guidance: str | None = None, latency: int = 0) -> ca.Function:
     """The period ``ballbot_embedded_<controller>_<estimator>`` the compiled mission exports
     (with ``guidance``: the one the guided mission with that estimator runs; ``latency >=
@@ -169,7 +171,8 @@ def firmware_function(controller: str = "flc", estimator: str = "ukf",
         Unknown controller, estimator or guidance (the message lists the allowed ones).
     """
     if estimator in ("true",) or not isinstance(estimator, str):
-        raise ScenarioError(f"the firmware needs an estimator ('ukf' or 'ekf'), got {estimator!r}")
+        raise ScenarioError(f"the firmware needs an estimator (one of "
+                            f"{', '.join(ESTIMATOR_FILTERS)}), got {estimator!r}")
     law = firmware_guidance(guidance, controller, latency)
     return embedded_software(controller, estimator, guidance=None if law is None else law.function)
 
@@ -225,7 +228,7 @@ def scenario_values(f: ca.Function, scenario: Scenario, law: GuidanceLaw | None 
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the firmware needs an estimator "
-                            "(estimator = 'ukf' or 'ekf')")
+                            f"(estimator = one of {', '.join(ESTIMATOR_FILTERS)})")
     inp = scenario.inputs()
     est = inp["estimation"]
     vals: dict[str, Any] = {"p_ctrl": inp["p_ctrl"], "p_est": est["p_est"], "k_bal": inp["k_bal"],
@@ -364,7 +367,7 @@ def _split_lines(f: ca.Function, law: GuidanceLaw | None, estimator: str, c_src:
 
 
 def _config_header(f: ca.Function, real: str, every: int, c_src: str,
-                   law: GuidanceLaw | None = None, estimator: str = "ukf") -> str:
+                   law: GuidanceLaw | None = None, estimator: str = DEFAULT_ESTIMATOR) -> str:
     params = param_inputs(f)
     sz_arg, sz_res, sz_iw, sz_w = codegen_work(f, c_src)
     n_guid = f.numel_in(f.index_in(GUIDANCE_INPUT)) if GUIDANCE_INPUT in f.name_in() else 0
@@ -441,7 +444,7 @@ def _defaults_source(f: ca.Function, values: FirmwareValues) -> str:
 
 def generate_sources(f: ca.Function, precision: str, values: FirmwareValues,
                      guidance_every: int = 0, law: GuidanceLaw | None = None,
-                     estimator: str = "ukf") -> dict[str, str]:
+                     estimator: str = DEFAULT_ESTIMATOR) -> dict[str, str]:
     """Every C file of the library: file name -> text (deterministic); ``guidance_every``:
     periods per sample of the period's guidance block (if it has one); ``law``: the
     guidance law of the block (needed when it is split: its sample is generated too, for

@@ -63,7 +63,12 @@ from ballbot_casadi.sim.balance_feed import (
     shape_gains,
 )
 from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs
-from ballbot_casadi.sim.embedded import embedded_software, software_blocks
+from ballbot_casadi.sim.embedded import (
+    DEFAULT_ESTIMATOR,
+    ESTIMATOR_FILTERS,
+    embedded_software,
+    software_blocks,
+)
 from ballbot_casadi.sim.log import PATH_KEY, SimulationLog
 from ballbot_casadi.sim.path_following import make_loop_state, path_scenario, velocity_loop_model
 from ballbot_casadi.sim.scenario import Scenario
@@ -349,7 +354,7 @@ def _initial_function(name: str, state: Layout) -> ca.Function:
                        ["x0", "z0", "s0"], ["g0"])
 
 
-def guided_software(law: GuidanceLaw, estimator: str = "ukf") -> ca.Function:
+def guided_software(law: GuidanceLaw, estimator: str = DEFAULT_ESTIMATOR) -> ca.Function:
     """The embedded software with ``law`` in its guidance slot,
     ``ballbot_embedded_<...>_<estimator>`` (inputs end with ``k_guid``, outputs with
     ``v_ref_used``, its state ``c`` carries ``guide``), built once per process: the
@@ -359,11 +364,12 @@ def guided_software(law: GuidanceLaw, estimator: str = "ukf") -> ca.Function:
     Raises
     ------
     ScenarioError
-        ``estimator`` is not one the embedded software runs (``ukf``, ``ekf``).
+        ``estimator`` is not one the embedded software runs (a key of
+        :data:`~ballbot_casadi.sim.embedded.ESTIMATOR_FILTERS`).
     """
-    if estimator not in ("ukf", "ekf"):
+    if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"the embedded software with guidance reads sensors: estimator "
-                            f"{estimator!r} not allowed; allowed: ukf, ekf")
+                            f"{estimator!r} not allowed; allowed: {', '.join(ESTIMATOR_FILTERS)}")
     return embedded_software("flc", estimator, guidance=law.function)
 
 
@@ -376,7 +382,7 @@ def _simulator(function: ca.Function, estimator: str, actuation_delay: bool = Fa
         library, compiled_sample = linked_function(sample)
         function, links = relink(compiled_sample), (library,)
     blocks, est = (software_blocks("flc", estimator) if estimator != "true"
-                   else software_blocks("flc", "ukf"))
+                   else software_blocks("flc", DEFAULT_ESTIMATOR))
     if estimator == "true":
         step = make_closed_loop_step(blocks.balance, blocks.velocity, make_ode(), N_SUB,
                                      blocks.observer, function)
@@ -394,16 +400,18 @@ def _simulator(function: ca.Function, estimator: str, actuation_delay: bool = Fa
 def guided_simulator(law: GuidanceLaw, estimator: str = "true",
                      actuation_delay: bool = False) -> ClosedLoop:
     """The compiled closed loop (FLC cascade, the guidance block in the period) reading
-    the true state or, with ``estimator`` ``ukf`` / ``ekf``, the embedded software's
+    the true state or, with an ``estimator`` of
+    :data:`~ballbot_casadi.sim.embedded.ESTIMATOR_FILTERS`, the embedded software's
     estimate (:func:`guided_software`; built and compiled once per process, cached by
     hash on disk; an MPC's sample is compiled on its own and linked,
     :attr:`GuidanceLaw.relink`).  ``actuation_delay`` (an estimator only): the torque of
     period ``k`` acts in period ``k + 1`` (the loop of a Jacobi co-simulation master)."""
-    if estimator not in ("true", "ukf", "ekf"):
-        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, ukf, ekf")
+    if estimator != "true" and estimator not in ESTIMATOR_FILTERS:
+        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: true, "
+                            f"{', '.join(ESTIMATOR_FILTERS)}")
     if actuation_delay and estimator == "true":
         raise ScenarioError("actuation_delay needs an estimator (the loop of the controller "
-                            "FMU): ukf or ekf")
+                            f"FMU): {', '.join(ESTIMATOR_FILTERS)}")
     return _simulator(law.function, estimator, bool(actuation_delay), law.sample, law.relink)
 
 

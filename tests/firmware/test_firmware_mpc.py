@@ -32,7 +32,7 @@ def test_guided_period_is_the_missions_function_with_its_data_as_a_pointer():
     f = firmware_function("flc", "ukf", "mpc")
     law = firmware_guidance("mpc")
     assert "k_guid" in f.name_in() and "v_ref_used" in f.name_out()
-    vals = scenario_values(f, default_scenario(), law, default_guidance_path())
+    vals = scenario_values(f, default_scenario("flc", "ukf"), law, default_guidance_path())
     assert vals.guidance.size == path_table_layout(law.config.n_obstacles).size
     files = generate_sources(f, "double", vals, guidance_every=EVERY)
     config = files["ballbot_fw_config.h"]
@@ -55,7 +55,8 @@ def test_context_work_vector_is_what_the_generated_c_uses(guidance):
     # work offset the generated C writes is inside it
     f = firmware_function("flc", "ukf", guidance)
     law = firmware_guidance(guidance)
-    vals = scenario_values(f, default_scenario(), law, None if law is None else default_guidance_path())
+    vals = scenario_values(f, default_scenario("flc", "ukf"), law,
+                           None if law is None else default_guidance_path())
     files = generate_sources(f, "double", vals, guidance_every=EVERY if law else 0)
     sz_arg, sz_res, sz_iw, sz_w = codegen_work(f, files["ballbot_fw_cg.c"])
     assert f"#define BALLBOT_FW_SZ_W {sz_w}" in files["ballbot_fw_config.h"]
@@ -71,7 +72,7 @@ def test_bad_guidance_refused():
         firmware_guidance("mpc", controller="smc")
     f = firmware_function("flc", "ukf", "mpc")
     with pytest.raises(ScenarioError, match="guidance block"):
-        scenario_values(f, default_scenario())
+        scenario_values(f, default_scenario("flc", "ukf"))
 
 
 @pytest.fixture(scope="module")

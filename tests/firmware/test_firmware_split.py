@@ -39,7 +39,7 @@ def test_split_step_has_no_mpc_and_its_config_points_at_the_guidance_state():
     with pytest.raises(RuntimeError):
         f.find_function("ballbot_mpc")  # the interrupt step never runs the QP
     law.sample.find_function("ballbot_mpc")  # the background sample does
-    vals = scenario_values(f, default_scenario(), law, default_guidance_path())
+    vals = scenario_values(f, default_scenario("flc", "ukf"), law, default_guidance_path())
     files = generate_sources(f, "double", vals, EVERY, law, "ukf")
     cfg = _config(files["ballbot_fw_config.h"])
     assert cfg["BALLBOT_FW_GUIDANCE_SPLIT"] == "1" and cfg["BALLBOT_FW_GUIDANCE_LATENCY"] == str(L)

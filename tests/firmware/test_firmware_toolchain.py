@@ -21,7 +21,7 @@ from ballbot_casadi.firmware.toolchain import INSTALL_HINT, ToolchainMissing
 
 @pytest.fixture(scope="module")
 def embedded():
-    return firmware_function("flc", "ukf")
+    return firmware_function()  # the default firmware (default_scenario's estimator)
 
 
 def test_float_sources_have_no_double_math_or_out_of_range_constants(embedded):
@@ -78,5 +78,5 @@ def test_heading_variant_configures_its_readings_from_the_function():
     assert vals.c0.size == f.numel_in(0)
     base = generate_sources(firmware_function("flc", "ukf"),
                             "double", scenario_values(firmware_function("flc", "ukf"),
-                                                      default_scenario()))["ballbot_fw_config.h"]
+                                                      default_scenario("flc", "ukf")))["ballbot_fw_config.h"]
     assert "#define BALLBOT_FW_N_READINGS 9" in base and "READING_HEADING" not in base

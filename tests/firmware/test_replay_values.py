@@ -10,12 +10,14 @@ from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.firmware import replay as R
 from ballbot_casadi.firmware.sources import FirmwareValues
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 
 
 def test_replay_scenario_is_the_documented_mission():
     sc = R.replay_scenario(80, seed=7)
     assert sc.duration == pytest.approx(80 * TS_CONTROL, rel=1e-12)
-    assert sc.seed == 7 and sc.controller == "flc" and sc.estimator == "ukf"
+    assert sc.seed == 7 and sc.controller == "flc" and sc.estimator == DEFAULT_ESTIMATOR
+    assert R.replay_scenario(80, estimator="ukf").estimator == "ukf"  # the thesis's filters
     assert sc.attitude["roll"] == {"type": "sine", "amplitude_deg": 3.0, "frequency_hz": 0.5}
     assert tuple(sc.sensor_dropouts) == ((0.3, 0.35, "gyro"),)
     for bad in (0, -3, 2.0, "10"):

@@ -17,17 +17,18 @@ from ballbot_casadi.fmi.controller.controller import (
 )
 from ballbot_casadi.fmi.masters.adapter import FmuSlave
 from ballbot_casadi.fmi.package import FmuBuild, build_fmu_from_spec
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 from ballbot_casadi.sim.library import closed_loop_library
 
 
 @functools.lru_cache(maxsize=None)
-def controller_build(controller: str = "flc", estimator: str = "ukf") -> FmuBuild:
+def controller_build(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR) -> FmuBuild:
     """The controller FMU, built once per session (cached on disk by content hash)."""
     return build_fmu_from_spec(controller_spec(controller, estimator))
 
 
 @functools.lru_cache(maxsize=None)
-def compiled_embedded(controller: str = "flc", estimator: str = "ukf"):
+def compiled_embedded(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR):
     """``ballbot_embedded_<controller>_<estimator>`` from the compiled mission library."""
     lib, _, _ = closed_loop_library(N_SUB, None, estimator)
     name = f"ballbot_embedded_{controller}_{estimator}"
@@ -35,7 +36,7 @@ def compiled_embedded(controller: str = "flc", estimator: str = "ukf"):
 
 
 @functools.lru_cache(maxsize=None)
-def default_values(controller: str = "flc", estimator: str = "ukf") -> dict:
+def default_values(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR) -> dict:
     return controller_values(default_scenario(controller, estimator))
 
 
@@ -44,7 +45,7 @@ class Controller:
     (:class:`~ballbot_casadi.fmi.masters.adapter.FmuSlave`) with a logger recording every
     message; ``fmu`` is the fmpy instance for raw calls."""
 
-    def __init__(self, controller: str = "flc", estimator: str = "ukf", name: str = "ctrl"):
+    def __init__(self, controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR, name: str = "ctrl"):
         b = controller_build(controller, estimator)
         self.logs: list[tuple[int, str]] = []
         self.slave = FmuSlave(b.unzipped, name,

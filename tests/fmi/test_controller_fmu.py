@@ -26,13 +26,19 @@ from ballbot_casadi.fmi.controller.controller import (
     controller_state_layout,
     controller_values,
     embedded_function,
+    model_identifier,
     reading_names,
 )
 from ballbot_casadi.fmi.package import build_tool, fmu_source_dir
 from ballbot_casadi.fmi.plant.plant import SENSOR_OUTPUT_NAMES
 from ballbot_casadi.fmi.spec import value_range
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
-from ballbot_casadi.sim.embedded import initial_controller_state, software_layout
+from ballbot_casadi.sim.embedded import (
+    DEFAULT_ESTIMATOR,
+    MATCHED_VELOCITY,
+    initial_controller_state,
+    software_layout,
+)
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.scenario.scenario import initial_state
 
@@ -63,7 +69,7 @@ def _function_args(values: dict, cascade: float = 1.0) -> dict:
 class _Reference:
     """The compiled embedded step run period by period (the mission's controller)."""
 
-    def __init__(self, controller: str = "flc", estimator: str = "ukf"):
+    def __init__(self, controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR):
         self.f = compiled_embedded(controller, estimator)
         self.values = default_values(controller, estimator)
         x0 = np.array([self.values[n] for n in X0_NAMES])
@@ -107,8 +113,10 @@ def test_both_variants_validate_and_share_the_plant_reading_names():
             for prefix in ("ctrl_", "est_"):
                 var = v[prefix + p]
                 assert var.causality == "parameter" and var.unit == (PARAM_INFO[p][0] or None)
-    assert read_model_description(str(controller_build().fmu)).coSimulation.modelIdentifier \
-        == "BallbotController"
+    # the FLC with the default estimator is BallbotController, the others carry their names
+    assert model_identifier("flc", DEFAULT_ESTIMATOR) == "BallbotController"
+    assert read_model_description(str(controller_build("flc", "ukf").fmu)) \
+        .coSimulation.modelIdentifier == model_identifier("flc", "ukf")
     assert read_model_description(str(controller_build("smc", "ekf").fmu)) \
         .coSimulation.modelIdentifier == "BallbotController_smc_ekf"
 
@@ -118,7 +126,8 @@ def test_the_per_model_file_is_small():
     assert len(lines) < 220  # the second FMU costs a small per-model file, not a copy
 
 
-@pytest.mark.parametrize("ctrl,est", [("flc", "ukf"), ("smc", "ekf"), ("sta", "ukf"), ("flc_dob", "ukf")])
+@pytest.mark.parametrize("ctrl,est", [("flc", "ukf"), ("smc", "ekf"), ("sta", "ukf"), ("flc_dob", "ukf"),
+                                      ("flc", "ukf_adaptive"), ("flc", "ukf_consistent")])
 def test_fmu_equals_the_compiled_embedded_step(ctrl, est):
     rng = np.random.default_rng(11)
     fmu, ref = Controller(ctrl, est), _Reference(ctrl, est)
@@ -146,8 +155,37 @@ def test_fmu_equals_the_compiled_embedded_step(ctrl, est):
     assert worst <= 1e-12
     expected = np.zeros((60, len(REJECTION_NAMES)))
     expected[40, REJECTION_NAMES.index("rejected_attitude_gyro")] = 1.0
+    if est in MATCHED_VELOCITY:  # its encoder prediction reads the gyro (the body-rate term)
+        expected[40, REJECTION_NAMES.index("rejected_velocity_enc")] = 1.0
     np.testing.assert_array_equal(np.array(rejected), expected)
     assert np.all(np.isfinite(fmu.get("tau0", "tau1", "tau2")))
+    assert fmu.errors() == []
+    fmu.free()
+
+
+def test_adaptive_variant_carries_the_walk_estimate_in_its_state():
+    """``ukf_adaptive``: the filter's adapted acceleration walk ``[q_x, q_y, n]`` is part of
+    the embedded software's state, so the FMU has it as ``c_walk_0..2`` (locals: saved with
+    the FMU state); it starts at 0 (the configured Qv is the prior) and is the mission's."""
+    layout = controller_state_layout(embedded_function("flc", "ukf_adaptive"), "ukf_adaptive")
+    assert layout.size_of("walk") == 3
+    assert "walk" not in controller_state_layout(embedded_function("flc", "ukf_consistent"),
+                                                 "ukf_consistent").fields
+    rng = np.random.default_rng(5)
+    fmu, ref = Controller("flc", "ukf_adaptive"), _Reference("flc", "ukf_adaptive")
+    walk = ["c_walk_0", "c_walk_1", "c_walk_2"]
+    assert all(fmu.vars[n].causality == "local" for n in walk)
+    fmu.init()
+    np.testing.assert_array_equal(fmu.get(*walk), 0.0)
+    for _ in range(40):
+        meas = _readings(rng)
+        meas[6:9] = 5.0 * rng.standard_normal(3)  # encoder rates the gate accepts
+        fmu.set_many(READING_NAMES, meas)
+        fmu.step()
+        out = ref.period(meas)
+    got = fmu.get(*walk)
+    np.testing.assert_allclose(got, out["c_next"][layout["walk"]], rtol=0, atol=1e-12)
+    assert got[2] >= 30 and np.all(got[:2] > 0.0)  # samples counted, the walk estimated
     assert fmu.errors() == []
     fmu.free()
 

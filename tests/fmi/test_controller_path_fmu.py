@@ -37,6 +37,7 @@ from ballbot_casadi.fmi.package import build_fmu_from_spec
 from ballbot_casadi.fmi.system.sil import write_sil_ssp
 from ballbot_casadi.fmi.system.sil_log import sil_log
 from ballbot_casadi.sim.closed_loop import power_on_inputs
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 from ballbot_casadi.sim.guided import guided_software, run_path_scenario
 from ballbot_casadi.sim.path_following import velocity_loop_model
 from ballbot_casadi.sim.scenario.file import parse_scenario
@@ -113,7 +114,8 @@ def test_the_fmu_runs_the_missions_guided_software_and_exposes_the_path(tmp_path
     law = path_law(sc)
     assert path_embedded_function(law, "ukf") is guided_software(law, "ukf")
     spec = controller_spec(path=sc)
-    assert spec.model_identifier == PATH_MODEL_IDENTIFIER
+    assert spec.model_identifier == PATH_MODEL_IDENTIFIER + (
+        "" if sc.estimator == DEFAULT_ESTIMATOR else f"_{sc.estimator}")
     assert guided_software(law, "ukf") in spec.functions
     by_name = {v.name: v for v in spec.variables}
     values = controller_values(sc, guided_software(law, "ukf"), law)
@@ -253,6 +255,30 @@ def test_gauss_seidel_sil_equals_the_compiled_guided_mission(work):
     assert np.max(np.hypot(*log["state"][:, :2].T)) > 1.0
 
 
+#: The same run with the matched VUKF adapting its acceleration walk (``ukf_adaptive``): a
+#: path FMU of its own (the filter's walk estimate is part of the state ``c``).
+ADAPTIVE = {**SCENARIO, "name": "sil_path_fig8_adaptive", "estimator": "ukf_adaptive"}
+
+
+def test_gauss_seidel_sil_with_the_adaptive_filter_equals_the_compiled_guided_mission(work):
+    sc = parse_scenario(ADAPTIVE).scenario
+    spec = controller_spec(path=sc)
+    assert spec.model_identifier == PATH_MODEL_IDENTIFIER + (
+        "" if sc.estimator == DEFAULT_ESTIMATOR else f"_{sc.estimator}")
+    names = {v.name for v in spec.variables}
+    assert {"c_walk_0", "c_walk_1", "c_walk_2"} <= names
+    run = run_ssp(write_sil_ssp(sc, work / "path_adaptive.ssp"), master="gauss-seidel")
+    log = sil_log(run).arrays
+    ref = run_path_scenario(sc).arrays
+    for key in ("state", "tau", "tau_cmd", "x_hat", "v_ref_used"):
+        np.testing.assert_allclose(log[key], ref[key], rtol=0, atol=BOUND, err_msg=key)
+    # the adaptive filter ran, not the thesis's: same readings at the start, other estimate
+    thesis = _mission(False)
+    np.testing.assert_array_equal(log["meas"][0], thesis["meas"][0])
+    assert np.max(np.abs(log["x_hat"] - thesis["x_hat"])) > 1e-4
+    assert np.max(np.hypot(*log["state"][:, :2].T)) > 1.0
+
+
 @pytest.mark.slow
 def test_cli_runs_the_path_scenario_in_libcosim(work):
     f = work / "sil_path.toml"
@@ -303,7 +329,7 @@ def test_the_fmi3_path_fmu_validates_and_equals_the_fmi2_one():
     assert validate_fmu(str(b3.fmu)) == []
     md2, md3 = read_model_description(str(b2.fmu)), read_model_description(str(b3.fmu))
     assert (md2.fmiVersion, md3.fmiVersion) == ("2.0", "3.0")
-    assert md3.coSimulation.modelIdentifier == PATH_MODEL_IDENTIFIER
+    assert md3.coSimulation.modelIdentifier == _spec().model_identifier
     v2 = {v.name: v for v in md2.modelVariables}
     v3 = {v.name: v for v in md3.modelVariables}
     assert set(v3) == set(v2) | {"time"}

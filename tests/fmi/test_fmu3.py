@@ -30,6 +30,7 @@ from ballbot_casadi.fmi.plant.plant import plant_spec
 from ballbot_casadi.fmi.system.sil_log import sil_log
 from ballbot_casadi.fmi.masters.fmi3_jacobi import FMI3_MASTER, run_fmi3_jacobi
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import resolve_scenario
 
@@ -46,7 +47,7 @@ def plant3() -> FmuBuild:
 
 
 @functools.lru_cache(maxsize=None)
-def controller3(controller: str = "flc", estimator: str = "ukf") -> FmuBuild:
+def controller3(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR) -> FmuBuild:
     return build_fmu_from_spec(controller_spec(controller, estimator), fmi_version=3)
 
 
@@ -170,9 +171,10 @@ class _Controller3:
         return np.array(self.fmu.getFloat64(self.vr(*names)))
 
 
-def test_the_fmi3_controller_equals_the_compiled_embedded_step():
+@pytest.mark.parametrize("est", ["ukf", "ukf_adaptive"])
+def test_the_fmi3_controller_equals_the_compiled_embedded_step(est):
     rng = np.random.default_rng(11)
-    fmu, ref = _Controller3(controller3()), _Reference()
+    fmu, ref = _Controller3(controller3("flc", est)), _Reference("flc", est)
     fmu.fmu.enterInitializationMode(startTime=0.0)
     fmu.fmu.exitInitializationMode()
     fmu.fmu.setFloat64(fmu.vr("v_ref_x", "v_ref_y", "yaw_rate_ref"), list(VREF))

@@ -20,7 +20,7 @@ from ballbot_casadi.fmi.controller.controller import (
     default_scenario,
 )
 from ballbot_casadi.model.numeric import make_state
-from ballbot_casadi.sim.embedded import initial_controller_state, software_layout
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, initial_controller_state, software_layout
 
 pytestmark = pytest.mark.needs_cc
 
@@ -55,11 +55,11 @@ def test_the_built_controller_reports_its_start_values_and_runs_from_them_like_t
     f = compiled_embedded()
     vals = default_values()
     names = [n for n in fmu.vars if n.startswith("c_")]
-    c = initial_controller_state("ukf", np.array([vals[n] for n in X0_NAMES]),
+    c = initial_controller_state(DEFAULT_ESTIMATOR, np.array([vals[n] for n in X0_NAMES]),
                                  np.array([v for k, v in vals.items() if k.startswith("ctrl_")]),
                                  observer=True,
                                  n_bal=(lambda L: L.size_of("bal") if "bal" in L.fields else 0)(
-                                     software_layout(f, "ukf")))
+                                     software_layout(f, DEFAULT_ESTIMATOR)))
     np.testing.assert_array_equal(fmu.get(*names), c)
     meas = np.array([0.4, -0.3, 9.8, 0.01, -0.02, 0.005, np.nan, np.nan, np.nan])
     fmu.set_many(READING_NAMES, meas)

@@ -38,7 +38,7 @@ def _controller_start() -> dict:
 def _adapter_loop() -> tuple[np.ndarray, np.ndarray]:
     """Controller first, then the plant on its torque, both on the adapter."""
     plant = FmuSlave(plant_build().unzipped, "plant")
-    ctrl = FmuSlave(controller_build().unzipped, "controller")
+    ctrl = FmuSlave(controller_build("flc", SCENARIO.estimator).unzipped, "controller")
     states, taus = np.zeros((N + 1, STATE.size)), np.zeros((N, 3))
     try:
         plant.setup(0.0, plant_parameters(SCENARIO, list(plant.variables)))
@@ -81,7 +81,7 @@ def _raw_set(s: FMU2Slave, variables: dict, values: dict) -> None:
 def _raw_loop() -> tuple[np.ndarray, np.ndarray]:
     """The same loop on fmpy's FMU2Slave calls by value reference (the independent path)."""
     plant, pv = _raw(plant_build().unzipped, "plant")
-    ctrl, cv = _raw(controller_build().unzipped, "controller")
+    ctrl, cv = _raw(controller_build("flc", SCENARIO.estimator).unzipped, "controller")
     vr = lambda table, names: [table[n].valueReference for n in names]  # noqa: E731
     states, taus = np.zeros((N + 1, STATE.size)), np.zeros((N, 3))
     try:
@@ -129,7 +129,7 @@ def test_values_are_converted_by_type():
 
 
 def test_an_unknown_variable_is_named():
-    with FmuSlave(controller_build().unzipped, "controller") as ctrl:
+    with FmuSlave(controller_build("flc", SCENARIO.estimator).unzipped, "controller") as ctrl:
         with pytest.raises(CosimError, match="no variable 'tau9'"):
             ctrl.set("tau9", 1.0)
         with pytest.raises(CosimError, match="no variable 'nope'"):

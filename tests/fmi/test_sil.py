@@ -21,6 +21,7 @@ from ballbot_casadi.cli import main
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.fmi.build import build_fmu
+from ballbot_casadi.fmi.controller.controller import model_identifier
 from ballbot_casadi.fmi.system.container import build_container
 from ballbot_casadi.fmi.masters.ssp_run import run_ssp
 from ballbot_casadi.fmi.system.sil import read_scenario, write_sil_ssp
@@ -76,8 +77,10 @@ def test_the_ssp_is_valid_ssp_1_0_and_carries_the_system(work):
     ssv_schema = etree.XMLSchema(etree.parse(str(schema_dir / "SystemStructureParameterValues.xsd")))
     for doc in ssv.values():
         ssv_schema.assertValid(doc)
-    assert {"resources/BallbotPlant.fmu", "resources/BallbotController.fmu",
-            "resources/BallbotReference.fmu", "resources/scenario.json"} <= names
+    sc, _ = _scenario("full_sine", SINE_S)
+    ctrl = f"resources/{model_identifier(sc.controller, sc.estimator)}.fmu"
+    assert {"resources/BallbotPlant.fmu", ctrl, "resources/BallbotReference.fmu",
+            "resources/scenario.json"} <= names
     system = read_ssp(ssp)
     assert list(system.components) == ["plant", "controller", "reference"]
     assert system.step == 0.005 and system.stop_time == pytest.approx(SINE_S)

@@ -97,8 +97,15 @@ def test_zip_slip_is_refused_before_anything_is_extracted(good_ssp, tmp_path, me
 # ------------------------------------------------------------------ truncated binary
 
 
+def _controller_member(ssp: Path) -> str:
+    """The controller FMU's member of the SIL archive (its name follows its estimator)."""
+    with zipfile.ZipFile(ssp) as zf:
+        return next(n for n in zf.namelist()
+                    if n.startswith("resources/BallbotController") and n.endswith(".fmu"))
+
+
 def _truncate_controller(good_ssp: Path, tmp_path: Path) -> Path:
-    fmu_name = "resources/BallbotController.fmu"
+    fmu_name = _controller_member(good_ssp)
     with zipfile.ZipFile(good_ssp) as zf:
         inner = zf.read(fmu_name)
     inner_path = tmp_path / "inner.fmu"
@@ -112,7 +119,7 @@ def _truncate_controller(good_ssp: Path, tmp_path: Path) -> Path:
 def test_shared_object_check_sees_truncation(good_ssp, tmp_path):
     with zipfile.ZipFile(good_ssp) as zf:
         fmu = tmp_path / "c.fmu"
-        fmu.write_bytes(zf.read("resources/BallbotController.fmu"))
+        fmu.write_bytes(zf.read(_controller_member(good_ssp)))
     with zipfile.ZipFile(fmu) as zf:
         so = zf.read(next(n for n in zf.namelist() if n.endswith(".so")))
     assert shared_object_problem(so) is None

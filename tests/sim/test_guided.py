@@ -4,6 +4,8 @@ period; the path table reproduces the spline; noise + UKFs in the loop."""
 
 from __future__ import annotations
 
+import functools
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -92,11 +94,18 @@ def test_the_path_table_reproduces_the_path(make):
     assert smax.item() == (1e9 if p.closed else p.length)
 
 
-def test_pure_pursuit_with_noise_and_the_ukfs_follows_the_figure_eight():
-    """Noise + QUKF/VUKF: the guidance reads the estimate; the true position stays near the
-    path (the estimate's position integrates the velocity estimate: no position sensor)."""
+@functools.lru_cache(maxsize=None)
+def _pursuit_with(estimator: str) -> dict:
+    return run_guided(figure_eight(), pursuit_law(), 4.0, estimator=estimator, seed=3)
+
+
+@pytest.mark.parametrize("estimator", ["ukf", "ukf_adaptive"])
+def test_pure_pursuit_with_noise_and_the_ukfs_follows_the_figure_eight(estimator):
+    """Noise + QUKF/VUKF (the thesis's, and the matched VUKF adapting its walk): the
+    guidance reads the estimate; the true position stays near the path (the estimate's
+    position integrates the velocity estimate: no position sensor)."""
     p = figure_eight()
-    log = run_guided(p, pursuit_law(), 4.0, estimator="ukf", seed=3)
+    log = _pursuit_with(estimator)
     assert "x_hat" in log and log["v_ref_used"].shape == (800, 3)
     s, lat = 0.0, []
     for q in log["state"][::20, :2]:
@@ -104,6 +113,10 @@ def test_pure_pursuit_with_noise_and_the_ukfs_follows_the_figure_eight():
         lat.append(np.linalg.norm(p.point(s) - q))
     assert max(lat) < 0.10
     assert np.linalg.norm(log["state"][-1, :2] - log["state"][0, :2]) > 1.0
+    if estimator != "ukf":  # the other filter really ran: same readings, other estimate
+        ref = _pursuit_with("ukf")
+        np.testing.assert_array_equal(log["meas"][0], ref["meas"][0])
+        assert np.max(np.abs(log["x_hat"] - ref["x_hat"])) > 1e-4
 
 
 def test_the_initial_function_starts_the_guidance_as_the_python_samples(guided_path, guided_inputs,

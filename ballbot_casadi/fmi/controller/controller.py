@@ -25,7 +25,8 @@ matrices depend on (``Ts``, ``ctrl_*`` and ``k_vel_*`` entries of
 build's values: another value is refused.  The same table builds the FMI 2.0 and the FMI 3.0 variant.
 
 Variants: :func:`controller_spec` builds any balance controller with any estimator;
-``("flc", "ukf")`` (the thesis's system: QUKF + VUKF, FLC) is ``BallbotController``, the
+the FLC with the package's default estimator
+(:data:`~ballbot_casadi.sim.embedded.DEFAULT_ESTIMATOR`) is ``BallbotController``, the
 others are separate FMUs ``BallbotController_<ctrl>_<est>`` (e.g. the predecessor's SMC
 with the EKFs, ``BallbotController_smc_ekf``) built from the same table and C file: the
 filters' state and covariance sizes differ, so a run-time switch would need both
@@ -119,7 +120,11 @@ from ballbot_casadi.fmi.package import fmu_source_dir
 from ballbot_casadi.fmi.spec import INT32_MAX, FmuBlock, FmuSpec, FmuVar, VarTable
 from ballbot_casadi.guidance.path_table import path_table_layout
 from ballbot_casadi.sim.embedded import (
+    ADAPTIVE_VELOCITY,
+    DEFAULT_ESTIMATOR,
+    ESTIMATOR_FILTERS,
     GATE_GROUPS,
+    MATCHED_VELOCITY,
     MEAS_HEADING,
     embedded_software,
     initial_controller_state_function,
@@ -217,14 +222,25 @@ def reading_names(estimator: str) -> tuple[str, ...]:
 
 
 def model_identifier(controller: str, estimator: str) -> str:
-    """``BallbotController`` for the thesis's ``("flc", "ukf")``, else
+    """``BallbotController`` for the FLC with
+    :data:`~ballbot_casadi.sim.embedded.DEFAULT_ESTIMATOR`, else
     ``BallbotController_<controller>_<estimator>``."""
-    if (controller, estimator) == ("flc", "ukf"):
+    if (controller, estimator) == ("flc", DEFAULT_ESTIMATOR):
         return MODEL_IDENTIFIER
     return f"{MODEL_IDENTIFIER}_{controller}_{estimator}"
 
 
-def embedded_function(controller: str = "flc", estimator: str = "ukf") -> ca.Function:
+def filters_title(estimator: str) -> str:
+    """The filters of ``estimator`` as the FMU's description names them, e.g. ``QUKF +
+    VUKF`` (the thesis's), ``QUKF + VUKF (matched, adaptive walk)`` (``ukf_adaptive``)."""
+    att, vel = ESTIMATOR_FILTERS[estimator]
+    how = ", ".join(w for w, on in (("matched", estimator in MATCHED_VELOCITY),
+                                   ("adaptive walk", estimator in ADAPTIVE_VELOCITY)) if on)
+    return f"{att.upper()} + {vel.upper()}" + (f" ({how})" if how else "")
+
+
+def embedded_function(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR
+                      ) -> ca.Function:
     """The embedded software's period ``ballbot_embedded_<controller>_<estimator>``
     (:func:`~ballbot_casadi.sim.embedded.embedded_software`, the Function the compiled
     mission calls), checked against what the per-model C reads.  Builds no mission.
@@ -237,8 +253,9 @@ def embedded_function(controller: str = "flc", estimator: str = "ukf") -> ca.Fun
         The Function's inputs or outputs are not the ones the per-model C reads.
     """
     if estimator == "true":
-        raise ScenarioError("the controller FMU needs an estimator ('ukf' or 'ekf'); the true "
-                            "state is not available to the embedded software")
+        raise ScenarioError(f"the controller FMU needs an estimator (one of "
+                            f"{', '.join(ESTIMATOR_FILTERS)}); the true state is not available "
+                            "to the embedded software")
     f = embedded_software(controller, estimator)
     name = f.name()
     ins, outs = tuple(f.name_in()), tuple(f.name_out())
@@ -250,7 +267,8 @@ def embedded_function(controller: str = "flc", estimator: str = "ukf") -> ca.Fun
     return f
 
 
-def path_embedded_function(law: GuidanceLaw, estimator: str = "ukf") -> ca.Function:
+def path_embedded_function(law: GuidanceLaw, estimator: str = DEFAULT_ESTIMATOR
+                           ) -> ca.Function:
     """The embedded software with the guidance ``law`` in its slot
     (:func:`~ballbot_casadi.sim.guided.guided_software`: the Function the compiled guided
     mission calls), checked against what the per-model C reads.
@@ -287,7 +305,7 @@ def controller_state_layout(embedded: ca.Function, estimator: str,
                            law.function.numel_in(2) if law is not None else 0)
 
 
-def default_scenario(controller: str = "flc", estimator: str = "ukf") -> Scenario:
+def default_scenario(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR) -> Scenario:
     """The scenario whose values are the FMU's start values: the robot upright at rest,
     the velocity cascade on, the package's default gains and the thesis's filter tuning."""
     return Scenario(name="controller_fmu_default", controller=controller, estimator=estimator,
@@ -386,7 +404,7 @@ def controller_values(scenario: Scenario, embedded: ca.Function | None = None,
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU needs an estimator "
-                            "(estimator = 'ukf' or 'ekf')")
+                            f"(estimator = one of {', '.join(ESTIMATOR_FILTERS)})")
     embedded = embedded_function(scenario.controller, scenario.estimator) if embedded is None \
         else embedded
     inp = scenario.inputs()
@@ -545,12 +563,13 @@ def _rpy_function() -> ca.Function:
     return ca.Function("bbc_rpy", [q], [Q.to_rpy(q)], ["q"], ["rpy"])
 
 
-def controller_spec(controller: str = "flc", estimator: str = "ukf",
+def controller_spec(controller: str = "flc", estimator: str = DEFAULT_ESTIMATOR,
                     path: Scenario | None = None) -> FmuSpec:
     """The controller FMU of ``controller`` with ``estimator`` (Co-Simulation only).
 
     With ``path`` (a scenario with a ``[path]``; its controller and estimator replace the
-    arguments) the path-following variant ``BallbotControllerPath[_ekf]``: the embedded
+    arguments) the path-following variant ``BallbotControllerPath[_<est>]`` (no suffix with
+    :data:`~ballbot_casadi.sim.embedded.DEFAULT_ESTIMATOR`): the embedded
     software with the scenario's MPC guidance (:func:`path_embedded_function`), the path
     table and ``path_s0`` as parameters (start values from the scenario,
     :mod:`~ballbot_casadi.fmi.controller.path`), the outputs :data:`V_REF_USED_NAMES`,
@@ -629,11 +648,11 @@ def controller_spec(controller: str = "flc", estimator: str = "ukf",
         "HAS_GUIDANCE": int(law is not None),
         **(path_c_defines(law) if law is not None else {}),
     }
-    title = f"{controller.upper()} with the {'QUKF + VUKF' if estimator == 'ukf' else 'QEKF + VEKF'}"
+    title = f"{controller.upper()} with the {filters_title(estimator)}"
     ident = model_identifier(controller, estimator)
     what = "velocity LQR cascade"
     if law is not None:
-        ident = PATH_MODEL_IDENTIFIER + ("" if estimator == "ukf" else f"_{estimator}")
+        ident = PATH_MODEL_IDENTIFIER + ("" if estimator == DEFAULT_ESTIMATOR else f"_{estimator}")
         what = "path-following MPC guidance at 10 Hz above the velocity LQR cascade"
     return FmuSpec(
         model_identifier=ident,

@@ -54,6 +54,7 @@ from ballbot_casadi.guidance.path_table import PATH_SAMPLES, path_table_layout
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.guidance.prediction import NXL
 from ballbot_casadi.sim.closed_loop import power_on_inputs
+from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS
 from ballbot_casadi.sim.guided import GuidanceLaw, make_loop_state, scenario_law
 from ballbot_casadi.sim.path_following import velocity_loop_model
 from ballbot_casadi.sim.scenario import Scenario
@@ -105,9 +106,10 @@ def path_law(scenario: Scenario) -> GuidanceLaw:
         raise ScenarioError(f"scenario {scenario.name!r}: path following runs the FLC cascade "
                             f"(controller 'flc', cascade = true), got {scenario.controller!r}",
                             key="controller")
-    if scenario.estimator not in ("ukf", "ekf"):
+    if scenario.estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU needs an estimator "
-                            f"(ukf or ekf), got {scenario.estimator!r}", key="estimator")
+                            f"({', '.join(ESTIMATOR_FILTERS)}), got {scenario.estimator!r}",
+                            key="estimator")
     return scenario_law(scenario)
 
 

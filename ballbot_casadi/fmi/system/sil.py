@@ -6,10 +6,11 @@ The system (:func:`sil_system`, written by :func:`write_sil_ssp`, ``make sil``):
   scenario's plant parameters, sensor parameters, noise switch, heading-sensor switch
   and seed (a 32-bit signed Integer in the FMU), internal step ``Ts / n_sub`` and sensor
   period ``Ts``;
-* ``controller`` - ``BallbotController.fmu`` (:mod:`~ballbot_casadi.fmi.controller.controller`)
-  with the scenario's controller and filter models, gains, tuning and state at power-on;
+* ``controller`` - ``BallbotController[_<ctrl>_<est>].fmu`` (the scenario's controller and
+  estimator, :func:`~ballbot_casadi.fmi.controller.controller.model_identifier`;
+  :mod:`~ballbot_casadi.fmi.controller.controller`) with the scenario's controller and filter models, gains, tuning and state at power-on;
   a scenario with a ``[path]`` (and ``[[obstacle]]`` rows) gets the path-following
-  variant ``BallbotControllerPath.fmu`` (built per scenario under ``<fmu>/path/<name>/``:
+  variant ``BallbotControllerPath[_<est>].fmu`` (built per scenario under ``<fmu>/path/<name>/``:
   its MPC predicts with the scenario's controller model) with the path table, the
   obstacles and ``path_s0`` in the parameter set (:mod:`~ballbot_casadi.fmi.controller.path`);
 * ``reference`` - ``BallbotReference.fmu`` (:mod:`~ballbot_casadi.fmi.reference_player.player`),
@@ -67,6 +68,7 @@ from ballbot_casadi.fmi.plant.plant import WHEEL_ANGLE_NAMES, X0_PREFIX
 from ballbot_casadi.fmi.reference_player.player import DISTURBANCE_NAMES, reference_player_spec
 from ballbot_casadi.fmi.spec import INT32_MAX
 from ballbot_casadi.fmi.system.ssp import SspComponent, SspConnection, SspSystem, write_ssp
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, ESTIMATOR_FILTERS
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
@@ -175,7 +177,7 @@ def plant_parameters(scenario: Scenario, variables: Sequence[str] | None = None
     return values
 
 
-def sil_connections(plant_variables: Sequence[str], estimator: str = "ukf"
+def sil_connections(plant_variables: Sequence[str], estimator: str = DEFAULT_ESTIMATOR
                     ) -> list[SspConnection]:
     """The SIL connections: the readings ``estimator`` reads
     (:func:`~ballbot_casadi.fmi.controller.controller.reading_names`), the torques, the
@@ -206,7 +208,7 @@ def sil_system(scenario: Scenario, plant_fmu: str | Path | None = None,
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the SIL runs the embedded software, "
-                            "which reads sensors; set estimator = 'ukf' or 'ekf'")
+                            f"which reads sensors; set estimator = one of {', '.join(ESTIMATOR_FILTERS)}")
     if scenario.sensor_dropouts:  # refused, never silently dropped
         raise ScenarioError(f"scenario {scenario.name!r} has [[sensor_dropout]] rows, which the "
                             "SSP cannot express (the FMUs have no dropout input); remove them "
