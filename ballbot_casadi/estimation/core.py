@@ -245,16 +245,16 @@ def _require_affine(model: FilterModel) -> None:
     """Raise unless the closed form of :func:`ukf_step` is exact for ``model``: ``R^n``
     (additive retraction) and both models affine in the state."""
     man = model.manifold
-    x, d = ca.MX.sym("x", man.nx), ca.MX.sym("d", man.nd)
-    chart = ca.Function("chart", [x, d], [man.oplus(x, d), man.ominus(x, d)], ["x", "d"],
-                        ["oplus", "ominus"])
+    x, d, y = ca.MX.sym("x", man.nx), ca.MX.sym("d", man.nd), ca.MX.sym("y", man.nx)
+    chart = ca.Function("chart", [x, d, y], [man.oplus(x, d), man.ominus(x, y)],
+                        ["x", "d", "y"], ["oplus", "ominus"])
     # SX graphs: the dependency analysis through an MX call is conservative
     f, h, chart = (g.expand() for g in (model.process, model.measurement, chart))
     nonlinear = [what for what, f, i, o in (
         ("process", f, f.name_in(0), f.name_out(0)),
         ("measurement", h, h.name_in(0), h.name_out(0)),
         ("retraction", chart, "x", "oplus"), ("retraction", chart, "d", "oplus"),
-        ("inverse retraction", chart, "x", "ominus"), ("inverse retraction", chart, "d", "ominus"))
+        ("inverse retraction", chart, "x", "ominus"), ("inverse retraction", chart, "y", "ominus"))
         if any(f.which_depends(i, [o], 2, False))]
     if nonlinear or man.nx != man.nd or man.normalise is not None:
         raise ShapeError(f"the closed-form unscented step needs models affine in the state on "
