@@ -73,14 +73,14 @@ def test_compiled_equals_symbolic(built, name):
 
 
 def test_generated_c_is_flat_where_it_is_timed_and_never_allocates(built):
-    """The QUKF and the velocity filters are generated as one flat SX graph (their
-    sub-Functions inlined, common subexpressions shared: estimation.core.flat_function,
-    issue 22's cost); the heading-aided QUKF keeps its conditional and its called models."""
+    """The filters are generated as flat SX graphs (their sub-Functions inlined, common
+    subexpressions shared: estimation.core.flat_function, issue 22's cost); the
+    heading-aided QUKF keeps its conditional, whose two branches are flat."""
     funcs, _, lib = built
     src = lib.source.read_text()
     assert not re.search(r"\b(malloc|calloc|realloc|free)\s*\(", src)
     names = set(re.findall(r"/\* (\w+):\(", src))
-    for n in ("qukf", "qekf", "vukf", "vekf"):
+    for n in ("qukf", "qekf", "vukf", "vekf", "qekf_heading"):
         f = funcs[n]
         assert f.is_a("SXFunction"), n
         assert not any(f.instruction_id(k) == ca.OP_CALL for k in range(f.n_instructions())), n
@@ -88,7 +88,9 @@ def test_generated_c_is_flat_where_it_is_timed_and_never_allocates(built):
     for sub in ("att_process", "att_measurement", "vel_process", "vel_measurement",
                 "ballbot_wheel_speeds", "kf_update6x6", "spd_repair6", "chol6"):
         assert sub not in names, sub
-    assert "att_heading_process" in names and funcs["qukf_heading"].is_a("MXFunction")
+    assert funcs["qukf_heading"].is_a("MXFunction")
+    assert {"qukf_heading_with_reading", "qukf_heading_without_reading"} <= names
+    assert "att_heading_process" not in names
 
 
 @pytest.mark.slow
