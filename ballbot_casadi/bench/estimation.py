@@ -15,7 +15,10 @@ Keys
     ``estimator_step_matched_us`` and ``embedded_step_matched_us``; with the matched
     filter adapting its acceleration random walk (estimator ``ukf_adaptive``):
     ``vukf_adaptive_step_us``, ``estimator_step_adaptive_us`` and
-    ``embedded_step_adaptive_us``.
+    ``embedded_step_adaptive_us``; the adaptive filter's cost relative to the others
+    timed in the same run, ``estimator_step_adaptive_over_plain`` and
+    ``estimator_step_adaptive_over_matched`` (ratios of the ``estimator_step`` keys: the
+    load of a shared host scales all three alike).
 ``estimator_heading_step_us``
     The same with the heading-aided QUKF (``ballbot_qukf_heading``: the z gyro bias a
     state, the heading reading in the update; estimator ``ukf_heading``) in place of the
@@ -144,6 +147,10 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
     data["estimator_step_adaptive_us"] = sum(pa[k] for k in ("qukf", "vukf", "tilt_correction",
                                                             "com_observer"))
     data["embedded_step_adaptive_us"] = pa["embedded"]
+    data["estimator_step_adaptive_over_plain"] = (data["estimator_step_adaptive_us"]
+                                                  / data["estimator_step_us"])
+    data["estimator_step_adaptive_over_matched"] = (data["estimator_step_adaptive_us"]
+                                                    / data["estimator_step_matched_us"])
     data["estimator_step_target_us"] = 10.0
     return data
 

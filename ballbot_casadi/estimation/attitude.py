@@ -58,6 +58,7 @@ from ballbot_casadi.estimation.core import (
     FilterModel,
     InnovationGate,
     ekf_step,
+    flat_function,
     ukf_step,
 )
 from ballbot_casadi.estimation.manifold import attitude, attitude_additive
@@ -154,7 +155,7 @@ def _function(name: str, args: tuple, out: dict, P_att: ca.MX,
         args, names = (*args, gate["n_rej"]), [*names, "n_rej"]
         outs += [out[k] for k in GATE_OUTPUT_NAMES]
         names_out += GATE_OUTPUT_NAMES
-    return ca.Function(name, list(args), outs, names, names_out)
+    return flat_function(name, list(args), outs, names, names_out)
 
 
 def _gate(gate: bool) -> dict:

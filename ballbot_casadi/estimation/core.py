@@ -38,6 +38,20 @@ Conventions
   ``F = d/dd [f(x ⊕ d) ⊖ f(x)]``, ``H = d/dd h(x_pred ⊕ d)`` at ``d = 0``; the
   prediction is ``F (P + Q) F^T`` (pre) or ``F P F^T + Q`` (additive); after the
   correction the manifold's ``normalise`` (if any) is applied to the state.
+* Closed form for affine models (``ukf_step(..., closed_form=True)``): when the process
+  and the measurement model are affine in the state and the manifold is ``R^n``, the
+  unscented transform is exact for any spread and weights (Julier and Uhlmann 2004): the
+  sigma points' weighted mean and covariances (4.21, 5.14, 5.21, 5.22) *are*
+  ``f(x)``, ``F P F^T``, ``h(x)``, ``H P H^T`` and ``P H^T`` (``F``, ``H`` the models'
+  Jacobians, by AD).  The closed form computes those directly - the arithmetic of the EKF
+  step, without the sigma points' Cholesky factors and 2n+1 model evaluations - and
+  equals the sigma-point form to rounding.  Affinity is checked when the step is built
+  (:class:`~ballbot_casadi.errors.ShapeError` otherwise).
+* The filters' Functions are generated as one flat SX graph with common subexpressions
+  shared (:func:`flat_function`): the called sub-Functions (Cholesky, repair, maps over
+  the sigma points, the quaternion mean) are inlined, repeated work (e.g. the model
+  parameters' trigonometry in every sigma point's kinematics) is done once and the
+  centre point's zero weight removes its terms.  Same operations, same results.
 * Innovation gating (optional, :class:`InnovationGate`, keyword ``gate`` of the step
   functions): before the correction each measurement group's normalised innovation
   squared (with the group's block of ``P_zz``) is compared with a chi-square quantile;
@@ -73,6 +87,7 @@ from ballbot_casadi.estimation.tuning import GATE_MAX_REJECTIONS, GATE_PROBABILI
 
 __all__ = [
     "GATE_OUTPUT_NAMES",
+    "flat_function",
     "OUTPUT_NAMES",
     "FilterModel",
     "InnovationGate",
@@ -217,6 +232,35 @@ class FilterModel:
         return self.process.size1_in(3)
 
 
+def flat_function(name: str, inputs: list, outputs: list, names_in: list,
+                  names_out: list) -> ca.Function:
+    """``ca.Function(name, inputs, outputs, names_in, names_out)`` expanded to one SX graph
+    with common subexpressions shared (``cse``): the form the filters' C is generated from
+    (module docstring).  The graph must be expandable (no ``Function.conditional``)."""
+    f = ca.Function(name, inputs, outputs, names_in, names_out)
+    return f.expand(name, {"cse": True})
+
+
+def _require_affine(model: FilterModel) -> None:
+    """Raise unless the closed form of :func:`ukf_step` is exact for ``model``: ``R^n``
+    (additive retraction) and both models affine in the state."""
+    man = model.manifold
+    x, d, y = ca.MX.sym("x", man.nx), ca.MX.sym("d", man.nd), ca.MX.sym("y", man.nx)
+    chart = ca.Function("chart", [x, d, y], [man.oplus(x, d), man.ominus(x, y)],
+                        ["x", "d", "y"], ["oplus", "ominus"])
+    # SX graphs: the dependency analysis through an MX call is conservative
+    f, h, chart = (g.expand() for g in (model.process, model.measurement, chart))
+    nonlinear = [what for what, f, i, o in (
+        ("process", f, f.name_in(0), f.name_out(0)),
+        ("measurement", h, h.name_in(0), h.name_out(0)),
+        ("retraction", chart, "x", "oplus"), ("retraction", chart, "d", "oplus"),
+        ("inverse retraction", chart, "x", "ominus"), ("inverse retraction", chart, "y", "ominus"))
+        if any(f.which_depends(i, [o], 2, False))]
+    if nonlinear or man.nx != man.nd or man.normalise is not None:
+        raise ShapeError(f"the closed-form unscented step needs models affine in the state on "
+                         f"R^n; manifold {man.name}, nonlinear: {', '.join(nonlinear) or 'none'}")
+
+
 def sigma_weights(n: int, kappa: float) -> tuple[float, list[float]]:
     """Spread ``sqrt(n + kappa)`` and the 2n+1 weights (thesis 5.13; kappa = 0: 4.19)."""
     if not n + kappa > 0:
@@ -258,9 +302,12 @@ def _sigma_points(man: Manifold, chol: ca.Function, x, P, spread: float):
 
 
 def ukf_step(model: FilterModel, xhat, P, z, u, Q, R, dt, p, kappa: float = 0.0, *,
-             gate: InnovationGate | None = None, n_rej=None) -> dict:
+             gate: InnovationGate | None = None, n_rej=None, closed_form: bool = False) -> dict:
     """MX expressions of one UKF period (thesis 3.20-3.31, ch. 4 and 5); keys = OUTPUT_NAMES
     (and :data:`GATE_OUTPUT_NAMES` with ``gate``; ``n_rej`` its counters, default 0).
+
+    With ``closed_form`` the unscented transform of the affine ``model`` is computed in
+    closed form (module docstring; ``ShapeError`` if the model is not affine on ``R^n``).
 
     With ``"additive"`` noise the measurement sigma points are redrawn from the predicted
     mean and covariance (which contains ``Q``): the thesis (5.15) reuses the propagated
@@ -271,6 +318,9 @@ def ukf_step(model: FilterModel, xhat, P, z, u, Q, R, dt, p, kappa: float = 0.0,
     """
     man, n = model.manifold, model.nd
     spread, w = sigma_weights(n, kappa)
+    if closed_form:  # the unscented transform of an affine map, exactly (module docstring)
+        _require_affine(model)
+        return ekf_step(model, xhat, P, z, u, Q, R, dt, p, gate=gate, n_rej=n_rej)
     ns = 2 * n + 1
     Wd = ca.diag(ca.DM(w))
     repair, chol = make_spd_repair(n), make_cholesky(n)

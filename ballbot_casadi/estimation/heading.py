@@ -42,7 +42,7 @@ from scipy.linalg import block_diag
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
-from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ukf_step
+from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, flat_function, ukf_step
 from ballbot_casadi.estimation.linalg import FINITE_MAX
 from ballbot_casadi.estimation.manifold import attitude
 from ballbot_casadi.estimation.quaternion_mean import MEAN_ITERATIONS
@@ -130,10 +130,10 @@ def _period(mean_iterations: int, with_heading: bool) -> ca.Function:
         n = zn.numel()
         out = ukf_step(model, xhat, P, zn, u, Qn, R[:n, :n], dt, p, kappa=0.0)
         out["nu"] = ca.vertcat(out["nu"], ca.MX.zeros(_NZ - n))
-    return ca.Function(f"qukf_heading_{'with' if with_heading else 'without'}_reading",
-                       [xhat, P, z, Qn, R, dt, p, a],
-                       [*(out[k] for k in OUTPUT_NAMES), out["P_next"][:3, :3]],
-                       list(HEADING_INPUT_NAMES), list(HEADING_OUTPUT_NAMES))
+    return flat_function(f"qukf_heading_{'with' if with_heading else 'without'}_reading",
+                         [xhat, P, z, Qn, R, dt, p, a],
+                         [*(out[k] for k in OUTPUT_NAMES), out["P_next"][:3, :3]],
+                         list(HEADING_INPUT_NAMES), list(HEADING_OUTPUT_NAMES))
 
 
 def make_qukf_heading(mean_iterations: int = MEAN_ITERATIONS) -> ca.Function:

@@ -47,7 +47,7 @@ from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.estimation.attitude import qekf_initial_covariance
-from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step
+from ballbot_casadi.estimation.core import OUTPUT_NAMES, FilterModel, ekf_step, flat_function
 from ballbot_casadi.estimation.heading import HEADING_MEAS, HEADING_P0_BIAS
 from ballbot_casadi.estimation.manifold import attitude_additive
 from ballbot_casadi.estimation.tuning import QUKF_P0, QUKF_Q, QUKF_R, QUKF_X0, read_only
@@ -124,9 +124,9 @@ def make_qekf_heading() -> ca.Function:
     q_next = out["xhat_next"][QEKF_HEADING_STATE["q"]]
     T = 2 * Q.Phi(q_next).T[1:, :]
     P_att = ca.mtimes([T, out["P_next"][:4, :4], T.T])
-    return ca.Function("ballbot_qekf_heading", [xhat, P, z, Qn, R, dt, p, a],
-                       [*(out[k] for k in OUTPUT_NAMES), P_att],
-                       list(QEKF_HEADING_INPUT_NAMES), list(QEKF_HEADING_OUTPUT_NAMES))
+    return flat_function("ballbot_qekf_heading", [xhat, P, z, Qn, R, dt, p, a],
+                         [*(out[k] for k in OUTPUT_NAMES), P_att],
+                         list(QEKF_HEADING_INPUT_NAMES), list(QEKF_HEADING_OUTPUT_NAMES))
 
 
 def qekf_heading_tuning(heading_var: float, bias_rw: float, dt: float,

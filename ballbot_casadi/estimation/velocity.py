@@ -34,7 +34,10 @@ VUKF (:func:`make_vukf`): additive process noise (5.14), 2N+1 sigma points with
 ``kappa = 3 - N`` (5.6, 5.13), measurement sigma points redrawn after ``Q`` is added
 (see :func:`~ballbot_casadi.estimation.core.ukf_step`).  Every model is linear in the
 filter state (``q`` and ``omega`` are inputs), so the unscented transform is exact here
-and the VUKF equals the Kalman filter - and the VEKF - to rounding (tested).
+and the VUKF equals the Kalman filter - and the VEKF - to rounding (tested); the
+generated filter therefore computes the transform in closed form (``closed_form``, the
+default: the sigma points' covariances without the sigma points), which is cheaper and
+gives the sigma-point form's results to rounding (tested).
 VEKF (:func:`make_vekf`): the same models in the EKF core (the predecessor's filter).
 
 The matched model (``matched=True``, issue 22; the estimator ``ukf_consistent``) fixes
@@ -68,6 +71,7 @@ from ballbot_casadi.estimation.core import (
     FilterModel,
     InnovationGate,
     ekf_step,
+    flat_function,
     ukf_step,
 )
 from ballbot_casadi.estimation.linalg import FINITE_MAX
@@ -247,7 +251,7 @@ def attitude_offset_noise(J, P_rate, dt):
 
 def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = False,
            matched: bool = False, gate: bool = False,
-           adaptive: WalkAdaptation | None = None) -> ca.Function:
+           adaptive: WalkAdaptation | None = None, closed_form: bool = True) -> ca.Function:
     model = make_velocity_model(wheel_speeds, midpoint, attitude_noise=not matched)
     args = (ca.MX.sym("xhat", NX), ca.MX.sym("P", NX, NX), ca.MX.sym("z", 6), ca.MX.sym("att", 7),
             ca.MX.sym("P_att", 3, 3), ca.MX.sym("Q", NX, NX), ca.MX.sym("R", 6, 6),
@@ -277,7 +281,8 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
         args, names = (*args, g["n_rej"]), [*names, "n_rej"]
         names_out += GATE_OUTPUT_NAMES
     if kind == "ukf":
-        out = ukf_step(model, xhat, P, z, u, Qn, R, dt, p, kappa=KAPPA, **g)
+        out = ukf_step(model, xhat, P, z, u, Qn, R, dt, p, kappa=KAPPA, closed_form=closed_form,
+                       **g)
     else:
         out = ekf_step(model, xhat, P, z, u, Qn, R, dt, p, **g)
     if adaptive is not None:
@@ -293,11 +298,12 @@ def _build(name: str, wheel_speeds: ca.Function, kind: str, midpoint: bool = Fal
         out["walk_next"] = adapt_walk(walk, q_used, sample,
                                       ca.logic_and(out["n_valid"] >= 5.5, ok), adaptive)
         names_out.append("walk_next")
-    return ca.Function(name, list(args), [out[k] for k in names_out], names, names_out)
+    return flat_function(name, list(args), [out[k] for k in names_out], names, names_out)
 
 
 def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool = False,
-              gate: bool = False, adaptive: WalkAdaptation | None = None) -> ca.Function:
+              gate: bool = False, adaptive: WalkAdaptation | None = None,
+              closed_form: bool = True) -> ca.Function:
     """``ballbot_vukf``: one period of the velocity UKF (thesis 5.1-5.28).
 
     Parameters
@@ -337,6 +343,13 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool =
         filter; 0 = use ``Q``'s acceleration block as the prior, the power-on value) after
         ``P_rate`` and before ``n_rej``, and a last output ``walk_next``.  ``Q``'s
         acceleration block is then replaced by ``diag(q_x, q_y)``.
+    closed_form
+        Compute the unscented transform in closed form (default): every model of the
+        filter is affine in its state, so the sigma points' mean and covariances equal
+        ``F P F^T``, ``H P H^T``, ``P H^T`` exactly
+        (:func:`~ballbot_casadi.estimation.core.ukf_step`); ``False`` builds the
+        sigma-point form (2N+1 points, the thesis's equations as printed), which gives the
+        same results to rounding and costs more.
 
     Returns
     -------
@@ -347,7 +360,8 @@ def make_vukf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool =
         non-finite component is not used); ``att = [q, omega]`` and ``P_att`` from the
         attitude filter; ``R`` without the attitude term (added inside).
     """
-    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, matched, gate, adaptive)
+    return _build("ballbot_vukf", wheel_speeds, "ukf", midpoint, matched, gate, adaptive,
+                  closed_form)
 
 
 def make_vekf(wheel_speeds: ca.Function, midpoint: bool = False, matched: bool = False,

@@ -90,10 +90,17 @@ def test_estimation_inputs_are_passed_by_name(monkeypatch):
 def test_estimation_group(monkeypatch):
     orig = bench_estimation_mod._full_scenario
     monkeypatch.setattr(bench_estimation_mod, "_full_scenario", lambda: orig().replace(duration=0.5))
-    _check(bench_estimation_mod.bench_estimation(n_calls=50, repeats=1),
+    data = bench_estimation_mod.bench_estimation(n_calls=50, repeats=1)
+    _check(data,
            {"mission_full_100s_s", "mission_full_100s_with_inputs_s", "mission_full_100s_target_s",
             "qukf_step_us", "vukf_step_us", "tilt_correction_step_us", "com_observer_step_us",
-            "estimator_step_us", "embedded_step_us", "estimator_step_target_us"})
+            "estimator_step_us", "embedded_step_us", "estimator_step_target_us",
+            "estimator_step_adaptive_us", "estimator_step_adaptive_over_plain",
+            "estimator_step_adaptive_over_matched"})
+    # the ratios are of the same run's keys
+    for other, key in (("plain", "estimator_step_us"), ("matched", "estimator_step_matched_us")):
+        assert data[f"estimator_step_adaptive_over_{other}"] == pytest.approx(
+            data["estimator_step_adaptive_us"] / data[key], rel=1e-12)
 
 
 @pytest.mark.slow  # two Dask clusters: ~13 s even in-process

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 
+import casadi as ca
 import numpy as np
 import pytest
 from _estimation_synthetic import DT, imu, truth
@@ -71,16 +72,25 @@ def test_compiled_equals_symbolic(built, name):
             np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-14)
 
 
-def test_generated_c_calls_sub_functions_and_never_allocates(built):
-    _, _, lib = built
+def test_generated_c_is_flat_where_it_is_timed_and_never_allocates(built):
+    """The filters are generated as flat SX graphs (their sub-Functions inlined, common
+    subexpressions shared: estimation.core.flat_function, issue 22's cost); the
+    heading-aided QUKF keeps its conditional, whose two branches are flat."""
+    funcs, _, lib = built
     src = lib.source.read_text()
     assert not re.search(r"\b(malloc|calloc|realloc|free)\s*\(", src)
     names = set(re.findall(r"/\* (\w+):\(", src))
-    # the models and the received kinematics stay called (mapped over the sigma points)
+    for n in ("qukf", "qekf", "vukf", "vekf", "qekf_heading"):
+        f = funcs[n]
+        assert f.is_a("SXFunction"), n
+        assert not any(f.instruction_id(k) == ca.OP_CALL for k in range(f.n_instructions())), n
+    # the models only these filters call, and the QUKF's linear algebra, are inlined
     for sub in ("att_process", "att_measurement", "vel_process", "vel_measurement",
-                "ballbot_wheel_speeds", "kf_update6x6", "spd_repair6", "chol7"):
-        assert sub in names
-    assert any(n.startswith("map") and n.endswith("att_process") for n in names)
+                "ballbot_wheel_speeds", "kf_update6x6", "spd_repair6", "chol6"):
+        assert sub not in names, sub
+    assert funcs["qukf_heading"].is_a("MXFunction")
+    assert {"qukf_heading_with_reading", "qukf_heading_without_reading"} <= names
+    assert "att_heading_process" not in names
 
 
 @pytest.mark.slow
