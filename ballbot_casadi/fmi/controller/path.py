@@ -101,6 +101,11 @@ def path_law(scenario: Scenario) -> GuidanceLaw:
         raise ScenarioError(f"scenario {scenario.name!r}: path following runs the FLC cascade "
                             f"(controller 'flc', cascade = true), got {scenario.controller!r}",
                             key="controller")
+    if scenario.guidance_latency:
+        raise ScenarioError(f"scenario {scenario.name!r}: the path-following controller FMU "
+                            "applies each guidance sample in its own period, got "
+                            f"guidance_latency = {scenario.guidance_latency}; allowed: 0",
+                            key="guidance_latency")
     if scenario.estimator not in ("ukf", "ekf"):
         raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU needs an estimator "
                             f"(ukf or ekf), got {scenario.estimator!r}", key="estimator")
