@@ -99,7 +99,27 @@ _N_NODE_ROWS = 14
 
 @dataclass(frozen=True)
 class MpcConfig:
-    """Horizon, weights, limits and solver of the MPC (defaults: N = 20, dt = 0.1 s, §7.1)."""
+    """Horizon, weights, limits and solver of the MPC (defaults: N = 20, dt = 0.1 s, §7.1).
+
+    The default weights, the shipped tuning (this table is their documentation; a test
+    pins the fields and reads the table back).  The cost sums squared residuals in SI
+    units, so a weight ``w`` prices an error ``1 / sqrt(w)`` as much as 1 (Bryson's
+    reading, last column); the soft rows are normalised by their bounds.
+
+    ==============  =======  ================================================  =========
+    field           default  acts on                                           1/sqrt(w)
+    ==============  =======  ================================================  =========
+    w_lat           400      lateral error from the path (m)                   0.05 m
+    w_lon           100      longitudinal error along the path (m)             0.1 m
+    w_speed         20       progress-speed error ds - v_s (m/s)               0.224 m/s
+    w_dds           1        progress acceleration dds (m/s^2)                 1 m/s^2
+    w_dv            20       change of v_ref from one step to the next (m/s)   0.224 m/s
+    w_terminal      2        factor on the last node's path errors             -
+    soft_penalty    30       exact L1 price of a soft row's violation          -
+    obstacle_scale  10       scale of the obstacle rows (1/m)                  -
+    obstacle_relax  0.1      cap on the lateral weight's factor near obstacles -
+    ==============  =======  ================================================  =========
+    """
 
     N: int = 20
     dt: float = 0.1

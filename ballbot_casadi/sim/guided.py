@@ -449,9 +449,12 @@ def run_guided(path: Path, law: GuidanceLaw, duration: float, estimator: str = "
                           f"the generated C (a QP that did not converge): {exc}") from None
 
 
-def scenario_law(scenario: Scenario, latency: int = 0, split: bool = False) -> GuidanceLaw:
+def scenario_law(scenario: Scenario, latency: int | None = None, split: bool = False
+                 ) -> GuidanceLaw:
     """The guidance law a scenario with a path asks for (its own controller model); the
-    MPC with ``latency`` periods from a sample to its reference (:func:`mpc_law`)."""
+    MPC with ``latency`` periods from a sample to its reference (:func:`mpc_law`; default
+    the scenario's ``guidance_latency``)."""
+    latency = scenario.guidance_latency if latency is None else latency
     if scenario.guidance == "pursuit":
         if latency or split:
             raise ScenarioError("guidance latency is an option of the MPC, not of pursuit")

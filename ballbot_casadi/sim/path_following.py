@@ -28,10 +28,11 @@ from typing import Protocol
 import casadi as ca
 import numpy as np
 
-from ballbot_casadi.control.velocity import design_model, measured_tilt
+from ballbot_casadi.control.velocity import VELOCITY_LIMIT_NAMES, VELOCITY_NKV, design_model, measured_tilt
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.core.layout import STATE, STATE_DXY, STATE_XY
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
+from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.guidance.paths import Path
 from ballbot_casadi.guidance.prediction import LoopModel, closed_velocity_loop
@@ -41,7 +42,19 @@ from ballbot_casadi.sim.ports import PERIOD_SEQUENCES
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["Guidance", "simulate_chunk", "chunks_log", "velocity_loop_model", "make_loop_state", "run_path", "PathRun",
-           "path_scenario"]
+           "path_scenario", "FLC_CANCELLED", "LOOP_GAIN_ENTRIES", "LoopDependencies",
+           "velocity_loop_dependencies"]
+
+#: Entries of ``k_vel`` that are the velocity LQR's gain ``K`` (2 x 12, row-major); the
+#: rest are the limits (``VELOCITY_LIMIT_NAMES``), which the linear loop model does not read.
+LOOP_GAIN_ENTRIES = VELOCITY_NKV - len(VELOCITY_LIMIT_NAMES)
+#: Model parameters that enter the plant's Jacobians at the upright equilibrium but not
+#: the loop model :func:`velocity_loop_model` builds from them: the balance controller's
+#: FLC inverts the torque-to-tilt-acceleration map ``E`` (thesis (8.26), (8.44)), which
+#: cancels the wheel geometry, inertia and motor friction (``rw``, ``alpha``, ``gamma``,
+#: ``Jw``, ``Bvm``), and the heading inertia ``Jbz`` and the quaternion stabilisation
+#: ``beta`` act on the heading row only, which the FLC decouples from the tilt.
+FLC_CANCELLED = ("Jbz", "Jw", "rw", "alpha", "gamma", "Bvm", "beta")
 
 
 class Guidance(Protocol):
@@ -63,8 +76,40 @@ def velocity_loop_model(p_ctrl: np.ndarray, k_vel: np.ndarray, dt: float,
                         Ts: float = TS_CONTROL) -> LoopModel:
     """Linear model of the closed velocity loop (gain ``k_vel``) at the MPC step ``dt``."""
     Ac, Bc, _, _ = design_model(make_jacobians(), p_ctrl, Ts)
-    K = np.asarray(k_vel, float)[:24].reshape(2, 12)  # row-major, as the controller reads it
+    # row-major, as the controller reads it
+    K = np.asarray(k_vel, float)[:LOOP_GAIN_ENTRIES].reshape(2, LOOP_GAIN_ENTRIES // 2)
     return closed_velocity_loop(Ac, Bc, K, Ts, dt)
+
+
+@dataclass(frozen=True)
+class LoopDependencies:
+    """What :func:`velocity_loop_model` reads: ``params`` (``load_params`` names of
+    ``p_ctrl``), ``gains`` (indices into ``k_vel``) and the control period ``Ts``."""
+
+    params: tuple[str, ...]
+    gains: tuple[int, ...]
+    period: bool = True
+
+
+def velocity_loop_dependencies(jac: ca.Function | None = None) -> LoopDependencies:
+    """The inputs :func:`velocity_loop_model` is built from, declared, not probed.
+
+    The model parameters are those the Jacobians ``jac(x, tau, p)`` (default the model's,
+    :func:`~ballbot_casadi.model.dynamics.make_jacobians`) depend on structurally
+    (``casadi.depends_on``) at the upright equilibrium the design model linearises at,
+    less :data:`FLC_CANCELLED`; the gains are the ``K`` entries of ``k_vel``
+    (:data:`LOOP_GAIN_ENTRIES`); the loop is discretised at ``Ts``.  The set does not
+    depend on the parameter values.
+    """
+    jac = make_jacobians() if jac is None else jac
+    x0 = np.zeros(12)
+    x0[STATE["q"].start] = 1.0
+    p = ca.SX.sym("p", len(PARAM_NAMES))
+    A, B = jac(ca.DM(x0), ca.DM.zeros(jac.size1_in(1)), p)
+    AB = ca.vertcat(ca.vec(A), ca.vec(B))
+    read = [n for i, n in enumerate(PARAM_NAMES) if ca.depends_on(AB, p[i])]
+    return LoopDependencies(tuple(n for n in read if n not in FLC_CANCELLED),
+                            tuple(range(LOOP_GAIN_ENTRIES)))
 
 
 def make_loop_state() -> ca.Function:

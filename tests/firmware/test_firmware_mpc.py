@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from ballbot_casadi.errors import BuildError, ScenarioError
-from ballbot_casadi.firmware.build import build_firmware, default_scenario
-from ballbot_casadi.firmware.replay import GUIDED_REPLAY_ATOL, record_guided_log, run_host, run_qemu
+from ballbot_casadi.firmware.build import default_scenario
+from ballbot_casadi.firmware.replay import GUIDED_REPLAY_ATOL, run_host, run_qemu
 from ballbot_casadi.firmware.sources import (
     FirmwareValues,
     codegen_work,
@@ -21,11 +21,10 @@ from ballbot_casadi.firmware.sources import (
     generate_sources,
     scenario_values,
 )
-from ballbot_casadi.firmware.toolchain import INSTALL_HINT, missing_tools
 from ballbot_casadi.guidance.path_table import path_table_layout
 
-N = 200      # 1 s: ten guidance samples
-EVERY = 20   # 10 Hz in the 200 Hz period
+from _guided_support import EVERY, N, replayed
+
 
 
 def test_guided_period_is_the_missions_function_with_its_data_as_a_pointer():
@@ -75,25 +74,7 @@ def test_bad_guidance_refused():
         scenario_values(f, default_scenario("flc", "ukf"))
 
 
-@pytest.fixture(scope="module")
-def rec():
-    return record_guided_log(N, seed=1)
-
-
-@pytest.fixture(scope="module")
-def fw():
-    return build_firmware(precision="double", guidance="mpc")
-
-
-@pytest.fixture(scope="module")
-def host(fw, rec):
-    return run_host(fw, rec)
-
-
-@pytest.mark.firmware
-@pytest.mark.needs_cc
-@pytest.mark.slow
-@pytest.mark.skipif(bool(missing_tools()), reason=INSTALL_HINT)
+@replayed
 def test_guided_host_replay_is_the_compiled_mission(rec, host):
     # the library's period with the MPC, fed the mission's readings, gives the mission's
     # velocity references and torques
@@ -107,10 +88,7 @@ def test_guided_host_replay_is_the_compiled_mission(rec, host):
     assert set(changed) <= set(range(0, N, EVERY))
 
 
-@pytest.mark.firmware
-@pytest.mark.needs_cc
-@pytest.mark.slow
-@pytest.mark.skipif(bool(missing_tools()), reason=INSTALL_HINT)
+@replayed
 def test_guided_qemu_equals_host(fw, rec, host):
     q = run_qemu(fw, rec)
     np.testing.assert_allclose(q.v_ref, host.v_ref, rtol=0, atol=GUIDED_REPLAY_ATOL)
@@ -125,10 +103,7 @@ def test_guided_qemu_equals_host(fw, rec, host):
     assert insn[0] > solve.max()  # the cold first sample solves 5 QPs
 
 
-@pytest.mark.firmware
-@pytest.mark.needs_cc
-@pytest.mark.slow
-@pytest.mark.skipif(bool(missing_tools()), reason=INSTALL_HINT)
+@replayed
 def test_guidance_data_given_at_init_is_the_one_followed(fw, rec, host):
     # another path speed in the data (the same table otherwise): other references
     law = firmware_guidance("mpc")

@@ -10,7 +10,7 @@ import pytest
 
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.firmware.build import build_firmware, default_scenario
-from ballbot_casadi.firmware.replay import GUIDED_REPLAY_ATOL, record_guided_log, run_host, run_qemu
+from ballbot_casadi.firmware.replay import GUIDED_REPLAY_ATOL, run_host, run_qemu
 from ballbot_casadi.firmware.sources import (
     SPLIT_LATENCY,
     default_guidance_path,
@@ -19,12 +19,11 @@ from ballbot_casadi.firmware.sources import (
     generate_sources,
     scenario_values,
 )
-from ballbot_casadi.firmware.toolchain import INSTALL_HINT, missing_tools
 from ballbot_casadi.sim.embedded import software_layout
 from ballbot_casadi.sim.guided import first_sample_latency
 
-N = 200      # 1 s: ten guidance samples
-EVERY = 20   # 10 Hz in the 200 Hz period
+from _guided_support import EVERY, N, replayed
+
 L = SPLIT_LATENCY
 
 
@@ -66,26 +65,7 @@ def test_bad_split_refused():
         firmware_guidance("mpc", latency=EVERY)
 
 
-@pytest.fixture(scope="session")
-def split_rec():
-    """The guided figure-eight (noise, UKFs) as the compiled mission with latency L."""
-    return record_guided_log(N, seed=1, latency=L)
-
-
-@pytest.fixture(scope="session")
-def split_fw():
-    return build_firmware(precision="double", guidance="mpc", latency=L)
-
-
-@pytest.fixture(scope="session")
-def split_host(split_fw, split_rec):
-    return run_host(split_fw, split_rec)
-
-
-@pytest.mark.firmware
-@pytest.mark.needs_cc
-@pytest.mark.slow
-@pytest.mark.skipif(bool(missing_tools()), reason=INSTALL_HINT)
+@replayed
 def test_split_host_replay_is_the_mission_with_latency(split_rec, split_host):
     np.testing.assert_allclose(split_host.v_ref, split_rec.v_ref_mission, rtol=0,
                                atol=GUIDED_REPLAY_ATOL)
@@ -99,10 +79,7 @@ def test_split_host_replay_is_the_mission_with_latency(split_rec, split_host):
     assert np.max(np.hypot(v[:, 0], v[:, 1])) > 0.2  # it sets off along the path
 
 
-@pytest.mark.firmware
-@pytest.mark.needs_cc
-@pytest.mark.slow
-@pytest.mark.skipif(bool(missing_tools()), reason=INSTALL_HINT)
+@replayed
 def test_split_qemu_equals_the_mission_and_the_interrupt_never_runs_the_qp(split_fw, split_rec,
                                                                            split_host):
     q = run_qemu(split_fw, split_rec)
@@ -118,10 +95,7 @@ def test_split_qemu_equals_the_mission_and_the_interrupt_never_runs_the_qp(split
     assert bg[0] > bg[EVERY:][bg[EVERY:] > 0].max()  # the cold first sample solves 5 QPs
 
 
-@pytest.mark.firmware
-@pytest.mark.needs_cc
-@pytest.mark.slow
-@pytest.mark.skipif(bool(missing_tools()), reason=INSTALL_HINT)
+@replayed
 def test_a_late_background_result_is_never_applied_early_or_late(split_fw, split_rec, split_host):
     # the sample finished just before its due period: the same references and torques
     just = run_host(split_fw, split_rec, bg_delay=L - 1)

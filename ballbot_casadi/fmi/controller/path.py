@@ -32,9 +32,10 @@ that is not the start's projection.
 The MPC's condensed prediction matrices are build-time constants: they come from the
 velocity loop of the scenario's controller model and velocity gain
 (:func:`~ballbot_casadi.sim.path_following.velocity_loop_model`) at the period ``Ts``.
-The parameters they depend on (``Ts`` and the ``ctrl_*`` and ``k_vel_*`` entries of
-:func:`mpc_model_dependencies`: the body's mass, inertia about x and y and centre of
-mass, the ball's, the friction, ``g``, the velocity gain) are therefore fixed at their
+The parameters they are built from, as their builder declares them (``Ts`` and the
+``ctrl_*`` and ``k_vel_*`` entries of :func:`mpc_model_dependencies`: the body's mass,
+inertia about x and y and centre of mass, the ball's, the friction, ``g``, the velocity
+gain) are therefore fixed at their
 build values: setting one to another value is refused (logged, the set call returns
 ``fmi2Error`` / ``fmi3Error``) instead of running a loop the MPC does not predict.  The
 others (``ctrl_tau_max``, the wheel geometry the FLC cancels, the velocity limits, ...)
@@ -49,18 +50,20 @@ import numpy as np
 
 from ballbot_casadi.core.constants import THESIS_LIMITS
 from ballbot_casadi.core.layout import Layout
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.control.velocity import VELOCITY_NKV
+from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.guidance.path_table import PATH_SAMPLES, path_table_layout
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.guidance.prediction import NXL
 from ballbot_casadi.sim.closed_loop import power_on_inputs
 from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS
 from ballbot_casadi.sim.guided import GuidanceLaw, make_loop_state, scenario_law
-from ballbot_casadi.sim.path_following import velocity_loop_model
+from ballbot_casadi.sim.path_following import velocity_loop_dependencies
+from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["PATH_MODEL_IDENTIFIER", "S0_NAME", "S0_TOL", "TANGENT_TOL", "V_MAX", "FIXED_WHY",
-           "PROBE_STEP", "PROBE_TOL", "mpc_model_dependencies", "path_law", "path_parameter_names", "path_parameter_descriptions",
+           "mpc_model_dependencies", "path_law", "path_parameter_names", "path_parameter_descriptions",
            "path_parameter_values"]
 
 #: Model identifier of the path-following controller FMU (QUKF + VUKF; ``_ekf`` with the EKFs).
@@ -74,12 +77,6 @@ S0_TOL = 0.01
 TANGENT_TOL = 1e-6
 #: Highest reference speed (m/s), thesis §7.1.
 V_MAX = THESIS_LIMITS["v_max"]
-#: Relative (and absolute) step of :func:`mpc_model_dependencies`' probes.
-PROBE_STEP = 1e-2
-#: A probe moves the prediction model if an entry moves by more than this (relative to
-#: the largest entry): real dependencies move it by 1e-6 or more, the cancelling ones by
-#: rounding (1e-14).
-PROBE_TOL = 1e-10
 #: Why the parameters of :func:`mpc_model_dependencies` are fixed (the FMU's refusal says it).
 FIXED_WHY = ("the path-following MPC's prediction matrices were computed from it when the "
              "FMU was built; build the FMU of a scenario with the value you want "
@@ -93,7 +90,9 @@ def path_law(scenario: Scenario) -> GuidanceLaw:
     ------
     ScenarioError
         No ``[path]``, guidance other than the MPC, a controller other than the FLC
-        cascade, or no estimator (one line naming the key).
+        cascade, a guidance latency, the per-wheel torque limit (whose controller limit
+        is ``+inf``, :func:`~ballbot_casadi.sim.period.controller_torque_limit`, not a
+        value of the FMU's ``ctrl_tau_max``), or no estimator (one line naming the key).
     """
     if scenario.route.build() is None:
         raise ScenarioError(f"scenario {scenario.name!r} has no [path]: the path-following "
@@ -106,6 +105,17 @@ def path_law(scenario: Scenario) -> GuidanceLaw:
         raise ScenarioError(f"scenario {scenario.name!r}: path following runs the FLC cascade "
                             f"(controller 'flc', cascade = true), got {scenario.controller!r}",
                             key="controller")
+    if scenario.torque_limit != TORQUE_LIMIT_MODES[0]:
+        raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU limits its torques at "
+                            f"its finite ctrl_tau_max (torque_limit = \"{TORQUE_LIMIT_MODES[0]}\"); "
+                            f"torque_limit = {scenario.torque_limit!r} lifts the controller's "
+                            f"limit to +inf (the plant's per-wheel clipping only, thesis 9.1); "
+                            f"allowed: {TORQUE_LIMIT_MODES[0]}", key="torque_limit")
+    if scenario.guidance_latency:
+        raise ScenarioError(f"scenario {scenario.name!r}: the path-following controller FMU "
+                            "applies each guidance sample in its own period, got "
+                            f"guidance_latency = {scenario.guidance_latency}; allowed: 0",
+                            key="guidance_latency")
     if scenario.estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU needs an estimator "
                             f"({', '.join(ESTIMATOR_FILTERS)}), got {scenario.estimator!r}",
@@ -115,39 +125,30 @@ def path_law(scenario: Scenario) -> GuidanceLaw:
 
 def mpc_model_dependencies(p_ctrl: Any, k_vel: Any, dt: float
                            ) -> tuple[tuple[str, ...], tuple[int, ...]]:
-    """What the MPC's prediction model depends on: the model parameters (``load_params``
-    names) and the indices into ``k_vel`` whose change moves it.
+    """What the MPC's prediction model is built from: the model parameters (``load_params``
+    names) and the indices into ``k_vel``.
 
     The prediction model is the velocity loop closed by ``k_vel``'s gain around the
     linearisation of the controllers' model ``p_ctrl`` at the upright equilibrium, with
     the balance controller's FLC in it, discretised at the MPC step ``dt``
-    (:func:`~ballbot_casadi.sim.path_following.velocity_loop_model`).  Each entry is
-    moved by :data:`PROBE_STEP` (relative, plus the same absolute step for zeros); it
-    counts if a matrix entry moves by more than :data:`PROBE_TOL` (relative to the
-    largest entry).  At the upright equilibrium the FLC's inversion cancels the wheel
-    geometry and inertia (``Jw``, ``rw``, ``alpha``, ``gamma``, ``Bvm``), the heading
-    inertia ``Jbz`` and the quaternion stabilisation ``beta`` do not act on the tilt, and
-    ``tau_max``, ``n_ticks`` and the velocity limits are not in the linear model: those
-    changes move it by rounding only.
+    (:func:`~ballbot_casadi.sim.path_following.velocity_loop_model`); its builder declares
+    what it reads (:func:`~ballbot_casadi.sim.path_following.velocity_loop_dependencies`:
+    the parameters the model's Jacobians depend on structurally there, less those the
+    FLC's inversion cancels, and the gain entries).  The set is the same for every value;
+    the arguments are checked for their sizes.
+
+    Raises
+    ------
+    ShapeError
+        ``p_ctrl`` or ``k_vel`` of the wrong size, or ``dt`` not positive.
     """
     p = np.asarray(p_ctrl, float).ravel()
     k = np.asarray(k_vel, float).ravel()
-    base = velocity_loop_model(p, k, dt)
-    scale = 1.0 + max(np.max(np.abs(base.A)), np.max(np.abs(base.B)))
-
-    def moved(pp: np.ndarray, kk: np.ndarray) -> bool:
-        m = velocity_loop_model(pp, kk, dt)
-        d = max(np.max(np.abs(m.A - base.A)), np.max(np.abs(m.B - base.B)))
-        return bool(d > PROBE_TOL * scale)
-
-    def probe(v: np.ndarray, i: int) -> np.ndarray:
-        out = v.copy()
-        out[i] = v[i] * (1.0 + PROBE_STEP) + PROBE_STEP
-        return out
-
-    names = tuple(n for i, n in enumerate(PARAM_NAMES) if moved(probe(p, i), k))
-    gains = tuple(i for i in range(k.size) if moved(p, probe(k, i)))
-    return names, gains
+    if p.size != len(PARAM_NAMES) or k.size != VELOCITY_NKV or not float(dt) > 0.0:
+        raise ShapeError(f"p_ctrl must have {len(PARAM_NAMES)} entries and k_vel "
+                         f"{VELOCITY_NKV}, dt > 0; got {p.size}, {k.size}, dt = {dt!r}")
+    dep = velocity_loop_dependencies()
+    return dep.params, dep.gains
 
 
 def _table(law: GuidanceLaw) -> Layout:

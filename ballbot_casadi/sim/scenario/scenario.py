@@ -98,7 +98,7 @@ SCENARIO_FIELDS = (
     "torque_disturbances", "plant_changes", "ctrl_changes", "k_bal", "k_vel", "Ts", "n_sub",
     "feedforward", "torque_limit", "estimator", "seed", "noise", "sensor_changes", "est_changes", "estimator_tuning",
     "sensor_dropouts", "sensor_glitches", "com_observer", "k_obs", "study", "description",
-    "heading_sensor", "path", "obstacles", "guidance",
+    "heading_sensor", "path", "obstacles", "guidance", "guidance_latency",
 )
 #: Attribute -> the section holding it.
 #: Position of the torque limit in the parameter vector.
