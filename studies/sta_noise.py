@@ -34,6 +34,7 @@ from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.sensor_params import load_sensor_params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import Scenario, initial_state
+from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR
 
 __all__ = ["gyro_noise_floor", "true_sliding_variable", "run_sta_noise_study", "sta_noise_report_lines"]
 
@@ -67,7 +68,7 @@ def true_sliding_variable(log: Any, K: np.ndarray) -> np.ndarray:
 
 def _run(sim: ClosedLoop, k: np.ndarray, seed: int, duration: float) -> dict[str, Any]:
     sc = Scenario(name="sta_noise", controller="sta", duration=duration, x0=initial_state(5, 5),
-                  estimator="ukf", cascade=True, seed=seed, k_bal=tuple(k))
+                  estimator=SHIPPED_ESTIMATOR, cascade=True, seed=seed, k_bal=tuple(k))
     log = run_scenario(sc, sim)
     K = k[_K]
     S_hat = log["diag"][:, _DY] + K * log["diag"][:, _Y]
