@@ -57,7 +57,7 @@ def test_consistency_study_reports_the_band_and_the_overconfident_thesis_filter(
     # the thesis's velocity filter (estimator "ukf") beside the shipped one: overconfident
     t = r["velocity_thesis"]
     assert t["verdict"] == "overconfident" and t["mean_nis"] > 50
-    assert t["acc_process_var"] == [1e-2, 1e-2]  # the thesis model's walk, unadapted
+    assert t["acc_process_var"][0] == t["acc_process_var"][1] < 1e-3  # the thesis's walk (1e-5)
     # the shipped filter (the file's ukf_adaptive: the verdict row, with the walk it ended
     # with and the one measured from the truth), and the matched filter with the constant pair
     a, v = r["velocity"], r["velocity_matched"]
@@ -87,7 +87,7 @@ def test_consistency_of_the_shipped_velocity_filter_on_full_sine(sim, tmp_path):
     r = m["scenarios"]["full_sine"]
     a, v, t = r["velocity"], r["velocity_matched"], r["velocity_thesis"]
     assert a["verdict"] == "consistent", a
-    assert m["passed"] and m["adaptive_passed"] and not m["matched_passed"]
+    assert m["adaptive_passed"] and not m["matched_passed"] and not m["thesis_passed"]
     np.testing.assert_allclose(a["acc_process_var"], a["acc_walk_truth"], rtol=0.3)
     assert v["verdict"] == "underconfident" and 3.5 < v["mean_nis"] < a["mean_nis"], v
     np.testing.assert_allclose(a["velocity_rms_mps"], v["velocity_rms_mps"], rtol=0.02)
