@@ -75,3 +75,20 @@ def test_the_estimator_switch_of_a_study_reaches_its_shipped_runs():
     shipped = [t["estimator"] for t in study.tables("flc")]
     switched = [t["estimator"] for t in study.tables("flc", [("estimator", THESIS_ESTIMATOR)])]
     assert shipped[-2:] == [SHIPPED_ESTIMATOR] * 2 and switched[-2:] == [THESIS_ESTIMATOR] * 2
+
+
+@pytest.mark.parametrize("name, runs", [
+    ("estimators", ["full_sine_ekf", "full_velocity_ekf", "full_sine_ukf", "full_velocity_ukf",
+                    "full_sine", "full_velocity"]),
+    ("full", ["full_sine_smc_ekf", "full_velocity_smc_ekf", "full_sine_ukf", "full_velocity_ukf",
+              "full_sine", "full_velocity"]),
+    ("com", ["com_balance_only", "com", "com_observer_true", "com_ukf", "com_observer_velocity",
+             "com_observer_centred", "com_observer_ukf", "com_observer"]),
+])
+def test_studies_that_compare_with_the_thesis_run_its_filters_beside_the_shipped(name, runs):
+    tables = get_study(name).tables("flc")
+    assert [t["name"] for t in tables] == runs
+    est = {t["name"]: t.get("estimator", "true") for t in tables}
+    assert [n for n, e in est.items() if e == THESIS_ESTIMATOR] == [n for n in runs if n.endswith("_ukf")
+                                                                     and n != "com_ukf"]
+    assert est[runs[-1]] == SHIPPED_ESTIMATOR
