@@ -115,8 +115,8 @@ def full_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     rate: the worst run; ``covariance_repairs`` and ``gate_rejections``: all runs.
     Beside them the thesis's filters on the same runs (``thesis_filter_*``: the §7.1/§7.2
     maxima of both runs; velocity error RMS, mean velocity NIS and position drift of the
-    velocity run) and
-    ``shipped_vs_thesis_velocity_rms_ratio`` (shipped over thesis velocity error RMS).
+    velocity run) and ``shipped_vs_thesis_velocity_rms_ratio`` (shipped over thesis
+    velocity error RMS).
     """
     runs = by_run(logs)
     sine, vel = (runs[log.scenario["name"]] for log in _primary(logs))
