@@ -1,7 +1,7 @@
 """The ``consistency`` study: NIS of the attitude and velocity filters with chi2 bands.
 
 Every shipped scenario with an estimator in the loop is run (with the estimator of its
-file: QUKF + VUKF) and, per filter, the normalised innovation squared of every period
+file: the QUKF and the consistent velocity filter, ``ukf_adaptive``) and, per filter, the normalised innovation squared of every period
 (the ``nis`` output of the embedded software) is compared with the chi2 95 % band of its
 dimension (:mod:`ballbot_casadi.analysis.consistency`): the time average over the run
 (after a 1 s transient) against the band of the mean of that many samples, and the
@@ -9,19 +9,21 @@ moving 1 s average against the band of 200 samples.  A filter whose innovations 
 matched by its covariance has a mean NIS equal to the measurement dimension (6 for
 both filters: accelerometer and gyroscope; encoder increments and accelerometer).
 
-Each scenario with the thesis-model UKFs is run again with the matched velocity
-filter (the encoders' body-rate term from the gyro reading, the period's acceleration
-noise on the velocity, the attitude error as a slowly varying accelerometer offset,
-:mod:`ballbot_casadi.estimation.velocity`), twice, as a user's file gets it:
+Each scenario with the shipped filters (or the thesis's) is run with the three velocity
+filters, as a user's file gets them:
 
-* ``estimator = "ukf_adaptive"`` (:data:`ADAPTIVE`), the ``velocity_adaptive`` rows, the
-  verdict (``adaptive_passed``): one configuration for every scenario, its acceleration
-  random walk adapted online from the filter's own corrections
-  (:mod:`ballbot_casadi.estimation.adaptive_walk`).  Beside it, as a diagnostic of the
-  same run, the walk it ended with (``acc_process_var``, from the final controller state)
-  and the walk measured from the truth (``acc_walk_truth``, :func:`acceleration_random_walk`:
-  the variance of the true ball acceleration's change per period, which a user cannot
-  measure);
+* ``estimator = "ukf_adaptive"`` (:data:`ADAPTIVE`, what the files ship): the matched
+  velocity filter (the encoders' body-rate term from the gyro reading, the period's
+  acceleration noise on the velocity, the attitude error as a slowly varying
+  accelerometer offset, :mod:`ballbot_casadi.estimation.velocity`) with its acceleration
+  random walk adapted online from its own corrections
+  (:mod:`ballbot_casadi.estimation.adaptive_walk`): the ``velocity`` row, the verdict
+  (``adaptive_passed``).  Beside it, as a diagnostic of the same run, the walk it ended
+  with (``acc_process_var``, from the final controller state) and the walk measured from
+  the truth (``acc_walk_truth``, :func:`acceleration_random_walk`: the variance of the
+  true ball acceleration's change per period, which a user cannot measure);
+* ``estimator = "ukf"`` (:data:`THESIS`): the thesis's velocity filter, the
+  ``velocity_thesis`` rows (``thesis_passed``; overconfident);
 * ``estimator = "ukf_consistent"`` (:data:`MATCHED`): the constant pair
   :data:`~ballbot_casadi.estimation.velocity.MATCHED_ACC_PROCESS_VAR`, the
   ``velocity_matched`` rows (``matched_passed``), which one pair cannot pass: the moving
@@ -55,10 +57,11 @@ from ballbot_casadi.core.layout import STATE_DXY  # noqa: E402
 from ballbot_casadi.sim.scenario import ESTIMATOR_TUNING_TARGETS  # noqa: E402
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario  # noqa: E402
 from ballbot_casadi.sim.embedded import controller_layout  # noqa: E402
+from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR, THESIS_ESTIMATOR  # noqa: E402
 from ballbot_casadi.studies.registry import shipped_scenarios  # noqa: E402
 from ballbot_casadi.sim.scenario import load_scenario_file  # noqa: E402
 
-__all__ = ["FILTERS", "NIS_DIM", "MATCHED", "ADAPTIVE", "acceleration_random_walk",
+__all__ = ["FILTERS", "NIS_DIM", "MATCHED", "ADAPTIVE", "THESIS", "acceleration_random_walk",
            "estimator_scenarios", "final_walk", "run_consistency_study", "consistency_report_lines"]
 
 #: The filters in the ``nis`` output, in its column order.
@@ -66,11 +69,13 @@ FILTERS = ("attitude", "velocity")
 #: Measurement dimension of each filter's NIS (all readings valid).
 NIS_DIM = 6
 #: The estimator choice with the matched velocity filter and the constant random-walk
-#: pair, run beside the thesis-model "ukf".
+#: pair, run beside the shipped and the thesis's filters.
 MATCHED = "ukf_consistent"
 #: The estimator choice with the matched velocity filter adapting its random walk online:
-#: the study's verdict on the velocity filter.
-ADAPTIVE = "ukf_adaptive"
+#: what the shipped files run, the study's verdict on the velocity filter.
+ADAPTIVE = SHIPPED_ESTIMATOR
+#: The thesis's filters, run beside the shipped ones.
+THESIS = THESIS_ESTIMATOR
 _SKIP_S, _WINDOW = 1.0, 200
 
 
@@ -129,6 +134,7 @@ def run_consistency_study(out: Path, plot: bool = True, names: Sequence[str] | N
     names = estimator_scenarios() if names is None else list(names)
     rows: dict[str, dict[str, Any]] = {}
     series = {}
+    adaptive_ok: list[bool] = []
     for n in names:
         sc = load_scenario_file(shipped_scenarios()[n]).scenario
         if duration is not None:
@@ -138,17 +144,23 @@ def run_consistency_study(out: Path, plot: bool = True, names: Sequence[str] | N
         skip = int(round(_SKIP_S / sc.Ts))
         rows[n] = _rows(nis, skip)
         rows[n]["velocity"]["velocity_rms_mps"] = estimation_metrics(log)["estimator_velocity_rms_mps"]
-        series[n] = (log["time"][:-1], nis, None)
-        if sc.estimator == "ukf":  # as a user's file runs them
-            alog = run_scenario(sc.replace(estimator=ADAPTIVE), sim)
+        series[n] = (log["time"][:-1], nis, None, "")
+        if sc.estimator in (ADAPTIVE, THESIS):  # the three velocity filters, as a user's file runs them
+            alog = log if sc.estimator == ADAPTIVE else run_scenario(sc.replace(estimator=ADAPTIVE), sim)
+            tlog = log if sc.estimator == THESIS else run_scenario(sc.replace(estimator=THESIS), sim)
             slog = run_scenario(sc.replace(estimator=MATCHED), sim)
-            rows[n]["velocity_adaptive"] = _matched_row(
-                alog, skip, final_walk(alog, ADAPTIVE),
-                acc_walk_truth=list(acceleration_random_walk(alog, sc.Ts)))
+            adaptive = _matched_row(alog, skip, final_walk(alog, ADAPTIVE),
+                                    acc_walk_truth=list(acceleration_random_walk(alog, sc.Ts)))
+            rows[n]["velocity" if sc.estimator == ADAPTIVE else "velocity_adaptive"] = adaptive
+            adaptive_ok.append(adaptive["verdict"] == "consistent")
+            if sc.estimator != THESIS:
+                rows[n]["velocity_thesis"] = _matched_row(tlog, skip,
+                                                          _acc_process_var(sc.replace(estimator=THESIS)))
             rows[n]["velocity_matched"] = _matched_row(slog, skip,
                                                        _acc_process_var(sc.replace(estimator=MATCHED)))
+            other, label = (tlog, THESIS) if sc.estimator == ADAPTIVE else (alog, ADAPTIVE)
             series[n] = (log["time"][:-1], nis,
-                         np.asarray(alog["nis"], float)[:, FILTERS.index("velocity")])
+                         np.asarray(other["nis"], float)[:, FILTERS.index("velocity")], label)
     inside = all(r[f]["verdict"] == "consistent" for r in rows.values() for f in FILTERS)
 
     def verdicts(row: str) -> bool:
@@ -156,8 +168,8 @@ def run_consistency_study(out: Path, plot: bool = True, names: Sequence[str] | N
         return bool(v) and all(v)
 
     m = {"dim": NIS_DIM, "confidence": 0.95, "skip_s": _SKIP_S, "scenarios": rows,
-         "passed": bool(inside), "adaptive_passed": verdicts("velocity_adaptive"),
-         "matched_passed": verdicts("velocity_matched")}
+         "passed": bool(inside), "adaptive_passed": bool(adaptive_ok) and all(adaptive_ok),
+         "thesis_passed": verdicts("velocity_thesis"), "matched_passed": verdicts("velocity_matched")}
     (out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
     (out / "report.md").write_text("\n".join(consistency_report_lines(m)) + "\n")
     if plot and series:
@@ -165,13 +177,13 @@ def run_consistency_study(out: Path, plot: bool = True, names: Sequence[str] | N
         lo, hi = chi2_band(NIS_DIM, _WINDOW)
         kernel = np.ones(_WINDOW) / _WINDOW
         for j, (ax, f) in enumerate(zip(axes, FILTERS)):
-            for n, (t, nis, mnis) in series.items():
+            for n, (t, nis, mnis, mlabel) in series.items():
                 v = np.convolve(np.nan_to_num(nis[:, j]), kernel, mode="valid")
                 line, = ax.semilogy(t[_WINDOW - 1:], v, lw=0.7, label=n)
                 if f == "velocity" and mnis is not None:
                     v = np.convolve(np.nan_to_num(mnis), kernel, mode="valid")
                     ax.semilogy(t[_WINDOW - 1:], v, lw=0.7, ls="--", color=line.get_color(),
-                                label=f"{n}, {ADAPTIVE}")
+                                label=f"{n}, {mlabel}")
             ax.axhspan(lo, hi, color="0.85", label=f"chi2({NIS_DIM}) 95 % band, 1 s mean")
             ax.set_ylabel(f"{f} NIS (1 s mean)")
             ax.legend(fontsize=7, loc="upper right")
@@ -203,8 +215,8 @@ def consistency_report_lines(m: dict[str, Any]) -> list[str]:
               "overconfident: its covariance is smaller than its actual errors.", "",
               f"Verdict on the velocity filter (`adaptive_passed`: "
               f"{'passed' if m.get('adaptive_passed') else 'NOT passed'}): "
-              f"`velocity_adaptive`, the velocity filter of `estimator = \"{ADAPTIVE}\"` as "
-              "the scenario file runs it - one configuration for every scenario, its "
+              f"`velocity`, the velocity filter of `estimator = \"{ADAPTIVE}\"` as the shipped "
+              "scenario files run it - one configuration for every scenario, its "
               "acceleration random walk adapted online by covariance matching of its own "
               "innovations (the scoring step of their likelihood along each axis's "
               "h_i = H G e_i; Sage-Husa forgetting, time constant 2 s; the estimate bounded "
@@ -212,6 +224,9 @@ def consistency_report_lines(m: dict[str, Any]) -> list[str]:
               "column is the walk it ended the run with; the next column the walk measured "
               "from the truth on the same run (the variance of the true ball acceleration's "
               "change per period: a diagnostic a user cannot compute).  "
+              f"`velocity_thesis`: the thesis's velocity filter (`estimator = \"{THESIS}\"`, "
+              f"`--estimator {THESIS}`; `thesis_passed`: "
+              f"{'passed' if m.get('thesis_passed') else 'NOT passed'}) on the same noise draws.  "
               f"`velocity_matched`: `estimator = \"{MATCHED}\"`, the same model with the "
               "constant pair `MATCHED_ACC_PROCESS_VAR` (x/y, `matched_passed`): the moving "
               "robot's acceleration jitters ~1e-2 per period, the standing COM robot's "
@@ -224,8 +239,8 @@ def consistency_report_lines(m: dict[str, Any]) -> list[str]:
               "acceleration), so the process noise is G Q G^T with the velocity share dt^2 Q_a; "
               "and the attitude error is a slowly varying accelerometer offset (the b_acc "
               "state walks by dt^2 J P_rate J^T) instead of the white J P_att J^T of (5.27-5.28), "
-              "which the filter averaged away and integrated into its velocity.  The scenario "
-              "files keep the thesis-model filter (README).",
+              "which the filter averaged away and integrated into its velocity.  The shipped "
+              f"scenario files run `{ADAPTIVE}` (README); the thesis's filter is one switch away.",
               "",
               "The band is that of a mean of n independent chi2 values; the innovations of a "
               "run are not exactly white (the attitude error is slow), so a mean a few percent "

@@ -1,10 +1,13 @@
 """The estimator studies: ``estimators`` (thesis ch. 6) and ``full`` (thesis §9.3, §9.4).
 
-``estimators`` runs the noisy roll sine and the velocity profile once with the QUKF +
-VUKF and once with the predecessor's QEKF + VEKF in the loop, and compares the estimates
-against the truth (like Fig. 6.4-6.10).  ``full`` is the complete system (sensors ->
-QUKF + VUKF -> velocity LQR -> FLC -> wheels, in the thesis's feed-forward mode) on both
-scenarios, beside the predecessor's system (SMC + EKFs, §9.4).
+``estimators`` runs the noisy roll sine and the velocity profile with the predecessor's
+QEKF + VEKF, with the thesis's QUKF + VUKF (``estimator = "ukf"``,
+:data:`THESIS_ESTIMATOR`) and with the shipped filters (the files' ``ukf_adaptive``,
+:data:`SHIPPED_ESTIMATOR`: the same QUKF, the consistent velocity filter of issue 22) in
+the loop, and compares the estimates against the truth (like Fig. 6.4-6.10).  ``full`` is
+the complete system (sensors -> QUKF + VUKF -> velocity LQR -> FLC -> wheels, in the
+thesis's feed-forward mode) on both scenarios, beside the predecessor's system (SMC +
+EKFs, §9.4) and the thesis's filters.
 
 Each run keeps its own metrics under ``by_run``; the study's top-level keys are the
 ones the thesis reports, taken from the primary system's runs (see :func:`full_metrics`).
@@ -35,7 +38,18 @@ from ballbot_casadi.sim.scenario import set_value  # noqa: E402
 __all__ = ["comparison_expand", "by_run", "full_metrics", "estimators_metrics", "plot_estimates",
            "report_lines", "THESIS_RATE_PROCESS_VAR", "thesis_tuning_expand", "thesis_tuning_metrics",
            "thesis_tuning_report_lines", "YAW_SEEDS", "THESIS_MEAN_YAW_DEG", "seeds_expand",
-           "yaw_spread_metrics", "yaw_spread_report_lines"]
+           "yaw_spread_metrics", "yaw_spread_report_lines", "SHIPPED_ESTIMATOR", "THESIS_ESTIMATOR",
+           "thesis_filter_expand"]
+
+#: The estimator the shipped scenario files run (issue 22): the thesis's QUKF with the
+#: matched velocity filter adapting its acceleration random walk online
+#: (:mod:`ballbot_casadi.estimation.adaptive_walk`), whose mean NIS lies inside the chi2
+#: 95 % band of its dimension (``ballbot study consistency``).
+SHIPPED_ESTIMATOR = "ukf_adaptive"
+#: The thesis's own filters (QUKF + VUKF, thesis ch. 4-5; its velocity filter is
+#: overconfident), one switch away (``--estimator ukf`` or ``--set estimator=ukf``) and run
+#: beside :data:`SHIPPED_ESTIMATOR` wherever a study compares with the thesis.
+THESIS_ESTIMATOR = "ukf"
 
 #: The predecessor's system of thesis §9.4: sliding mode with the EKFs.
 BASELINE = {"controller": "smc", "estimator": "ekf"}
@@ -61,13 +75,33 @@ def comparison_expand(baseline: dict[str, str]):
     return expand
 
 
+def thesis_filter_expand(baseline: dict[str, str] | None = None):
+    """``expand`` hook: each file with ``baseline`` settings (if given, named as
+    :func:`comparison_expand` names them), then with the thesis's filters
+    (:data:`THESIS_ESTIMATOR`, named ``<file>_ukf``), then as written (the shipped filter
+    :data:`SHIPPED_ESTIMATOR`; primary last)."""
+    thesis = comparison_expand({"estimator": THESIS_ESTIMATOR})
+    base = comparison_expand(baseline) if baseline else None
+
+    def expand(tables: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return (base(tables)[:len(tables)] if base else []) + thesis(tables)
+
+    return expand
+
+
 def by_run(logs: Sequence[SimulationLog]) -> dict[str, dict[str, Any]]:
     """:func:`run_metrics` of every run, keyed by scenario name."""
     return {log.scenario["name"]: run_metrics(log) for log in logs}
 
 
 def _primary(logs: Sequence[SimulationLog]) -> list[SimulationLog]:
-    return list(logs[len(logs) // 2:])
+    """The shipped runs (sine, velocity): the last two."""
+    return list(logs[-2:])
+
+
+def _thesis_runs(logs: Sequence[SimulationLog]) -> list[SimulationLog]:
+    """The runs with the thesis's filters (sine, velocity): the two before the shipped."""
+    return list(logs[-4:-2])
 
 
 def full_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
@@ -79,9 +113,15 @@ def full_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     ``estimator_velocity_rms_mps``: the velocity run; ``estimator_tilt_rms_deg`` and the
     per-axis roll/pitch RMS: the sine run; ``quat_norm_max_dev``, peak tilt and tilt
     rate: the worst run; ``covariance_repairs`` and ``gate_rejections``: all runs.
+    Beside them the thesis's filters on the same runs (``thesis_filter_*``: the §7.1/§7.2
+    maxima of both runs; velocity error RMS, mean velocity NIS and position drift of the
+    velocity run) and ``shipped_vs_thesis_velocity_rms_ratio`` (shipped over thesis
+    velocity error RMS).
     """
     runs = by_run(logs)
     sine, vel = (runs[log.scenario["name"]] for log in _primary(logs))
+    th_prim = [runs[log.scenario["name"]] for log in _thesis_runs(logs)]
+    th_vel = th_prim[-1]
     prim = [sine, vel]
     out = {
         "tilt_error_rms_deg": max(m["tilt_error_rms_deg"] for m in prim),
@@ -96,6 +136,16 @@ def full_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
         "estimator_pitch_rms_deg": sine["estimator_pitch_rms_deg"],
         "estimator_velocity_rms_mps": vel["estimator_velocity_rms_mps"],
         "estimator_heading_drift_deg": vel["estimator_heading_drift_deg"],
+        **{f"thesis_filter_{k}": max(m[k] for m in th_prim)
+           for k in ("tilt_error_max_deg", "heading_error_max_deg")},
+        **{f"thesis_filter_{k}_all": max(m[k] for m in th_prim)
+           for k in ("peak_tilt_deg", "peak_tilt_rate_deg_s")},
+        "nis_velocity_mean": vel["nis_velocity_mean"],
+        "thesis_filter_estimator_velocity_rms_mps": th_vel["estimator_velocity_rms_mps"],
+        "thesis_filter_nis_velocity_mean": th_vel["nis_velocity_mean"],
+        "thesis_filter_position_drift_m": th_vel["position_drift_m"],
+        "shipped_vs_thesis_velocity_rms_ratio": (vel["estimator_velocity_rms_mps"]
+                                                 / th_vel["estimator_velocity_rms_mps"]),
         "peak_tilt_deg_all": max(m["peak_tilt_deg"] for m in prim),
         "peak_tilt_rate_deg_s_all": max(m["peak_tilt_rate_deg_s"] for m in prim),
         "covariance_repairs": int(sum(m.get("covariance_repairs", 0) for m in runs.values())),
@@ -107,32 +157,39 @@ def full_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
 
 
 def estimators_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
-    """UKF against EKF estimates on the sine and the velocity profile (thesis ch. 6)."""
+    """EKF, the thesis's UKF and the shipped UKF estimates on the sine and the velocity
+    profile (thesis ch. 6; runs in :func:`thesis_filter_expand` order, EKF first).
+
+    ``ukf_*`` are the thesis's filters (``estimator = "ukf"``), ``ukf_adaptive_*`` the
+    shipped ones, ``ekf_*`` the predecessor's; ``shipped_vs_thesis_velocity_rms_ratio``
+    is the shipped over the thesis's velocity error RMS on the velocity profile."""
     runs = by_run(logs)
     names = [log.scenario["name"] for log in logs]
-    n = len(logs) // 2
-    ekf_sine, ekf_vel, ukf_sine, ukf_vel = (runs[k] for k in (names[0], names[n - 1], names[n], names[-1]))
+    n = len(logs) // 3
+    groups = {"ekf": (runs[names[0]], runs[names[n - 1]]),
+              THESIS_ESTIMATOR: (runs[names[n]], runs[names[2 * n - 1]]),
+              SHIPPED_ESTIMATOR: (runs[names[2 * n]], runs[names[-1]])}
+    out: dict[str, Any] = {}
+    for f, (sine, vel) in groups.items():
+        out.update({
+            f"{f}_roll_rms_deg": sine["estimator_roll_rms_deg"],
+            f"{f}_pitch_rms_deg": sine["estimator_pitch_rms_deg"],
+            f"{f}_velocity_rms_mps": vel["estimator_velocity_rms_mps"],
+            f"{f}_quat_norm_max_dev": max(sine["quat_norm_max_dev"], vel["quat_norm_max_dev"]),
+            f"{f}_heading_drift_deg": vel["estimator_heading_drift_deg"],
+            f"{f}_position_drift_m": vel["position_drift_m"],
+            **{f"{f}_{k}": run[f"estimator_{k}"]
+               for run, keys in ((sine, ("q2_error_max", "q3_error_max", "rate_rms_dps")),
+                                 (vel, ("vx_drift_mps", "vx_error_rms_mps", "vy_error_rms_mps",
+                                        "x_error_final_m")))
+               for k in keys}})
+        if f != "ekf":
+            out[f"{f}_nis_attitude_mean"] = sine["nis_attitude_mean"]
+            out[f"{f}_nis_velocity_mean"] = vel["nis_velocity_mean"]
     return {
-        "ukf_roll_rms_deg": ukf_sine["estimator_roll_rms_deg"],
-        "ukf_pitch_rms_deg": ukf_sine["estimator_pitch_rms_deg"],
-        "ekf_roll_rms_deg": ekf_sine["estimator_roll_rms_deg"],
-        "ekf_pitch_rms_deg": ekf_sine["estimator_pitch_rms_deg"],
-        "ukf_velocity_rms_mps": ukf_vel["estimator_velocity_rms_mps"],
-        "ekf_velocity_rms_mps": ekf_vel["estimator_velocity_rms_mps"],
-        "ukf_quat_norm_max_dev": max(ukf_sine["quat_norm_max_dev"], ukf_vel["quat_norm_max_dev"]),
-        "ekf_quat_norm_max_dev": max(ekf_sine["quat_norm_max_dev"], ekf_vel["quat_norm_max_dev"]),
-        "ukf_heading_drift_deg": ukf_vel["estimator_heading_drift_deg"],
-        "ekf_heading_drift_deg": ekf_vel["estimator_heading_drift_deg"],
-        "ukf_position_drift_m": ukf_vel["position_drift_m"],
-        "ekf_position_drift_m": ekf_vel["position_drift_m"],
-        **{f"{f}_{k}": run[f"estimator_{k}"] for f, sine, vel in (("ukf", ukf_sine, ukf_vel),
-                                                                   ("ekf", ekf_sine, ekf_vel))
-           for run, keys in ((sine, ("q2_error_max", "q3_error_max", "rate_rms_dps")),
-                             (vel, ("vx_drift_mps", "vx_error_rms_mps", "vy_error_rms_mps",
-                                    "x_error_final_m")))
-           for k in keys},
-        "ukf_nis_attitude_mean": ukf_sine["nis_attitude_mean"],
-        "ukf_nis_velocity_mean": ukf_vel["nis_velocity_mean"],
+        **out,
+        "shipped_vs_thesis_velocity_rms_ratio": (out[f"{SHIPPED_ESTIMATOR}_velocity_rms_mps"]
+                                                 / out[f"{THESIS_ESTIMATOR}_velocity_rms_mps"]),
         "covariance_repairs": int(sum(m.get("covariance_repairs", 0) for m in runs.values())),
         "gate_rejections": int(sum(m.get("gate_rejections", 0) for m in runs.values())),
         # the QUKF with and without renormalisation and the additive UKF on the sine's readings
@@ -211,12 +268,15 @@ def report_lines(metrics: dict[str, Any]) -> list[str]:
         "as the thesis notes in §4 and §6. It is reported, not tuned away.",
         "- The normalised innovation squared (`nis_*_mean`, expected 6 for both filters' 6 "
         "measurements when the filter's noise model is right) shows how consistent each filter "
-        "is: the attitude filter is consistent; the velocity filter is overconfident (NIS far "
-        "above 6) because its encoder prediction (thesis 5.17) uses the attitude filter's body "
-        "rate, whose uncertainty (about 3 tick^2 per period) R = I/9 tick^2 leaves out, and its "
-        "acceleration random walk (1e-5) is far below the balancing ball's (about 1e-2). "
-        "`encoder_var = 3`, `acc_process_var = 1e-2` make it consistent but let the standing "
-        "robot wander more (see the README).",
+        "is: the attitude filter is consistent; the thesis's velocity filter (the `*_ukf` runs, "
+        f"`estimator = \"{THESIS_ESTIMATOR}\"`) is overconfident (NIS far above 6) because its "
+        "encoder prediction (thesis 5.17) uses the attitude filter's body rate, whose "
+        "uncertainty (about 3 tick^2 per period) R = I/9 tick^2 leaves out, and its "
+        "acceleration random walk (1e-5) is far below the balancing ball's (about 1e-2). The "
+        f"shipped runs (`estimator = \"{SHIPPED_ESTIMATOR}\"`, issue 22) fix the model (the "
+        "gyro reading in the encoder prediction, the attitude error as an accelerometer offset) "
+        "and adapt the random walk online: NIS near 6 and a smaller velocity error "
+        "(`ballbot study consistency`; the thesis's filters: `--estimator ukf`).",
         "- Position has no sensor: it is the integral of the velocity estimate and drifts "
         "(`position_drift_m`; thesis: about 2 cm).",
         "- The attitude the controllers read (and the `estimator_*` errors) is the attitude "
@@ -236,8 +296,10 @@ THESIS_RATE_PROCESS_VAR = float(QUKF_Q[3, 3])
 
 def thesis_tuning_expand(tables: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """``expand`` hook: the files with the thesis's QUKF body-rate process noise (4.39)
-    instead of the shipped tuned value - the thesis's own tuning, one switch away."""
-    return [set_value(set_value(t, "estimator_tuning.rate_process_var", THESIS_RATE_PROCESS_VAR),
+    instead of the shipped tuned value, and the thesis's filters (:data:`THESIS_ESTIMATOR`) -
+    the thesis's own tuning, one switch away."""
+    return [set_value(set_value(set_value(t, "estimator_tuning.rate_process_var", THESIS_RATE_PROCESS_VAR),
+                                "estimator", THESIS_ESTIMATOR),
                       "name", f"{t.get('name', 'run')}_thesis_tuning") for t in tables]
 
 

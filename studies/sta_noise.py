@@ -14,8 +14,9 @@ be cancelled by a law that acts one period later, so ``|S|`` cannot fall below t
 large, thesis ch. 4 and the tuning of :mod:`ballbot_casadi.estimation.tuning`).
 
 Runs: the thesis's 5 deg / 5 deg initial tilt, the standing robot (velocity cascade),
-QUKF + VUKF, seeds 0..n-1, the default Levant gains and a sweep of the design bound
-``L`` (the gain rule).  Measured after 1 s: RMS and max of ``|S_hat|`` and ``|S|`` and the
+QUKF + VUKF (the shipped ``ukf_adaptive``, or the thesis's ``ukf`` by ``estimator``),
+seeds 0..n-1, the default Levant gains and a sweep of the design bound ``L`` (the gain
+rule).  Measured after 1 s: RMS and max of ``|S_hat|`` and ``|S|`` and the
 RMS of ``e_S``.  Writes ``metrics.json`` and ``report.md``.
 """
 
@@ -34,6 +35,7 @@ from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.sensor_params import load_sensor_params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import Scenario, initial_state
+from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR
 
 __all__ = ["gyro_noise_floor", "true_sliding_variable", "run_sta_noise_study", "sta_noise_report_lines"]
 
@@ -65,9 +67,9 @@ def true_sliding_variable(log: Any, K: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def _run(sim: ClosedLoop, k: np.ndarray, seed: int, duration: float) -> dict[str, Any]:
+def _run(sim: ClosedLoop, k: np.ndarray, seed: int, duration: float, estimator: str) -> dict[str, Any]:
     sc = Scenario(name="sta_noise", controller="sta", duration=duration, x0=initial_state(5, 5),
-                  estimator="ukf", cascade=True, seed=seed, k_bal=tuple(k))
+                  estimator=estimator, cascade=True, seed=seed, k_bal=tuple(k))
     log = run_scenario(sc, sim)
     K = k[_K]
     S_hat = log["diag"][:, _DY] + K * log["diag"][:, _Y]
@@ -83,16 +85,18 @@ def _run(sim: ClosedLoop, k: np.ndarray, seed: int, duration: float) -> dict[str
 
 def run_sta_noise_study(out: Path, plot: bool = True, seeds: Sequence[int] = (0, 1, 2, 3),
                         L_scales: Sequence[float] = (1 / 3, 1.0, 3.0, 10.0),
-                        duration: float = 4.0, sim: ClosedLoop | None = None) -> dict[str, Any]:
+                        duration: float = 4.0, sim: ClosedLoop | None = None,
+                        estimator: str = SHIPPED_ESTIMATOR) -> dict[str, Any]:
     """Run the study into ``out`` (no plot); returns the metrics.  ``L_scales`` multiply the
-    default design bounds :data:`~ballbot_casadi.control.super_twisting.STA_DEFAULT_L`."""
+    default design bounds :data:`~ballbot_casadi.control.super_twisting.STA_DEFAULT_L`;
+    ``estimator``: the shipped filters, or the thesis's (``"ukf"``)."""
     out.mkdir(parents=True, exist_ok=True)
     sim = ClosedLoop() if sim is None else sim
     rows = []
     for scale in L_scales:
         k = default_balance_gains("sta")
         k[_K1], k[_K2] = levant_gains(scale * STA_DEFAULT_L)
-        runs = [_run(sim, k, s, duration) for s in seeds]
+        runs = [_run(sim, k, s, duration, estimator) for s in seeds]
         rows.append({"L_scale": float(scale), "L": (scale * STA_DEFAULT_L).tolist(),
                      **{key: (np.mean([r[key] for r in runs], axis=0).tolist()
                               if np.ndim(runs[0][key]) else float(np.max([r[key] for r in runs])))
@@ -101,6 +105,7 @@ def run_sta_noise_study(out: Path, plot: bool = True, seeds: Sequence[int] = (0,
     best = min(float(np.max(r["S_rms"])) for r in rows)
     ratio = np.array([np.asarray(r["e_S_rms"]) / floor for r in rows])
     m = {"target": _TARGET, "after_s": _T_SETTLE, "seeds": list(seeds), "duration_s": duration,
+         "estimator": estimator,
          "gyro_floor_rms": floor.tolist(), "rows": rows, "best_S_rms": best,
          "e_S_over_floor": [float(ratio.min()), float(ratio.max())],
          "rate_noise_needed_rad_s": 2 * _TARGET,
@@ -118,7 +123,8 @@ def _v(a: Sequence[float]) -> str:
 def sta_noise_report_lines(m: dict[str, Any]) -> list[str]:
     """``report.md`` of the study."""
     lines = ["# Super-twisting with noisy sensors and the QUKF + VUKF", "",
-             f"5 deg / 5 deg initial tilt, standing robot, seeds {m['seeds']}, {m['duration_s']} s; "
+             f"5 deg / 5 deg initial tilt, standing robot, estimator `{m.get('estimator')}`, seeds "
+             f"{m['seeds']}, {m['duration_s']} s; "
              f"measured after {m['after_s']} s (per axis roll, pitch, yaw; RMS averaged, max over "
              "seeds).  `S_hat`: the sliding variable the controller sees (on the estimate); `S`: "
              "on the true state; `e_S = S_hat - S`: its estimation error.", "",

@@ -132,8 +132,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "attitude.roll.amplitude_deg=5 (repeatable)")
     p.add_argument("--estimator", choices=ESTIMATOR_CHOICES,
                    help="what the controllers read: the true state, or noisy sensors with the "
-                        "QUKF + VUKF (ukf) or the predecessor's EKFs (ekf); default: the study's files "
-                        "(true for the thesis's controller studies, ukf for 'estimators' and 'full')")
+                        "QUKF + VUKF (ukf: the thesis's filters; ukf_adaptive: the consistent velocity "
+                        "filter) or the predecessor's EKFs (ekf); default: the study's files (true for "
+                        "the thesis's controller studies, ukf_adaptive for 'estimators', 'full', 'com')")
     p.add_argument("--seed", type=int, metavar="N", help="sensor-noise seed (default: the study's files)")
     p.add_argument("--feedforward", choices=FEEDFORWARD_MODES,
                    help="balance controller feed-forward: exact reference acceleration, or none (the "

@@ -103,8 +103,11 @@ def test_with_noisy_sensors_and_ukfs_the_acceptance_numbers_hold(sim):
 def test_the_tilt_correction_needs_a_bias_estimate_that_can_follow(sim):
     # with the predecessor's accelerometer-bias process noise (1e-9 per period) the
     # velocity filter's bias follows the attitude filter's slow error over minutes, not
-    # seconds: the true attitude misses the 0.05 deg it meets with the tuned filter
-    sc = load_scenario_file(shipped_scenarios()["com_observer"]).scenario
+    # seconds: the true attitude misses the 0.05 deg it meets with the tuned filter.  The
+    # thesis-model velocity filter (estimator "ukf"), whose bias walk is this knob; the
+    # shipped matched filter (ukf_adaptive) walks its offset by the attitude filter's own
+    # rate covariance and meets 0.05 deg either way (measured 0.022 deg with 1e-9)
+    sc = load_scenario_file(shipped_scenarios()["com_observer"]).scenario.replace(estimator="ukf")
     tuned = com_observer_metrics(run_scenario(sc, sim))
     slow = sc.replace(estimator_tuning={**sc.estimator_tuning, "acc_bias_process_var": 1e-9})
     m = com_observer_metrics(run_scenario(slow, sim))

@@ -46,7 +46,11 @@ def test_com_study_passes_side_by_side_and_keeps_todays_loop(sim, tmp_path):
     assert m["observer_true_standing_tilt_error_deg"] < 1e-5
     assert m["final_position_error_m"] <= 0.02 and m["com_estimate_error_max_mm"] <= 2.0
     assert set(m["by_run"]) == {"com", "com_observer_true", "com_ukf", "com_observer_velocity",
-                                "com_observer_centred", "com_observer"}
+                                "com_observer_centred", "com_observer_ukf", "com_observer"}
+    # the main run with the thesis's filters beside the shipped: overconfident, less accurate
+    assert m["by_run"]["com_observer_ukf"]["nis_velocity_mean"] > 100
+    assert 4.0 < m["by_run"]["com_observer"]["nis_velocity_mean"] < 9.0
+    assert m["shipped_vs_thesis_velocity_rms_ratio"] < 0.5
     saved = json.loads((tmp_path / "com" / "metrics.json").read_text())
     assert saved["passed"] and (tmp_path / "com" / "report.md").read_text().count("com_observer_true") >= 1
 

@@ -40,7 +40,10 @@ def test_true_sliding_variable_equals_the_controllers_on_the_true_state(sim):
 
 
 def test_sta_with_the_ukfs_sits_on_the_gyro_noise_floor(sim, tmp_path):
-    m = run_sta_noise_study(tmp_path, seeds=(0,), L_scales=(1.0,), duration=2.5, sim=sim)
+    # the thesis's filters, named (the shipped ukf_adaptive's roll-axis e_S is larger:
+    # measured 2.5x the floor against 1.3x, seeds 0-2, 4 s)
+    m = run_sta_noise_study(tmp_path, seeds=(0,), L_scales=(1.0,), duration=2.5, sim=sim,
+                            estimator="ukf")
     r = m["rows"][0]
     # the estimation error of S is the gyroscope's noise (within 2x per axis, measured
     # 0.5-1.4x) and |S| on the true state cannot go below it
