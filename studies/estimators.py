@@ -33,6 +33,7 @@ from ballbot_casadi.core import quaternion as Q  # noqa: E402
 from ballbot_casadi.core.layout import STATE, STATE_DXY, STATE_XY  # noqa: E402
 from ballbot_casadi.sim.log import SimulationLog  # noqa: E402
 from ballbot_casadi.estimation.tuning import QUKF_Q  # noqa: E402
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, THESIS_ESTIMATOR  # noqa: E402
 from ballbot_casadi.sim.scenario import set_value  # noqa: E402
 
 __all__ = ["comparison_expand", "by_run", "full_metrics", "estimators_metrics", "plot_estimates",
@@ -45,11 +46,7 @@ __all__ = ["comparison_expand", "by_run", "full_metrics", "estimators_metrics", 
 #: matched velocity filter adapting its acceleration random walk online
 #: (:mod:`ballbot_casadi.estimation.adaptive_walk`), whose mean NIS lies inside the chi2
 #: 95 % band of its dimension (``ballbot study consistency``).
-SHIPPED_ESTIMATOR = "ukf_adaptive"
-#: The thesis's own filters (QUKF + VUKF, thesis ch. 4-5; its velocity filter is
-#: overconfident), one switch away (``--estimator ukf`` or ``--set estimator=ukf``) and run
-#: beside :data:`SHIPPED_ESTIMATOR` wherever a study compares with the thesis.
-THESIS_ESTIMATOR = "ukf"
+SHIPPED_ESTIMATOR = DEFAULT_ESTIMATOR
 
 #: The predecessor's system of thesis §9.4: sliding mode with the EKFs.
 BASELINE = {"controller": "smc", "estimator": "ekf"}

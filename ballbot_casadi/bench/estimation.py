@@ -53,6 +53,7 @@ from ballbot_casadi.estimation.tuning import ADAPTIVE_WALK_FORGETTING
 from ballbot_casadi.sim.embedded import (
     ADAPTIVE_VELOCITY,
     MATCHED_VELOCITY,
+    THESIS_ESTIMATOR,
     embedded_readings,
     software_layout,
 )
@@ -97,7 +98,7 @@ def _full_scenario():
     """The ``full_velocity`` file with the thesis's filters (``estimator = "ukf"``: the
     ``estimator_step_us`` keys; the shipped ``ukf_adaptive`` has its own ``*_adaptive_*``)."""
     path = Path(str(resources.files("ballbot_casadi.studies") / "scenarios" / "full_velocity.toml"))
-    return load_scenario_file(path).scenario.replace(estimator="ukf")
+    return load_scenario_file(path).scenario.replace(estimator=THESIS_ESTIMATOR)
 
 
 def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]:

@@ -104,6 +104,7 @@ from ballbot_casadi.sim.ports import (
 
 __all__ = [
     "DEFAULT_ESTIMATOR",
+    "THESIS_ESTIMATOR",
     "ESTIMATOR_FILTERS",
     "MATCHED_VELOCITY",
     "ADAPTIVE_VELOCITY",
@@ -150,6 +151,10 @@ ESTIMATOR_FILTERS: Mapping[str, tuple[str, str]] = {"ukf": ("qukf", "vukf"), "ek
 #: on every shipped UKF scenario).  The thesis's filters are ``"ukf"``, a switch.  Scenario
 #: files name theirs; a scenario without one reads the true state.
 DEFAULT_ESTIMATOR = "ukf_adaptive"
+#: The thesis's own filters (QUKF + VUKF, thesis ch. 4-5), one switch away from
+#: :data:`DEFAULT_ESTIMATOR` (``--estimator ukf`` / ``--set estimator=ukf``): the thesis's
+#: set-up that the studies run beside ours.
+THESIS_ESTIMATOR = "ukf"
 #: Estimator choices whose velocity filter has the matched model of issue 22
 #: (``make_vukf(..., matched=True)``): the encoders' body-rate term from the gyro reading
 #: (estimation.velocity.encoder_rate), the period's acceleration noise on the velocity
