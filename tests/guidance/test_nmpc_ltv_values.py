@@ -114,3 +114,21 @@ def test_qp_solution_equals_the_linear_mpc_where_the_models_coincide(line) -> No
     u_lin = np.asarray(out[1], float).ravel()
     assert np.max(np.abs(u_lin)) > 1e-2  # a non-trivial plan
     np.testing.assert_allclose(w[:nm.n_u], u_lin, rtol=0, atol=2e-5)
+
+
+def test_solve_times_are_per_solve_and_cpu_within_wall(line) -> None:
+    """The bookkeeping of a step: one linearisation and one QP time per solve (the cold
+    first sample: FIRST_SAMPLE_QPS of them), the calling thread's CPU seconds of a solve
+    never above its wall-clock seconds (a differenced clock, not a running total)."""
+    from ballbot_casadi.guidance.mpc import FIRST_SAMPLE_QPS
+
+    nm = NonlinearPathMPC(FakeLTV(), line, CFG, solver="osqp")
+    x = np.zeros(NXL)
+    x[12:14] = [0.1, 0.02]
+    nm.step(x)
+    nm.step(x)
+    n = FIRST_SAMPLE_QPS + 1
+    assert len(nm.solve_s) == len(nm.solve_cpu_s) == len(nm.linearise_s) == n
+    assert len(nm.max_slack) == 2
+    cpu, wall = np.array(nm.solve_cpu_s), np.array(nm.solve_s)
+    assert np.all(cpu >= 0.0) and np.all(cpu <= wall + 1e-3)
