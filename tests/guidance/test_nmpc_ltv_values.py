@@ -132,3 +132,37 @@ def test_solve_times_are_per_solve_and_cpu_within_wall(line) -> None:
     assert len(nm.max_slack) == 2
     cpu, wall = np.array(nm.solve_cpu_s), np.array(nm.solve_s)
     assert np.all(cpu >= 0.0) and np.all(cpu <= wall + 1e-3)
+
+
+def test_the_next_sample_starts_from_the_previous_prediction_clipped(line) -> None:
+    """The progress state of a sample continues from the previous prediction's step 1,
+    never below the previous progress, its rate never negative."""
+    nm = NonlinearPathMPC(FakeLTV(), line, CFG, solver="osqp")
+    x = np.zeros(NXL)
+    x[12:14] = [0.1, 0.02]
+    nm.step(x)
+    x_prev, X1 = nm.x0.copy(), nm.X[1].copy()
+    nm.step(x)
+    want = [max(X1[NXL], x_prev[NXL]), max(X1[NXL + 1], 0.0)]
+    np.testing.assert_array_equal(nm.x0[NXL:], want)
+    np.testing.assert_array_equal(nm.x0[:NXL], x)
+    # a plan whose step-1 progress went backwards at a negative rate: both clipped
+    nm.X = nm.X.copy()
+    nm.X[1, NXL:] = [nm.x0[NXL] - 0.3, -0.2]
+    s_before = nm.x0[NXL]
+    nm.step(x)
+    np.testing.assert_array_equal(nm.x0[NXL:], [s_before, 0.0])
+
+
+def test_a_qp_that_stops_early_is_a_failure_and_keeps_the_shifted_plan(line) -> None:
+    """OSQP stopped after one iteration: the solver reports no success although its
+    iterate is finite; the sample counts as failed and the shifted plan is applied."""
+    nm = NonlinearPathMPC(FakeLTV(), line, CFG, solver="osqp",
+                          solver_options={"osqp": {"max_iter": 1, "verbose": False}})
+    x = np.zeros(NXL)
+    x[12:14] = [0.1, 0.02]
+    v = nm.step(x)
+    assert not nm.last["ok"] and np.all(np.isfinite(nm.last["w"]))
+    assert nm.failures == 1
+    np.testing.assert_array_equal(v, [0.0, 0.0])  # the cold start's plan: zeros
+    np.testing.assert_array_equal(nm.ub, np.zeros(nm.n_u))
