@@ -78,3 +78,13 @@ def test_split_cost_of_a_hand_made_replay(monkeypatch, tmp_path):
                        np.zeros((8, 3)), np.where(np.arange(8) == 0, 500.0, 0.0))
     with pytest.raises(BuildError, match="ran 1 background samples"):
         cost.split_cost(SimpleNamespace(example_elf="x.elf"), one, 3, 7)
+
+
+def test_solve_time_divides_by_the_instructions_per_cycle(monkeypatch):
+    """At 2 instructions per cycle a sample takes half the time (IPC = 1 hides a * / mix-up)."""
+    c = SimpleNamespace(solve_instructions_max=4.8e6)
+    ms1 = cost.GuidedCost.solve_ms(c)
+    monkeypatch.setattr(cost, "IPC", 2.0)
+    assert cost.GuidedCost.solve_ms(c) == pytest.approx(ms1 / 2, rel=1e-14)
+    assert ms1 == pytest.approx(4.8e6 / 480e6 * 1e3, rel=1e-14)
+    assert cost.period_instructions(480e6, 2.0) == pytest.approx(4.8e6)

@@ -31,3 +31,19 @@ def test_a_random_loop_by_hand():
         np.testing.assert_allclose(model.C[key], Cw[key] @ L, rtol=1e-14)
         np.testing.assert_array_equal(model.D[key], Dw[key])
     assert model.dt == m * 0.005
+
+
+def test_each_bad_output_shape_is_refused_alone():
+    import pytest
+
+    from ballbot_casadi.errors import ShapeError
+
+    n = NXL
+    A1, B1, T, L = np.eye(n), np.zeros((n, 2)), np.eye(n), np.eye(n)
+    good_C = {"acc": np.zeros((2, n)), "tilt_acc": np.zeros((2, n))}
+    good_D = {"acc": np.zeros((2, 2)), "tilt_acc": np.zeros((2, 2))}
+    sampled_loop_model(A1, B1, T, L, good_C, good_D, 0.005, 0.1)
+    for C, D in (({**good_C, "acc": np.zeros((2, n + 1))}, good_D),
+                 (good_C, {**good_D, "tilt_acc": np.zeros((2, 3))})):
+        with pytest.raises(ShapeError, match="rows must be 2 x"):
+            sampled_loop_model(A1, B1, T, L, C, D, 0.005, 0.1)
