@@ -72,6 +72,7 @@ from ballbot_casadi.sim.embedded import (
 )
 from ballbot_casadi.sim.guided import GUIDANCE_EVERY, GUIDANCE_LAWS, GuidanceLaw, scenario_law
 from ballbot_casadi.sim.ports import GUIDANCE_CONSTANTS
+from ballbot_casadi.sim.period import require_finite_controller_limit
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = [
@@ -222,13 +223,15 @@ def scenario_values(f: ca.Function, scenario: Scenario, law: GuidanceLaw | None 
     Raises
     ------
     ScenarioError
-        The scenario has no estimator in the loop; a guided period without ``law`` and ``path``.
+        The scenario has no estimator in the loop; a guided period without ``law`` and ``path``;
+        the per-wheel torque limit (the firmware's controller limit is a finite constant).
     BuildError
         A value's size differs from the Function's input.
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the firmware needs an estimator "
                             f"(estimator = one of {', '.join(ESTIMATOR_FILTERS)})")
+    require_finite_controller_limit(scenario.torque_limit, scenario.name, "the firmware")
     inp = scenario.inputs()
     est = inp["estimation"]
     vals: dict[str, Any] = {"p_ctrl": inp["p_ctrl"], "p_est": est["p_est"], "k_bal": inp["k_bal"],

@@ -58,6 +58,7 @@ __all__ = [
     "control_period",
     "rk4_plant",
     "TORQUE_LIMIT_MODES",
+    "require_finite_controller_limit",
     "controller_torque_limit",
 ]
 
@@ -108,6 +109,25 @@ def controller_torque_limit(tau_max: float, mode: str) -> float:
         raise ScenarioError(f"torque_limit {mode!r} unknown; allowed: {', '.join(TORQUE_LIMIT_MODES)}",
                             key="torque_limit")
     return float(tau_max) if mode == "direction" else math.inf
+
+
+def require_finite_controller_limit(mode: str, scenario_name: str, consumer: str) -> None:
+    """Refuse torque-limit ``mode`` for a ``consumer`` (the controller FMU, the firmware)
+    that applies the direction-preserving limit at a finite ``ctrl_tau_max``: the
+    ``"per-wheel"`` mode's controller limit is ``+inf`` (:func:`controller_torque_limit`),
+    not a value of that parameter.
+
+    Raises
+    ------
+    ScenarioError
+        ``mode`` is not ``"direction"`` (one line naming ``torque_limit``).
+    """
+    if mode != TORQUE_LIMIT_MODES[0]:
+        raise ScenarioError(f"scenario {scenario_name!r}: {consumer} limits its torques at its "
+                            f"finite ctrl_tau_max (torque_limit = \"{TORQUE_LIMIT_MODES[0]}\"); "
+                            f"torque_limit = {mode!r} lifts the controller's limit to +inf (the "
+                            f"plant's per-wheel clipping only, thesis 9.1); allowed: "
+                            f"{TORQUE_LIMIT_MODES[0]}", key="torque_limit")
 
 
 def actuate(tau_lim: Any, tau_dist: Any, tau_max: Any) -> Any:

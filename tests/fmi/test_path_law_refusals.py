@@ -53,3 +53,27 @@ def test_cli_build_controller_refuses_the_per_wheel_limit_with_exit_2(tmp_path, 
                      str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "torque_limit" in err and "+inf" in err
+
+
+PLAIN = {"name": "pw_plain", "duration_s": 2.0, "estimator": "ukf", "torque_limit": "per-wheel"}
+
+
+def test_the_plain_controller_fmu_and_the_firmware_refuse_the_per_wheel_limit():
+    """The same refusal where a scenario's parameters become the controller FMU's start
+    values (controller_values, the SIL's parameter sets) or the firmware's constants
+    (scenario_values; +inf would be written into the C), before anything is built."""
+    import casadi as ca
+
+    from ballbot_casadi.fmi.controller.controller import controller_values
+    from ballbot_casadi.firmware.sources import scenario_values
+
+    sc = parse_scenario(PLAIN).scenario
+    x = ca.SX.sym("x")
+    dummy = ca.Function("ballbot_dummy", [x], [x])
+    for call in (lambda: controller_values(sc, embedded=dummy),
+                 lambda: scenario_values(dummy, sc)):
+        with pytest.raises(ScenarioError) as exc:
+            call()
+        msg = str(exc.value)
+        assert exc.value.key == "torque_limit" and "\n" not in msg
+        assert "'per-wheel'" in msg and "allowed: direction" in msg

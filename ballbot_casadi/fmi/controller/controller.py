@@ -132,6 +132,7 @@ from ballbot_casadi.sim.embedded import (
     software_layout,
 )
 from ballbot_casadi.sim.guided import GuidanceLaw, guided_software
+from ballbot_casadi.sim.period import require_finite_controller_limit
 from ballbot_casadi.sim.ports import (
     EMBEDDED_INPUTS,
     EMBEDDED_OUTPUTS,
@@ -400,11 +401,13 @@ def controller_values(scenario: Scenario, embedded: ca.Function | None = None,
     Raises
     ------
     ScenarioError
-        The scenario has no estimator in the loop.
+        The scenario has no estimator in the loop, or the per-wheel torque limit
+        (:func:`~ballbot_casadi.sim.period.require_finite_controller_limit`).
     """
     if scenario.estimator == "true":
         raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU needs an estimator "
                             f"(estimator = one of {', '.join(ESTIMATOR_FILTERS)})")
+    require_finite_controller_limit(scenario.torque_limit, scenario.name, "the controller FMU")
     embedded = embedded_function(scenario.controller, scenario.estimator) if embedded is None \
         else embedded
     inp = scenario.inputs()

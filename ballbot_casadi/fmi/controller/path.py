@@ -59,7 +59,7 @@ from ballbot_casadi.sim.closed_loop import power_on_inputs
 from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS
 from ballbot_casadi.sim.guided import GuidanceLaw, make_loop_state, scenario_law
 from ballbot_casadi.sim.path_following import velocity_loop_dependencies
-from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES
+from ballbot_casadi.sim.period import require_finite_controller_limit
 from ballbot_casadi.sim.scenario import Scenario
 
 __all__ = ["PATH_MODEL_IDENTIFIER", "S0_NAME", "S0_TOL", "TANGENT_TOL", "V_MAX", "FIXED_WHY",
@@ -105,12 +105,7 @@ def path_law(scenario: Scenario) -> GuidanceLaw:
         raise ScenarioError(f"scenario {scenario.name!r}: path following runs the FLC cascade "
                             f"(controller 'flc', cascade = true), got {scenario.controller!r}",
                             key="controller")
-    if scenario.torque_limit != TORQUE_LIMIT_MODES[0]:
-        raise ScenarioError(f"scenario {scenario.name!r}: the controller FMU limits its torques at "
-                            f"its finite ctrl_tau_max (torque_limit = \"{TORQUE_LIMIT_MODES[0]}\"); "
-                            f"torque_limit = {scenario.torque_limit!r} lifts the controller's "
-                            f"limit to +inf (the plant's per-wheel clipping only, thesis 9.1); "
-                            f"allowed: {TORQUE_LIMIT_MODES[0]}", key="torque_limit")
+    require_finite_controller_limit(scenario.torque_limit, scenario.name, "the controller FMU")
     if scenario.guidance_latency:
         raise ScenarioError(f"scenario {scenario.name!r}: the path-following controller FMU "
                             "applies each guidance sample in its own period, got "
