@@ -83,8 +83,12 @@ def test_loop_refuses_other_variants():
 
 
 def test_double_loop_is_the_compiled_mission_short():
-    # the Python/CasADi loop with the firmware's double period equals the compiled mission
-    sc = _full_sine().scenario.replace(duration=1.0)
+    # the Python/CasADi loop with the firmware's double period equals the compiled mission;
+    # the float bound below was set on the thesis's filters (pinned by name: the shipped
+    # full_sine runs ukf_adaptive, whose float build meets every full_sine spec in
+    # test_single_precision_closed_loop_meets_the_full_sine_specs and equals the mission in
+    # tests/firmware/test_firmware_adaptive.py)
+    sc = _full_sine().scenario.replace(duration=1.0, estimator="ukf")
     ref, got = run_scenario(sc), run_firmware_scenario(sc, "double")
     for k in ("state", "tau", "x_hat", "meas"):
         np.testing.assert_allclose(got[k], ref[k], rtol=0, atol=1e-9, err_msg=k)

@@ -13,6 +13,7 @@ import pytest
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.firmware import replay as R
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 from ballbot_casadi.guidance.paths import line_path
 
 
@@ -52,9 +53,9 @@ def test_the_run_and_the_laws(recorded, latency):
     p, law, duration, sc = recorded["run"]
     assert p is path and duration == pytest.approx(7 * TS_CONTROL, rel=1e-12)
     assert sc.duration == pytest.approx(7 * TS_CONTROL, rel=1e-12)
-    assert (sc.seed, sc.estimator, sc.guidance) == (11, "ukf", "mpc")
+    assert (sc.seed, sc.estimator, sc.guidance) == (11, DEFAULT_ESTIMATOR, "mpc")
     assert (law.latency, law.split) == (latency, False)  # the mission runs the whole law
-    assert recorded["f"] == (sc.controller, "ukf", "mpc", latency)
+    assert recorded["f"] == (sc.controller, DEFAULT_ESTIMATOR, "mpc", latency)
     fw_law = recorded["values"][1]
     assert (fw_law.latency, fw_law.split) == ((latency, True) if latency else (0, False))
     assert recorded["values"][2] is path
