@@ -92,7 +92,11 @@ def test_a_task_that_kills_its_workers_is_resubmitted_then_stops_the_run_with_th
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
             LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                          dashboard_address=None) as lc, Client(lc) as client:
-        futures = [client.submit(_poison, x, str(marker), pure=False) for x in (0, 2, 1)]
+        # the two good tasks finish first (Dask may otherwise run the poison before them and
+        # exhaust its resubmissions while one of them is still pending: a race, not the rule)
+        futures = [client.submit(_poison, x, str(marker), pure=False) for x in (0, 2)]
+        client.gather(futures)
+        futures.append(client.submit(_poison, 1, str(marker), pure=False))
         with pytest.raises(ClusterError, match=r"died running task 2 \(3 submissions\); 2 of 3 tasks") as e:
             dask_cluster.wait_all(
                 futures, client, lost_timeout_s=60.0, cluster=lc,
