@@ -49,7 +49,7 @@ from ballbot_casadi.core.layout import STATE, STATE_XY  # noqa: E402
 from ballbot_casadi.estimation.com_observer import observable_offset  # noqa: E402
 from ballbot_casadi.sim.log import SimulationLog  # noqa: E402
 from ballbot_casadi.sim.scenario import set_value  # noqa: E402
-from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR, THESIS_ESTIMATOR  # noqa: E402
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, THESIS_ESTIMATOR  # noqa: E402
 
 __all__ = ["RUN_PREFIX", "THESIS_RUN", "thesis_filter_expand", "com_study_metrics", "plot_com",
            "com_report_lines"]
@@ -187,7 +187,7 @@ def com_report_lines(metrics: dict[str, Any]) -> list[str]:
         "(up to 0.03 deg over 100 random offsets).",
         f"- `{THESIS_RUN}` is the main run with the thesis's filters (`estimator = "
         f"\"{THESIS_ESTIMATOR}\"`, `--estimator {THESIS_ESTIMATOR}`) on the same noise draws; "
-        f"the shipped files run `{SHIPPED_ESTIMATOR}` (issue 22), whose velocity filter is "
+        f"the shipped files run `{DEFAULT_ESTIMATOR}` (issue 22), whose velocity filter is "
         "consistent (`nis_velocity_mean` near its dimension 6; the thesis's far above: "
         "overconfident) and whose velocity error is smaller.",
         "",

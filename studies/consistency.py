@@ -22,7 +22,7 @@ filters, as a user's file gets them:
   with (``acc_process_var``, from the final controller state) and the walk measured from
   the truth (``acc_walk_truth``, :func:`acceleration_random_walk`: the variance of the
   true ball acceleration's change per period, which a user cannot measure);
-* ``estimator = "ukf"`` (:data:`THESIS`): the thesis's velocity filter, the
+* ``estimator = "ukf"`` (:data:`THESIS_ESTIMATOR`): the thesis's velocity filter, the
   ``velocity_thesis`` rows (``thesis_passed``; overconfident);
 * ``estimator = "ukf_consistent"`` (:data:`MATCHED`): the constant pair
   :data:`~ballbot_casadi.estimation.velocity.MATCHED_ACC_PROCESS_VAR`, the
@@ -57,11 +57,11 @@ from ballbot_casadi.core.layout import STATE_DXY  # noqa: E402
 from ballbot_casadi.sim.scenario import ESTIMATOR_TUNING_TARGETS  # noqa: E402
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario  # noqa: E402
 from ballbot_casadi.sim.embedded import controller_layout  # noqa: E402
-from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR, THESIS_ESTIMATOR  # noqa: E402
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, THESIS_ESTIMATOR  # noqa: E402
 from ballbot_casadi.studies.registry import shipped_scenarios  # noqa: E402
 from ballbot_casadi.sim.scenario import load_scenario_file  # noqa: E402
 
-__all__ = ["FILTERS", "NIS_DIM", "MATCHED", "ADAPTIVE", "THESIS", "acceleration_random_walk",
+__all__ = ["FILTERS", "NIS_DIM", "MATCHED", "ADAPTIVE", "acceleration_random_walk",
            "estimator_scenarios", "final_walk", "run_consistency_study", "consistency_report_lines"]
 
 #: The filters in the ``nis`` output, in its column order.
@@ -72,10 +72,9 @@ NIS_DIM = 6
 #: pair, run beside the shipped and the thesis's filters.
 MATCHED = "ukf_consistent"
 #: The estimator choice with the matched velocity filter adapting its random walk online:
-#: what the shipped files run, the study's verdict on the velocity filter.
-ADAPTIVE = SHIPPED_ESTIMATOR
-#: The thesis's filters, run beside the shipped ones.
-THESIS = THESIS_ESTIMATOR
+#: the filter itself (its walk is read back by :func:`final_walk`), whatever the files
+#: ship; today the files ship it (:data:`~ballbot_casadi.sim.embedded.DEFAULT_ESTIMATOR`).
+ADAPTIVE = "ukf_adaptive"
 _SKIP_S, _WINDOW = 1.0, 200
 
 
@@ -145,20 +144,21 @@ def run_consistency_study(out: Path, plot: bool = True, names: Sequence[str] | N
         rows[n] = _rows(nis, skip)
         rows[n]["velocity"]["velocity_rms_mps"] = estimation_metrics(log)["estimator_velocity_rms_mps"]
         series[n] = (log["time"][:-1], nis, None, "")
-        if sc.estimator in (ADAPTIVE, THESIS):  # the three velocity filters, as a user's file runs them
+        if sc.estimator in (ADAPTIVE, THESIS_ESTIMATOR):  # the three velocity filters, as a user's file runs them
             alog = log if sc.estimator == ADAPTIVE else run_scenario(sc.replace(estimator=ADAPTIVE), sim)
-            tlog = log if sc.estimator == THESIS else run_scenario(sc.replace(estimator=THESIS), sim)
+            tlog = (log if sc.estimator == THESIS_ESTIMATOR
+                    else run_scenario(sc.replace(estimator=THESIS_ESTIMATOR), sim))
             slog = run_scenario(sc.replace(estimator=MATCHED), sim)
             adaptive = _matched_row(alog, skip, final_walk(alog, ADAPTIVE),
                                     acc_walk_truth=list(acceleration_random_walk(alog, sc.Ts)))
             rows[n]["velocity" if sc.estimator == ADAPTIVE else "velocity_adaptive"] = adaptive
             adaptive_ok.append(adaptive["verdict"] == "consistent")
-            if sc.estimator != THESIS:
+            if sc.estimator != THESIS_ESTIMATOR:
                 rows[n]["velocity_thesis"] = _matched_row(tlog, skip,
-                                                          _acc_process_var(sc.replace(estimator=THESIS)))
+                                                          _acc_process_var(sc.replace(estimator=THESIS_ESTIMATOR)))
             rows[n]["velocity_matched"] = _matched_row(slog, skip,
                                                        _acc_process_var(sc.replace(estimator=MATCHED)))
-            other, label = (tlog, THESIS) if sc.estimator == ADAPTIVE else (alog, ADAPTIVE)
+            other, label = (tlog, THESIS_ESTIMATOR) if sc.estimator == ADAPTIVE else (alog, ADAPTIVE)
             series[n] = (log["time"][:-1], nis,
                          np.asarray(other["nis"], float)[:, FILTERS.index("velocity")], label)
     inside = all(r[f]["verdict"] == "consistent" for r in rows.values() for f in FILTERS)
@@ -224,8 +224,9 @@ def consistency_report_lines(m: dict[str, Any]) -> list[str]:
               "column is the walk it ended the run with; the next column the walk measured "
               "from the truth on the same run (the variance of the true ball acceleration's "
               "change per period: a diagnostic a user cannot compute).  "
-              f"`velocity_thesis`: the thesis's velocity filter (`estimator = \"{THESIS}\"`, "
-              f"`--estimator {THESIS}`; `thesis_passed`: "
+              f"`velocity_thesis`: the thesis's velocity filter "
+              f"(`estimator = \"{THESIS_ESTIMATOR}\"`, "
+              f"`--estimator {THESIS_ESTIMATOR}`; `thesis_passed`: "
               f"{'passed' if m.get('thesis_passed') else 'NOT passed'}) on the same noise draws.  "
               f"`velocity_matched`: `estimator = \"{MATCHED}\"`, the same model with the "
               "constant pair `MATCHED_ACC_PROCESS_VAR` (x/y, `matched_passed`): the moving "
@@ -240,7 +241,7 @@ def consistency_report_lines(m: dict[str, Any]) -> list[str]:
               "and the attitude error is a slowly varying accelerometer offset (the b_acc "
               "state walks by dt^2 J P_rate J^T) instead of the white J P_att J^T of (5.27-5.28), "
               "which the filter averaged away and integrated into its velocity.  The shipped "
-              f"scenario files run `{ADAPTIVE}` (README); the thesis's filter is one switch away.",
+              f"scenario files run `{DEFAULT_ESTIMATOR}` (README); the thesis's filter is one switch away.",
               "",
               "The band is that of a mean of n independent chi2 values; the innovations of a "
               "run are not exactly white (the attitude error is slow), so a mean a few percent "

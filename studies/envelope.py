@@ -47,7 +47,7 @@ from ballbot_casadi.core.constants import THESIS_LIMITS  # noqa: E402
 from ballbot_casadi.core.layout import STATE  # noqa: E402
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario  # noqa: E402
 from ballbot_casadi.sim.scenario import Scenario  # noqa: E402
-from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR  # noqa: E402
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR  # noqa: E402
 
 __all__ = ["ENVELOPE_CONTROLLERS", "PUSH_DIRECTIONS", "final_motion", "peak_motion", "recovered",
            "within_limits", "run_envelope_study", "dob_verdict", "envelope_report_lines"]
@@ -164,7 +164,7 @@ def _envelope_row(sim: ClosedLoop, c: str, est: str, k_bal: Sequence[float],
 DOB_SWEEP = (3.0, 6.0, 10.0, 20.0)
 
 
-def dob_gain_sweep(sim: ClosedLoop, estimator: str = SHIPPED_ESTIMATOR,
+def dob_gain_sweep(sim: ClosedLoop, estimator: str = DEFAULT_ESTIMATOR,
                    separations: Sequence[float] = DOB_SWEEP) -> list[dict[str, Any]]:
     """The undisturbed standing run of the FLC and of the FLC + observer at each bandwidth
     ``L = separation x omega`` (:mod:`ballbot_casadi.control.disturbance_observer`): peak
@@ -186,7 +186,7 @@ def dob_gain_sweep(sim: ClosedLoop, estimator: str = SHIPPED_ESTIMATOR,
 
 
 def run_envelope_study(out: Path, plot: bool = True, controllers: Sequence[str] = ENVELOPE_CONTROLLERS,
-                       estimators: Sequence[str] = ("true", SHIPPED_ESTIMATOR), push_max: float = 30.0,
+                       estimators: Sequence[str] = ("true", DEFAULT_ESTIMATOR), push_max: float = 30.0,
                        push_tol: float = 0.25, torque_max: float = 10.0,
                        torque_tol: float = 0.05, sim: ClosedLoop | None = None) -> dict[str, Any]:
     """Run the study into ``out``; returns the metrics (``table[estimator][controller]``)."""

@@ -3,7 +3,7 @@
 ``estimators`` runs the noisy roll sine and the velocity profile with the predecessor's
 QEKF + VEKF, with the thesis's QUKF + VUKF (``estimator = "ukf"``,
 :data:`THESIS_ESTIMATOR`) and with the shipped filters (the files' ``ukf_adaptive``,
-:data:`SHIPPED_ESTIMATOR`: the same QUKF, the consistent velocity filter of issue 22) in
+:data:`DEFAULT_ESTIMATOR`: the same QUKF, the consistent velocity filter of issue 22) in
 the loop, and compares the estimates against the truth (like Fig. 6.4-6.10).  ``full`` is
 the complete system (sensors -> QUKF + VUKF -> velocity LQR -> FLC -> wheels, in the
 thesis's feed-forward mode) on both scenarios, beside the predecessor's system (SMC +
@@ -39,14 +39,8 @@ from ballbot_casadi.sim.scenario import set_value  # noqa: E402
 __all__ = ["comparison_expand", "by_run", "full_metrics", "estimators_metrics", "plot_estimates",
            "report_lines", "THESIS_RATE_PROCESS_VAR", "thesis_tuning_expand", "thesis_tuning_metrics",
            "thesis_tuning_report_lines", "YAW_SEEDS", "THESIS_MEAN_YAW_DEG", "seeds_expand",
-           "yaw_spread_metrics", "yaw_spread_report_lines", "SHIPPED_ESTIMATOR", "THESIS_ESTIMATOR",
-           "thesis_filter_expand"]
+           "yaw_spread_metrics", "yaw_spread_report_lines", "thesis_filter_expand"]
 
-#: The estimator the shipped scenario files run (issue 22): the thesis's QUKF with the
-#: matched velocity filter adapting its acceleration random walk online
-#: (:mod:`ballbot_casadi.estimation.adaptive_walk`), whose mean NIS lies inside the chi2
-#: 95 % band of its dimension (``ballbot study consistency``).
-SHIPPED_ESTIMATOR = DEFAULT_ESTIMATOR
 
 #: The predecessor's system of thesis §9.4: sliding mode with the EKFs.
 BASELINE = {"controller": "smc", "estimator": "ekf"}
@@ -76,7 +70,7 @@ def thesis_filter_expand(baseline: dict[str, str] | None = None):
     """``expand`` hook: each file with ``baseline`` settings (if given, named as
     :func:`comparison_expand` names them), then with the thesis's filters
     (:data:`THESIS_ESTIMATOR`, named ``<file>_ukf``), then as written (the shipped filter
-    :data:`SHIPPED_ESTIMATOR`; primary last)."""
+    :data:`DEFAULT_ESTIMATOR`; primary last)."""
     thesis = comparison_expand({"estimator": THESIS_ESTIMATOR})
     base = comparison_expand(baseline) if baseline else None
 
@@ -165,7 +159,7 @@ def estimators_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     n = len(logs) // 3
     groups = {"ekf": (runs[names[0]], runs[names[n - 1]]),
               THESIS_ESTIMATOR: (runs[names[n]], runs[names[2 * n - 1]]),
-              SHIPPED_ESTIMATOR: (runs[names[2 * n]], runs[names[-1]])}
+              DEFAULT_ESTIMATOR: (runs[names[2 * n]], runs[names[-1]])}
     out: dict[str, Any] = {}
     for f, (sine, vel) in groups.items():
         out.update({
@@ -185,7 +179,7 @@ def estimators_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
             out[f"{f}_nis_velocity_mean"] = vel["nis_velocity_mean"]
     return {
         **out,
-        "shipped_vs_thesis_velocity_rms_ratio": (out[f"{SHIPPED_ESTIMATOR}_velocity_rms_mps"]
+        "shipped_vs_thesis_velocity_rms_ratio": (out[f"{DEFAULT_ESTIMATOR}_velocity_rms_mps"]
                                                  / out[f"{THESIS_ESTIMATOR}_velocity_rms_mps"]),
         "covariance_repairs": int(sum(m.get("covariance_repairs", 0) for m in runs.values())),
         "gate_rejections": int(sum(m.get("gate_rejections", 0) for m in runs.values())),
@@ -270,7 +264,7 @@ def report_lines(metrics: dict[str, Any]) -> list[str]:
         "encoder prediction (thesis 5.17) uses the attitude filter's body rate, whose "
         "uncertainty (about 3 tick^2 per period) R = I/9 tick^2 leaves out, and its "
         "acceleration random walk (1e-5) is far below the balancing ball's (about 1e-2). The "
-        f"shipped runs (`estimator = \"{SHIPPED_ESTIMATOR}\"`, issue 22) fix the model (the "
+        f"shipped runs (`estimator = \"{DEFAULT_ESTIMATOR}\"`, issue 22) fix the model (the "
         "gyro reading in the encoder prediction, the attitude error as an accelerometer offset) "
         "and adapt the random walk online: NIS near 6 and a smaller velocity error "
         "(`ballbot study consistency`; the thesis's filters: `--estimator ukf`).",

@@ -35,7 +35,7 @@ from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.sensor_params import load_sensor_params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import Scenario, initial_state
-from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 
 __all__ = ["gyro_noise_floor", "true_sliding_variable", "run_sta_noise_study", "sta_noise_report_lines"]
 
@@ -86,7 +86,7 @@ def _run(sim: ClosedLoop, k: np.ndarray, seed: int, duration: float, estimator: 
 def run_sta_noise_study(out: Path, plot: bool = True, seeds: Sequence[int] = (0, 1, 2, 3),
                         L_scales: Sequence[float] = (1 / 3, 1.0, 3.0, 10.0),
                         duration: float = 4.0, sim: ClosedLoop | None = None,
-                        estimator: str = SHIPPED_ESTIMATOR) -> dict[str, Any]:
+                        estimator: str = DEFAULT_ESTIMATOR) -> dict[str, Any]:
     """Run the study into ``out`` (no plot); returns the metrics.  ``L_scales`` multiply the
     default design bounds :data:`~ballbot_casadi.control.super_twisting.STA_DEFAULT_L`;
     ``estimator``: the shipped filters, or the thesis's (``"ukf"``)."""

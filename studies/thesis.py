@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
 from ballbot_casadi.core.specs import spec_ok
-from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 from ballbot_casadi.studies.formatting import fmt
 
 __all__ = ["Col", "Ratio", "ThesisResult", "THESIS_RESULTS", "VERDICTS", "needed_runs", "lookup",
@@ -122,7 +122,7 @@ class ThesisResult:
 
 _S, _A = "sine", "sine_asym"
 #: Metric prefix of the shipped filters in the ``estimators`` study (the thesis's: ``ukf``).
-_SHIP = SHIPPED_ESTIMATOR
+_SHIP = DEFAULT_ESTIMATOR
 #: Every quantitative result of thesis chapters 6-9.
 THESIS_RESULTS: tuple[ThesisResult, ...] = (
     # ---------------------------------------------------------------- chapter 6 (estimators)

@@ -10,7 +10,7 @@ import pytest
 from ballbot_casadi.analysis.metrics import run_metrics
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import load_scenario_file, parse_scenario, set_value
-from ballbot_casadi.studies.estimators import SHIPPED_ESTIMATOR, THESIS_ESTIMATOR
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, THESIS_ESTIMATOR
 from ballbot_casadi.studies.registry import get_study, parse_overrides, shipped_scenarios
 
 #: The shipped scenario files with the QUKF + VUKF in the loop (the path missions are
@@ -41,9 +41,9 @@ def _table(name: str, items: list[str]) -> dict:
 
 
 def test_the_shipped_ukf_files_run_the_consistent_filter():
-    assert SHIPPED_ESTIMATOR == "ukf_adaptive" and THESIS_ESTIMATOR == "ukf"
+    assert DEFAULT_ESTIMATOR == "ukf_adaptive" and THESIS_ESTIMATOR == "ukf"
     for name in UKF_FILES:
-        assert load_scenario_file(shipped_scenarios()[name]).scenario.estimator == SHIPPED_ESTIMATOR, name
+        assert load_scenario_file(shipped_scenarios()[name]).scenario.estimator == DEFAULT_ESTIMATOR, name
     # no other non-path shipped file is left on the thesis's filter
     left = [n for n, p in shipped_scenarios().items()
             if (sc := load_scenario_file(p).scenario).estimator == THESIS_ESTIMATOR and not sc.path]
@@ -74,7 +74,7 @@ def test_the_estimator_switch_of_a_study_reaches_its_shipped_runs():
     study = get_study("full")
     shipped = [t["estimator"] for t in study.tables("flc")]
     switched = [t["estimator"] for t in study.tables("flc", [("estimator", THESIS_ESTIMATOR)])]
-    assert shipped[-2:] == [SHIPPED_ESTIMATOR] * 2 and switched[-2:] == [THESIS_ESTIMATOR] * 2
+    assert shipped[-2:] == [DEFAULT_ESTIMATOR] * 2 and switched[-2:] == [THESIS_ESTIMATOR] * 2
 
 
 @pytest.mark.parametrize("name, runs", [
@@ -91,4 +91,4 @@ def test_studies_that_compare_with_the_thesis_run_its_filters_beside_the_shipped
     est = {t["name"]: t.get("estimator", "true") for t in tables}
     assert [n for n, e in est.items() if e == THESIS_ESTIMATOR] == [n for n in runs if n.endswith("_ukf")
                                                                      and n != "com_ukf"]
-    assert est[runs[-1]] == SHIPPED_ESTIMATOR
+    assert est[runs[-1]] == DEFAULT_ESTIMATOR

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 
 import pytest
 
+from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, THESIS_ESTIMATOR
 from studies import estimators as E
 from studies.registry import get_study
 
@@ -16,8 +17,8 @@ from studies.registry import get_study
 def test_the_shipped_filters_meet_the_thesis_filters_attitude_bounds():
     specs = {s.metric: s for s in get_study("estimators").specs}
     for axis in ("roll", "pitch"):
-        thesis = specs[f"{E.THESIS_ESTIMATOR}_{axis}_rms_deg"]
-        shipped = specs[f"{E.SHIPPED_ESTIMATOR}_{axis}_rms_deg"]
+        thesis = specs[f"{THESIS_ESTIMATOR}_{axis}_rms_deg"]
+        shipped = specs[f"{DEFAULT_ESTIMATOR}_{axis}_rms_deg"]
         assert (shipped.op, shipped.threshold) == (thesis.op, thesis.threshold) == ("<=", 0.1)
     ratio = specs["shipped_vs_thesis_velocity_rms_ratio"]
     assert (ratio.op, ratio.threshold) == ("<=", 1.0)  # no worse than the thesis's
@@ -40,8 +41,8 @@ def test_each_filters_metrics_come_from_its_own_runs(monkeypatch):
     monkeypatch.setattr(E, "by_run", lambda _logs: runs)
     monkeypatch.setattr(E, "renormalisation_metrics", lambda _log: {})
     m = E.estimators_metrics(logs)
-    for f, (sine, vel) in (("ekf", (0, 1)), (E.THESIS_ESTIMATOR, (2, 3)),
-                           (E.SHIPPED_ESTIMATOR, (4, 5))):
+    for f, (sine, vel) in (("ekf", (0, 1)), (THESIS_ESTIMATOR, (2, 3)),
+                           (DEFAULT_ESTIMATOR, (4, 5))):
         assert m[f"{f}_roll_rms_deg"] == _run(sine)["estimator_roll_rms_deg"]
         assert m[f"{f}_q3_error_max"] == _run(sine)["estimator_q3_error_max"]
         assert m[f"{f}_velocity_rms_mps"] == _run(vel)["estimator_velocity_rms_mps"]
