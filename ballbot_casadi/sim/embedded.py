@@ -106,6 +106,7 @@ __all__ = [
     "DEFAULT_ESTIMATOR",
     "THESIS_ESTIMATOR",
     "ESTIMATOR_FILTERS",
+    "controller_blocks",
     "MATCHED_VELOCITY",
     "ADAPTIVE_VELOCITY",
     "GATE_GROUPS",
@@ -505,15 +506,27 @@ def software_blocks(controller: str, estimator: str, observer: bool = True
     ScenarioError
         Unknown controller or estimator (the message lists the allowed ones).
     """
-    if controller not in BALANCE_CONTROLLERS:
-        raise ScenarioError(f"unknown controller {controller!r}; allowed: "
-                            f"{', '.join(BALANCE_CONTROLLERS)}")
     if estimator not in ESTIMATOR_FILTERS:
         raise ScenarioError(f"unknown estimator {estimator!r}; the embedded software reads "
                             f"sensors: allowed {', '.join(ESTIMATOR_FILTERS)}")
+    return controller_blocks(controller, observer), _estimator(estimator)
+
+
+def controller_blocks(controller: str = "flc", observer: bool = True) -> PeriodBlocks:
+    """The controller blocks alone (balance controller, velocity LQR, COM observer unless
+    ``observer`` is false), for loops that read the true state and for prediction models:
+    no estimator is built.  The same shared Functions :func:`software_blocks` returns.
+
+    Raises
+    ------
+    ScenarioError
+        Unknown controller (the message lists the allowed ones).
+    """
+    if controller not in BALANCE_CONTROLLERS:
+        raise ScenarioError(f"unknown controller {controller!r}; allowed: "
+                            f"{', '.join(BALANCE_CONTROLLERS)}")
     _, velocity, obs = _shared_controllers()
-    balance = _balance(controller)
-    return PeriodBlocks(balance, velocity, obs if observer else None), _estimator(estimator)
+    return PeriodBlocks(_balance(controller), velocity, obs if observer else None)
 
 
 @lru_cache(maxsize=None)

@@ -66,6 +66,7 @@ from ballbot_casadi.sim.closed_loop import ClosedLoop, power_on_inputs
 from ballbot_casadi.sim.embedded import (
     DEFAULT_ESTIMATOR,
     ESTIMATOR_FILTERS,
+    controller_blocks,
     embedded_software,
     software_blocks,
 )
@@ -381,12 +382,12 @@ def _simulator(function: ca.Function, estimator: str, actuation_delay: bool = Fa
     if sample is not None and relink is not None:  # the sample compiled once, linked
         library, compiled_sample = linked_function(sample)
         function, links = relink(compiled_sample), (library,)
-    blocks, est = (software_blocks("flc", estimator) if estimator != "true"
-                   else software_blocks("flc", DEFAULT_ESTIMATOR))
     if estimator == "true":
+        blocks = controller_blocks("flc")
         step = make_closed_loop_step(blocks.balance, blocks.velocity, make_ode(), N_SUB,
                                      blocks.observer, function)
     else:  # the embedded software with the guidance block: the firmware's Function too
+        blocks, est = software_blocks("flc", estimator)
         step = make_estimating_step(blocks.balance, blocks.velocity, est.ode, make_wheel_speeds(),
                                     est, N_SUB,
                                     embedded=embedded_software("flc", estimator, guidance=function),

@@ -37,7 +37,7 @@ from ballbot_casadi.guidance.prediction import (
 )
 from ballbot_casadi.guidance.prediction_full import reduction_residual, sampled_loop_model
 from ballbot_casadi.model.dynamics import make_jacobians, make_ode
-from ballbot_casadi.sim.embedded import software_blocks
+from ballbot_casadi.sim.embedded import controller_blocks
 from ballbot_casadi.sim.path_following import make_loop_state
 from ballbot_casadi.sim.ports import PERIOD_CONSTANTS
 from ballbot_casadi.sim.steps import make_closed_loop_step
@@ -60,7 +60,7 @@ def loop_step(n_sub: int = N_SUB) -> ca.Function:
     :data:`_CONSTANTS` stacked; ``acc`` the ball acceleration at the period's start (the
     ODE on the torque that acts), ``tilt_acc`` the velocity LQR's tilt-reference
     acceleration (the reference model is a double integrator per axis)."""
-    blocks, _ = software_blocks("flc", "ukf", observer=False)
+    blocks = controller_blocks("flc", observer=False)
     ode = make_ode()
     step = make_closed_loop_step(blocks.balance, blocks.velocity, ode, n_sub)
     w, v = ca.MX.sym("w", NW), ca.MX.sym("v_ref", 2)
@@ -214,7 +214,7 @@ class ClippedLoop:
                                    Ts, dt)
         self.Cy = np.vstack([lin.C["acc"], lin.C["tilt_acc"]])
         self.Dy = np.vstack([lin.D["acc"], lin.D["tilt_acc"]])
-        blocks, _ = software_blocks("flc", "ukf", observer=False)
+        blocks = controller_blocks("flc", observer=False)
         X, v = ca.SX.sym("X", NXL), ca.SX.sym("v_ref", 2)
         w = lift_function()(X, ca.DM(upright_state(inp)))
         x, z = w[:STATE.size], w[STATE.size:]

@@ -60,9 +60,9 @@ def test_a_bad_guidance_value_is_refused_naming_the_key():
 
 def test_the_period_refuses_a_feed_with_wrong_reference_sizes(balance_law, guided_inputs):
     """A guidance block may add (q_ref, dq_ref, ddq_ref), 4 entries each, nothing else."""
-    from ballbot_casadi.sim.embedded import software_blocks
+    from ballbot_casadi.sim.embedded import controller_blocks
 
-    blocks, _ = software_blocks("flc", "ukf")
+    blocks = controller_blocks("flc")
     f = balance_law.function
     ok = PeriodBlocks(blocks.balance, blocks.velocity, None, f)
     assert check_blocks(ok, guided_inputs["p_ctrl"].size)["ng"] == f.numel_in(2)

@@ -11,7 +11,7 @@ import pytest
 from ballbot_casadi.core.constants import N_SUB
 from ballbot_casadi.model.dynamics import make_ode
 from ballbot_casadi.sim.closed_loop import ClosedLoop
-from ballbot_casadi.sim.embedded import software_blocks
+from ballbot_casadi.sim.embedded import controller_blocks
 from ballbot_casadi.sim.guided import guided_simulator, mpc_law, pursuit_law, run_guided
 from ballbot_casadi.sim.steps import make_closed_loop_step
 
@@ -44,7 +44,7 @@ def test_the_variant_links_the_separately_compiled_mpc(linked, guided_law, guide
 
 def test_the_linked_mission_equals_casadis_evaluation_of_the_whole_loop(linked, guided_law,
                                                                         guided_path):
-    blocks, _ = software_blocks("flc", "ukf")
+    blocks = controller_blocks("flc")
     whole = make_closed_loop_step(blocks.balance, blocks.velocity, make_ode(), N_SUB,
                                   blocks.observer, guided_law.function)  # the MPC inlined
     ref = run_guided(guided_path, guided_law, DURATION,
