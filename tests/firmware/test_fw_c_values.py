@@ -351,6 +351,8 @@ def test_replay_rows_and_header(builds, tmp_path, variant, extra):
     np.testing.assert_allclose(out.tau, np.column_stack([k, 0.1 + k, np.full(12, 0.005)]),
                                rtol=0, atol=1e-15)
     assert list(out.rc) == [PREDICT_ONLY] + [OK] * 11  # period 0: no encoder readings
+    np.testing.assert_array_equal(out.ticks, 0.0)  # no SysTick on the host
+    np.testing.assert_array_equal(out.bg_ticks, 0.0)  # nor for the background samples
     if variant == "split":
         assert list(out.v_ref[:, 0]) == SCHEDULE
     if variant == "guided":
