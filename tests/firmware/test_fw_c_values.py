@@ -18,6 +18,7 @@ import ctypes
 import math
 import subprocess
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -25,7 +26,7 @@ import pytest
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.firmware import replay as R
 from ballbot_casadi.firmware.build import FW_CFLAGS
-from ballbot_casadi.firmware.sources import csrc_path
+from ballbot_casadi.firmware.sources import FirmwareValues, csrc_path
 
 pytestmark = pytest.mark.needs_cc
 
@@ -409,3 +410,78 @@ def test_short_replay_output_is_refused(builds, tmp_path):
     assert res.returncode == 2
     with pytest.raises(BuildError, match="stopped early"):
         R._read_output(tmp_path / "out.bin", 12)
+
+
+# ------------------------------------------------------------------ replay.py around the stand-in
+
+
+def _stub_function(guided: bool):
+    import casadi as ca
+
+    sizes = [("c", 8, 1), ("meas", 5, 1), ("q_ref", 4, 1), ("dq_ref", 4, 1), ("ddq_ref", 4, 1),
+             ("v_ref", 3, 1), ("cascade", 1, 1), ("Ts", 1, 1), ("Qa", 2, 2), ("k", 2, 1),
+             *((("k_guid", 3, 1),) if guided else ())]
+    xs = [ca.SX.sym(n, r, c) for n, r, c in sizes]
+    return ca.Function("stub_period", xs, [xs[0]], [n for n, _, _ in sizes], ["c_next"])
+
+
+@pytest.mark.parametrize("variant, guidance, latency", [("plain", None, 0), ("split", "mpc", 2)])
+def test_run_host_writes_the_input_the_replay_program_reads(builds, tmp_path, monkeypatch,
+                                                             variant, guidance, latency):
+    """write_replay_input's layout (header order, parameters in the Function's order and
+    column-major, power-on state, guidance data, rows) read by the real replay program,
+    and run_host / _read_output on what it writes: the stand-in's hand values."""
+    f = _stub_function(guidance is not None)
+    monkeypatch.setattr(R, "firmware_function", lambda *a: f)
+    monkeypatch.setattr(R, "embedded_readings", lambda fn: SimpleNamespace(size=5))
+    folder = tmp_path / "fw"
+    folder.mkdir()
+    (folder / "replay_host").write_bytes(builds[variant, False].read_bytes())
+    (folder / "replay_host").chmod(0o755)
+    fw = R.FirmwareBuild(folder, "flc", "ukf", "double", "0" * 16, guidance=guidance, latency=latency)
+    n = 12
+    meas = np.tile([0.1, 0.2, 0.3, 0.4, 0.5], (n, 1))
+    meas[:, 0] += np.arange(n)
+    refs = np.zeros((n, 15))
+    refs[:, 14] = 0.25
+    # Ts, Qa (column-major: Qa[1] is row 1 of column 0), k: the stand-in echoes Ts, Qa[3], k[1]
+    params = {"Ts": np.array([0.01]), "Qa": np.array([[1.0, 0.0], [-3.0, 2.5]]),
+              "k": np.array([3.0, 4.5])}
+    vals = FirmwareValues({k: v.ravel("F") for k, v in params.items()}, np.array(C0),
+                          np.array([5.0, 6.0, 7.0]) if guidance else None)
+    rec = R.RecordedLog(meas, refs, False, vals, np.zeros((n, 3)))
+    path = R.write_replay_input(tmp_path / "in.bin", rec, fw, bg_delay=1)
+    data = np.frombuffer(path.read_bytes(), "<f8")
+    n_guid = 3 if guidance else 0
+    assert list(data[:7]) == [n, 7, 8, 0.0, R.CALIB_LOOPS, n_guid, 1]
+    assert list(data[7:14]) == [0.01, 1.0, -3.0, 0.0, 2.5, 3.0, 4.5]
+    assert list(data[14:22]) == C0 and list(data[22:22 + n_guid]) == [5.0, 6.0, 7.0][:n_guid]
+    assert data.size == 22 + n_guid + n * 20
+    out = R.run_host(fw, rec, bg_delay=1)
+    k = np.arange(n)
+    np.testing.assert_allclose(out.tau, np.column_stack([k, 0.1 + k, np.full(n, 10.01)]),
+                               rtol=0, atol=1e-15)  # cascade: balance_only False
+    assert list(out.rc) == [PREDICT_ONLY] + [OK] * (n - 1)
+    if guidance:
+        # the sample after the step one period after its snapshot's: still in time
+        assert list(out.v_ref[:, 0]) == SCHEDULE and out.guidance_late == 0
+        assert list(out.v_ref[:, 2]) == [6.0] * n
+    else:
+        assert out.v_ref.shape == (n, 0)
+    with pytest.raises(BuildError, match=r"replay log has readings \(12, 4\) and references "
+                       r"\(12, 15\); expected \(N, 5\) and \(N, 15\)"):
+        R.write_replay_input(tmp_path / "x.bin", R.RecordedLog(meas[:, :4], refs, False, vals,
+                                                               rec.tau_mission), fw)
+    if guidance:
+        bare = R.RecordedLog(meas, refs, False, FirmwareValues(vals.params, vals.c0), rec.tau_mission)
+        with pytest.raises(BuildError, match="the firmware has a guidance block; the replay log "
+                           "has no guidance data"):
+            R.write_replay_input(tmp_path / "y.bin", bare, fw)
+
+
+def test_run_tool_errors_are_one_line_with_the_exit(tmp_path):
+    with pytest.raises(BuildError, match=r"^the thing failed \(exit 3\): boom$"):
+        R._run(["sh", "-c", "echo boom >&2; exit 3"], tmp_path, "the thing", 10.0)
+    with pytest.raises(BuildError, match=r"^the slow thing did not finish within 0.2 s$"):
+        R._run(["sleep", "5"], tmp_path, "the slow thing", 0.2)
+    R._run(["true"], tmp_path, "fine", 10.0)
