@@ -227,15 +227,17 @@ def velocity_profile(
             f"ramp limits must satisfy 0 < a_max <= {SPEC['a_max']} m/s^2 and "
             f"0 < yaw_acc_max <= {SPEC['yaw_acc_max']} rad/s^2 (thesis §7.1)"
         )
-    kf = np.asarray(keyframes, dtype=float)
-    if kf.ndim != 2 or kf.shape[1] not in (4, 5):
+    try:  # each row its own length: a row without accel ramps at a_max
+        rows = [np.asarray(row, dtype=float) for row in keyframes]
+    except (TypeError, ValueError):
+        rows = []
+    if not rows or any(r.ndim != 1 or r.size not in (4, 5) for r in rows):
         raise ShapeError(
-            f"keyframes must be rows (t_start, vx, vy, yaw_rate[, accel]), got shape {kf.shape}"
+            f"keyframes must be rows (t_start, vx, vy, yaw_rate[, accel]), got {keyframes!r}"
         )
-    if not np.all(np.isfinite(kf)):
+    if not all(np.all(np.isfinite(r)) for r in rows):
         raise ScenarioError("keyframes contain NaN or inf")
-    if kf.shape[1] == 4:
-        kf = np.hstack([kf, np.full((kf.shape[0], 1), a_max)])
+    kf = np.array([r if r.size == 5 else np.append(r, a_max) for r in rows])
     value = np.zeros((t.size, 3))
     d1 = np.zeros((t.size, 3))
     prev = np.zeros(3)

@@ -121,11 +121,20 @@ def _freeze(value: Any) -> Any:
 
 
 def _frozen(section: Any, name: str, key: str) -> None:
-    """Check a numeric field for NaN/Inf and store it as nested tuples of floats."""
+    """Check a numeric field for NaN/Inf and store it as nested tuples of floats (rows may
+    differ in length: each section checks its own rows)."""
     value = getattr(section, name)
-    if not np.all(np.isfinite(np.asarray(value, dtype=float))):
+    try:
+        frozen = _freeze(value)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"{name} must hold numbers only, got {value!r}", key=key) from None
+    if not np.all(np.isfinite(np.asarray(_flat(frozen), dtype=float))):
         raise ScenarioError(f"{name} contains NaN or Inf", key=key)
-    object.__setattr__(section, name, _freeze(value))
+    object.__setattr__(section, name, frozen)
+
+
+def _flat(value: Any) -> list[float]:
+    return [w for v in value for w in _flat(v)] if isinstance(value, tuple) else [value]
 
 
 def _set(section: Any, name: str, value: Any) -> None:
