@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+import json
+from typing import Any, Mapping
 
 import numpy as np
 
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import BallbotTypeError, ShapeError, StateError
 
-__all__ = ["as_vector", "check_state", "QUAT_TOL"]
+__all__ = ["as_vector", "check_state", "plain_json", "QUAT_TOL"]
 
 #: Allowed deviation of the state quaternion norm from 1.
 QUAT_TOL = 1e-6
@@ -41,3 +42,24 @@ def check_state(x: Any, what: str = "state") -> np.ndarray:
             f"{what}: quaternion [q0..q3] has norm {nq:.9g}; it must be 1 within {QUAT_TOL:g}"
         )
     return arr
+
+
+def plain_json(value: Any, what: str) -> Any:
+    """A deep copy of ``value`` made of plain JSON data (numpy arrays become lists, numpy
+    scalars Python numbers, mappings dicts), as a scenario stores and writes it.
+
+    Raises
+    ------
+    BallbotTypeError
+        Something in ``value`` has no JSON form (the message names ``what`` and the type).
+    """
+    def plain(obj: Any) -> Any:
+        if isinstance(obj, np.ndarray):
+            return obj.tolist()
+        if isinstance(obj, (np.floating, np.integer, np.bool_)):
+            return obj.item()
+        if isinstance(obj, Mapping):
+            return dict(obj)
+        raise BallbotTypeError(f"{what}: a value of type {type(obj).__name__} has no JSON form; allowed: "
+                               "numbers, strings, booleans, lists, tables and numpy arrays")
+    return json.loads(json.dumps(value, default=plain))

@@ -19,12 +19,12 @@ line naming the key.  A scenario with a path is a cascade run.
 from __future__ import annotations
 
 import copy
-import json
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from ballbot_casadi.core.constants import TS_CONTROL
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.core.validation import plain_json
+from ballbot_casadi.errors import BallbotTypeError, ScenarioError
 from ballbot_casadi.guidance.mpc import MpcConfig
 from ballbot_casadi.guidance.paths import Path, path_from_spec
 from ballbot_casadi.sim.scenario.checker import FileChecker
@@ -56,7 +56,10 @@ class PathSection:
     def check(self, run: Any) -> None:
         if not isinstance(self.path, Mapping):
             raise ScenarioError(f"path must be a table, got {type(self.path).__name__}", key="path")
-        object.__setattr__(self, "path", json.loads(json.dumps(dict(self.path))))
+        try:
+            object.__setattr__(self, "path", plain_json(dict(self.path), "path"))
+        except BallbotTypeError as e:
+            raise ScenarioError(str(e), key="path") from None
         if self.guidance not in GUIDANCE_CHOICES:
             raise ScenarioError(f"guidance must be one of {', '.join(GUIDANCE_CHOICES)}, got "
                                 f"{self.guidance!r}", key="guidance")

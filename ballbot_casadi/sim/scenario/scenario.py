@@ -16,7 +16,6 @@ The thesis experiments built from scenarios are the studies of
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any, Mapping
 
@@ -36,6 +35,7 @@ from ballbot_casadi.core.layout import DISTURBANCE
 from ballbot_casadi.core.params import PARAM_NAMES, Params, load_params
 from ballbot_casadi.core.rng import NoiseStream
 from ballbot_casadi.core.sensor_params import SensorParams, load_sensor_params
+from ballbot_casadi.core.validation import plain_json
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.estimation.com_observer import COM_OBSERVER_DEFAULT_GAINS
@@ -477,7 +477,7 @@ class Scenario:
     def to_dict(self) -> dict[str, Any]:
         """JSON-compatible dict of the attributes (round-trips through :meth:`from_dict`)."""
         d = {f: getattr(self, f) for f in SCENARIO_FIELDS}
-        return json.loads(json.dumps(d, default=_jsonable))
+        return plain_json(d, f"scenario {self.name!r}")
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> "Scenario":
@@ -513,13 +513,3 @@ def _section_property(field_name: str) -> property:
 for _f in SCENARIO_FIELDS:
     setattr(Scenario, _f, _section_property(_f))
 del _f
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    if isinstance(obj, Mapping):
-        return dict(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
