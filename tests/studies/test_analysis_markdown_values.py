@@ -1,0 +1,60 @@
+"""``analysis.md`` read back against the analysis's own numbers (issue 23, test strength):
+each bandwidth in Hz and rad/s under its loop's row, the unstable poles and RHP zeros, the
+rank line and the 3x-rule verdict from the ratio it prints, and the file written whole."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ballbot_casadi.analysis import closed_loop as cla
+from ballbot_casadi.analysis import linear as an
+from ballbot_casadi.core.params import load_params
+from ballbot_casadi.studies import analysis_report as AR
+
+
+@pytest.fixture(scope="module")
+def result():
+    params = load_params()
+    lin, res = an.analyze_plant(params)
+    res.update(cla.analyze_closed_loop(params, lin))
+    res["parameters"] = params.as_dict()
+    return res
+
+
+def test_the_markdown_carries_the_analysis_numbers(result, tmp_path):
+    path = AR.write_markdown(result, tmp_path, "thesis App. A defaults", [])
+    assert path == tmp_path / "analysis.md"
+    text = path.read_text(encoding="utf-8")
+    assert text.endswith("\n") and not text.endswith("\n\n\n")
+    lines = text.splitlines()
+    for key, label in (("inner", "inner: FLC, tilt ref -> tilt"),
+                       ("outer", "outer: velocity ctrl, v_ref -> ball velocity")):
+        f3, fs = result[f"bandwidth_{key}_hz"], result[f"bandwidth_sensitivity_{key}_hz"]
+        row = next(ln for ln in lines if ln.startswith(f"| {label} |"))
+        cells = row.split(" | ")
+        assert cells[1] == f"{f3:.3f} Hz ({2 * math.pi * f3:.2f} rad/s)", key
+        assert cells[2] == f"{fs:.3f} Hz ({2 * math.pi * fs:.2f} rad/s)", key
+        d = result["closed_loop"][key]
+        assert cells[3] == f"{max(d['peak_gain_db']):+.2f} dB" and cells[4] == f"{d['max_real_pole']:.3f}"
+    rs, r3 = result["bandwidth_sensitivity_ratio"], result["bandwidth_ratio"]
+    assert rs == pytest.approx(result["bandwidth_sensitivity_inner_hz"] / result["bandwidth_sensitivity_outer_hz"])
+    ok = "satisfied" if result["cascade_rule_ok"] else "NOT satisfied"
+    assert (f"**3x rule (thesis §7.1: inner loop at least three times faster than the outer): {ok}** on the "
+            f"tracking bandwidths (ratio {rs:.2f}); on the -3 dB points of |T| the ratio is {r3:.2f}") in text
+    poles = ", ".join(f"{p:.4f}" for p in result["unstable_poles"])
+    assert f"Unstable poles: {poles} rad/s" in text
+    assert len(result["unstable_poles"]) == 2 and all(3.0 < p < 4.5 for p in result["unstable_poles"])
+    assert f"**{result['controllability_rank']} of {result['n_states_reduced']}**" in text
+    assert "Stability: all modes stable apart from the neutral ones" in text
+    assert "## Plots" not in text
+
+
+def test_number_cells():
+    assert AR._hz(None) == "n/a (not reached on the grid)"
+    assert AR._hz(1.0) == f"1.000 Hz ({2 * np.pi:.2f} rad/s)" == "1.000 Hz (6.28 rad/s)"
+    assert AR._num(None) == "n/a" and AR._num(3.14159) == "3.14"
+    assert AR._verdict(None) == "n/a" and AR._verdict(True) == "satisfied" and AR._verdict(False) == "NOT satisfied"
+    assert AR._fmt_list([]) == "none"
