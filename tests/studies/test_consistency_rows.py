@@ -16,8 +16,8 @@ import pytest
 
 from ballbot_casadi.studies import consistency as C
 
-VEL_NIS = {C.ADAPTIVE: 6.0, C.THESIS: 40.0, C.MATCHED: 3.0, "ekf": 6.0}
-VEL_RMS = {C.ADAPTIVE: 0.001, C.THESIS: 0.004, C.MATCHED: 0.002, "ekf": 0.003}
+VEL_NIS = {C.ADAPTIVE: 6.0, C.THESIS_ESTIMATOR: 40.0, C.MATCHED: 3.0, "ekf": 6.0}
+VEL_RMS = {C.ADAPTIVE: 0.001, C.THESIS_ESTIMATOR: 0.004, C.MATCHED: 0.002, "ekf": 0.003}
 N = 600  # periods of 5 ms: 3 s, the first 200 (1 s) skipped
 
 
@@ -33,7 +33,7 @@ class _Sc:
 
 @pytest.fixture()
 def study(monkeypatch, tmp_path):
-    files = {"a_shipped": C.ADAPTIVE, "b_thesis": C.THESIS, "c_ekf": "ekf"}
+    files = {"a_shipped": C.ADAPTIVE, "b_thesis": C.THESIS_ESTIMATOR, "c_ekf": "ekf"}
     ran = []
 
     def run(sc, sim):
@@ -52,7 +52,7 @@ def study(monkeypatch, tmp_path):
     monkeypatch.setattr(C, "final_walk", lambda log, est: [0.01 if log["estimator"] == est else -1.0, 0.02])
     monkeypatch.setattr(C, "acceleration_random_walk",
                         lambda log, Ts: (0.5 if log["estimator"] == C.ADAPTIVE else -1.0, Ts))
-    monkeypatch.setattr(C, "_acc_process_var", lambda sc: [{C.THESIS: 1e-5, C.MATCHED: 0.05}[sc.estimator]])
+    monkeypatch.setattr(C, "_acc_process_var", lambda sc: [{C.THESIS_ESTIMATOR: 1e-5, C.MATCHED: 0.05}[sc.estimator]])
     m = C.run_consistency_study(tmp_path, plot=False, names=list(files), duration=2.0)
     return m, ran, tmp_path
 
@@ -81,8 +81,8 @@ def test_each_row_is_measured_on_its_own_filters_run(study):
         assert r["attitude"]["mean_nis"] == pytest.approx(6.0) and r["attitude"]["n"] == N - 200
     # the runs: each file once, the shipped file's thesis and matched twins, the thesis
     # file's shipped and matched twins; every one shortened to 2 s
-    assert sorted(ran) == sorted([(C.ADAPTIVE, 2.0), (C.THESIS, 2.0), (C.MATCHED, 2.0),
-                                  (C.THESIS, 2.0), (C.ADAPTIVE, 2.0), (C.MATCHED, 2.0), ("ekf", 2.0)])
+    assert sorted(ran) == sorted([(C.ADAPTIVE, 2.0), (C.THESIS_ESTIMATOR, 2.0), (C.MATCHED, 2.0),
+                                  (C.THESIS_ESTIMATOR, 2.0), (C.ADAPTIVE, 2.0), (C.MATCHED, 2.0), ("ekf", 2.0)])
 
 
 def test_the_verdicts_and_the_written_metrics(study):
