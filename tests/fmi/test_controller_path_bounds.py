@@ -16,6 +16,7 @@ from ballbot_casadi.fmi.controller.controller import controller_spec, controller
 from ballbot_casadi.fmi.controller.path import S0_TOL, TANGENT_TOL, V_MAX, path_law
 from ballbot_casadi.fmi.masters.adapter import FmuSlave
 from ballbot_casadi.fmi.package import build_fmu_from_spec
+from ballbot_casadi.guidance.path_table import PATH_SAMPLES
 from ballbot_casadi.sim.guided import guided_software
 from ballbot_casadi.sim.scenario.file import parse_scenario
 
@@ -106,3 +107,58 @@ def test_the_nearest_value_beyond_a_limit_is_refused(unzipped, over, needle):
         over.update(obstacle1_x=v["path_p0_x"] + 0.05, obstacle1_y=v["path_p0_y"])
     errors = _init(unzipped, **over)
     assert len(errors) == 1 and needle in errors[0] and "\n" not in errors[0], errors
+
+
+# Each refusal of ctrl_path_check, one branch at a time, with the message's numbers: the
+# closed flag, length and speed, a negative radius, an obstacle over the path's END (the
+# table's last point moved away from the start, so start and end differ), over the robot's
+# START (the robot 0.3 m off the path, the obstacle clear of it), path_s0 below 0; a
+# non-finite entry is refused by the shared layer when it is set, naming the variable.
+LAST = PATH_SAMPLES - 1
+
+
+def _case(name):
+    v = _values()
+    p0 = (v["path_p0_x"], v["path_p0_y"])
+    far = (p0[0] + 1.0, p0[1] - 1.5)
+    return {
+        # the shared layer refuses a non-finite value when it is set, naming the variable
+        "nan_point": ({"path_p3_y": float("nan")}, "'path_p3_y' (vr"),
+        "nan_obstacle": ({"obstacle1_r": float("inf")}, "'obstacle1_r' (vr"),
+        "length": ({"path_length": 0.0}, "path_length = 0, path_closed = 1, path_speed = 0.5"),
+        "closed": ({"path_closed": 0.5}, "path_closed = 0.5, path_speed = 0.5: need a length"),
+        "speed0": ({"path_speed": 0.0}, "path_speed = 0: need a length > 0, closed 0 or 1 and "
+                                        "a speed in (0, 0.5] m/s"),
+        "radius": ({"obstacle1_r": -0.1}, "obstacle1_r = -0.1 must be >= 0 (0: no obstacle)"),
+        "end": ({f"path_p{LAST}_x": far[0], f"path_p{LAST}_y": far[1], "obstacle1_x": far[0],
+                 "obstacle1_y": far[1] + 0.05, "obstacle1_r": 0.1},
+                "obstacle1 (radius 0.1 m at [%g, %g]) covers the path's end [%g, %g]"
+                % (far[0], far[1] + 0.05, far[0], far[1])),
+        "robot": ({"x0_y": p0[1] + 0.3, "obstacle1_x": p0[0], "obstacle1_y": p0[1] + 0.35,
+                   "obstacle1_r": 0.1},
+                  "covers the robot's start (x0_x, x0_y) [%g, %g]" % (p0[0], p0[1] + 0.3)),
+        "s0_negative": ({"path_s0": -1e-9}, "path_s0 = -1e-09 must be in [0, path_length = %g]"
+                        % v["path_length"]),
+    }[name]
+
+
+@pytest.mark.parametrize("name", ["nan_point", "nan_obstacle", "length", "closed", "speed0",
+                                  "radius", "end", "robot", "s0_negative"])
+def test_each_path_check_refuses_with_its_own_line(unzipped, name):
+    over, needle = _case(name)
+    errors = _init(unzipped, **over)
+    assert len(errors) == 1 and needle in errors[0] and "\n" not in errors[0], (errors, needle)
+
+
+def test_the_s0_tolerance_measures_from_the_nearest_table_point(unzipped):
+    """The robot 0.3 m off the path beside its start: path_s0 at the start's projection is
+    accepted; 0.2 m farther along the path puts the start farther than the nearest table
+    point plus S0_TOL, and the message gives the nearest table point's distance."""
+    v = _values()
+    x0 = np.array([v["x0_x"], v["path_p0_y"] + 0.3])
+    pts = np.array([[v[f"path_p{i}_x"], v[f"path_p{i}_y"]] for i in range(PATH_SAMPLES)])
+    best = float(np.min(np.hypot(*(pts - x0).T)))
+    s0 = float(_scenario().route.build().project(x0))
+    assert _init(unzipped, x0_y=x0[1], path_s0=s0) == []
+    errors = _init(unzipped, x0_y=x0[1], path_s0=s0 + 0.2)
+    assert len(errors) == 1 and "the nearest path point is %g m away" % best in errors[0], errors
