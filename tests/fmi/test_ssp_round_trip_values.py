@@ -122,6 +122,10 @@ def test_written_system_reads_back_entry_by_entry(tmp_path):
     assert s.parameters == {"a": {"k": 2.5, "n": 4, "b": True}, "b": {"k": 3.0}}
     assert type(s.parameters["a"]["n"]) is int and type(s.parameters["a"]["b"]) is bool
     assert type(s.parameters["a"]["k"]) is float
+    # an integer given for a Real variable is written as <ssv:Real> (strict importers check the type)
+    assert type(s.parameters["b"]["k"]) is float
+    with zipfile.ZipFile(p) as zf:
+        assert '<ssv:Real value="3.0"/>' in zf.read("resources/b.ssv").decode()
     assert s.connections == tuple(cons)
     assert (s.start_time, s.stop_time, s.step) == (0.5, 1.25, 0.005)
     assert set(s.resources) == {"Afmu.fmu", "Bfmu.fmu", "a.ssv", "b.ssv", "extra.json"}

@@ -328,7 +328,9 @@ def write_ssp(path: str | Path, components: Sequence[SspComponent],
     for c in components:
         members[f"resources/{Path(c.fmu).name}"] = Path(c.fmu).read_bytes()
         if c.parameters:
-            members[f"resources/{c.name}.ssv"] = ssv_xml(parameter_set, c.parameters).encode()
+            values = {n: float(v) if variables[c.name][n][0] == "Real" else v  # an int for a Real
+                      for n, v in c.parameters.items()}                       # is written as Real
+            members[f"resources/{c.name}.ssv"] = ssv_xml(parameter_set, values).encode()
     for n, data in (resources or {}).items():
         if f"resources/{n}" in members:
             raise BuildError(f"resource {n!r} clashes with a file of the system")
