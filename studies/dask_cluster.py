@@ -143,6 +143,16 @@ def _lost(message: str, results: dict[int, Any], n: int) -> ClusterError:
     return ClusterError(f"{message}; {len(results)} of {n} tasks had finished", finished=dict(results))
 
 
+def _fetch(get: Callable[[], Any], results: dict[int, Any], n: int) -> Any:
+    """A finished future's result or exception, which is fetched from the scheduler: a
+    scheduler lost in between (``ConnectionResetError``, ``CommClosedError``) is the lost
+    scheduler's :class:`ClusterError`, not the caller's error."""
+    try:
+        return get()
+    except OSError as exc:
+        raise _lost(f"lost the Dask scheduler ({type(exc).__name__})", results, n) from None
+
+
 def wait_all(futures: Sequence[Any], client: Any, on_done: Callable[[int], None] | None = None,
              lost_timeout_s: float | None = None, resubmit: Callable[[int], Any] | None = None,
              cluster: Any = None) -> list[Any]:
@@ -191,7 +201,7 @@ def wait_all(futures: Sequence[Any], client: Any, on_done: Callable[[int], None]
             if f.status == "cancelled":
                 raise _lost(f"the Dask scheduler cancelled task {i} (scheduler lost?)", results, n)
             if f.status == "error":
-                exc = f.exception()
+                exc = _fetch(f.exception, results, n)
                 if type(exc).__name__ != "KilledWorker":
                     raise exc  # a bug in the task itself: the caller's internal error
                 if resubmit is None or resubmits[i] >= MAX_TASK_RESUBMITS:
@@ -202,7 +212,7 @@ def wait_all(futures: Sequence[Any], client: Any, on_done: Callable[[int], None]
                 index[g.key] = i
                 pending.add(g)
                 continue
-            results[i] = f.result()
+            results[i] = _fetch(f.result, results, n)
             if on_done:
                 on_done(i)
         if not pending:
