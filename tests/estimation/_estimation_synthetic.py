@@ -93,3 +93,17 @@ def encoder_ticks(fine: Truth, sub: int, wheel_speeds: ca.Function, p: np.ndarra
     ticks = n_ticks / (2 * math.pi) * theta
     counts = np.sign(ticks) * np.floor(np.abs(ticks) + 0.5)  # thesis (3.13)
     return np.diff(counts, axis=1)
+
+
+def attitude_f(x: np.ndarray) -> np.ndarray:
+    """Thesis (4.14)-(4.18) in numpy on the additive chart (q, omega): one period's
+    quaternion propagation, independent of the CasADi model Functions."""
+    w = x[4:]
+    n = np.linalg.norm(w) * DT / 2
+    return np.r_[Q.mul(x[:4], np.r_[np.cos(n), np.sin(n) * w / np.linalg.norm(w)]), w]
+
+
+def attitude_h(x: np.ndarray) -> np.ndarray:
+    """Thesis (4.29)-(4.30) in numpy on the (unnormalised) additive chart: the gravity
+    direction in the body frame and the rate."""
+    return np.r_[Q.vee(Q.mul(Q.mul(Q.conj(x[:4]), [0, 0, 0, 1.0]), x[:4])), x[4:]]

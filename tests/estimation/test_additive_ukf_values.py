@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _estimation_synthetic import DT
+from _estimation_synthetic import DT, attitude_f as _f, attitude_h as _h
 
 import ballbot_casadi.estimation as E
 from ballbot_casadi import load_params
@@ -19,14 +19,6 @@ PV = PAR.to_vector()
 TQ = E.DEFAULT_TUNING["qukf"]
 
 
-def _f(x):
-    w = x[4:]
-    n = np.linalg.norm(w) * DT / 2
-    return np.r_[Q.mul(x[:4], np.r_[np.cos(n), np.sin(n) * w / np.linalg.norm(w)]), w]
-
-
-def _h(x):
-    return np.r_[Q.vee(Q.mul(Q.mul(Q.conj(x[:4]), [0, 0, 0, 1.0]), x[:4])), x[4:]]
 
 
 def _G(q):
