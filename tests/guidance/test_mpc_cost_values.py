@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _random_loop import random_velocity_loop
 
 from ballbot_casadi.guidance.condensed import NU_MPC
 from ballbot_casadi.guidance.mpc import MpcConfig, make_mpc_parts
-from ballbot_casadi.guidance.prediction import NXL, closed_velocity_loop
+from ballbot_casadi.guidance.prediction import NXL
 
 CFG = MpcConfig(N=4, blocks=(1, 1, 2), nodes=(1, 2, 4), iterations=2, n_obstacles=1,
                 w_lat=300.0, w_lon=70.0, w_speed=15.0, w_dds=2.0, w_dv=11.0, w_terminal=3.0)
@@ -20,11 +21,7 @@ CFG = MpcConfig(N=4, blocks=(1, 1, 2), nodes=(1, 2, 4), iterations=2, n_obstacle
 
 @pytest.fixture(scope="module")
 def parts():
-    rng = np.random.default_rng(8)
-    Ac = 0.3 * rng.normal(size=(12, 12)) - np.eye(12)
-    Bc = rng.normal(size=(12, 2))
-    K = 0.2 * rng.normal(size=(2, 12))
-    model = closed_velocity_loop(Ac, Bc, K, 0.05, CFG.dt)
+    model = random_velocity_loop(8, CFG.dt)
     _, L, extra = make_mpc_parts(model, CFG)
     return L, extra
 

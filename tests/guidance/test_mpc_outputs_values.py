@@ -8,20 +8,17 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
+from _random_loop import random_velocity_loop
 
 from ballbot_casadi.guidance.mpc import MpcConfig, make_mpc_parts
-from ballbot_casadi.guidance.prediction import NXL, closed_velocity_loop
+from ballbot_casadi.guidance.prediction import NXL
 
 CFG = MpcConfig(N=4, blocks=(1, 1, 2), nodes=(1, 2, 4), iterations=3, n_obstacles=1)
 
 
 @pytest.fixture(scope="module")
 def mpc():
-    rng = np.random.default_rng(81)
-    Ac = 0.3 * rng.normal(size=(12, 12)) - np.eye(12)
-    Bc = rng.normal(size=(12, 2))
-    K = 0.2 * rng.normal(size=(2, 12))
-    model = closed_velocity_loop(Ac, Bc, K, 0.05, CFG.dt)
+    model = random_velocity_loop(81, CFG.dt)
     return make_mpc_parts(model, CFG)
 
 
