@@ -161,7 +161,9 @@ def test_your_own_plant_fmu_with_the_same_names(work, tmp_path):
     ds, dt = _max_diff(log, _jacobi(sc))
     assert ds <= BOUND and dt <= BOUND
     # a plant without the robot's readings cannot be wired
-    with pytest.raises(BuildError, match="lacks tau0"):
+    with pytest.raises(BuildError, match=rf"lacks tau0, tau1, tau2, sensor_acc_x, .*; a plant for the SIL of "
+                                         rf"estimator '{sc.estimator}' needs the inputs tau0..2 and the outputs "
+                                         rf"sensor_acc_x, .*, sensor_enc2 \(Real\)$"):
         write_sil_ssp(sc, tmp_path / "bad.ssp", plant_fmu=controller_build().fmu)
 
 
