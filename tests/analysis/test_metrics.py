@@ -126,3 +126,13 @@ def test_specs_evaluate_each_criterion():
     assert Spec("m", "abs<=", 1.0, "").evaluate({"m": -1.0})["ok"] is True
     with pytest.raises(ValueError, match="unknown study"):
         get_study("nope")
+
+
+def test_sine_metrics_torque_ratio_without_torque_is_infinite():
+    """No torque at all: both total variations are exactly 0 and the ratio is reported as
+    inf (no smooth reference to compare with), not 0/0."""
+    log = _sine_log(0.0)
+    log["tau"] = np.zeros_like(log["tau"])
+    m = sine_metrics(log, 0.5)
+    assert m["torque_total_variation"] == 0.0
+    assert m["torque_tv_ratio"] == math.inf
