@@ -25,3 +25,43 @@ def test_limits_are_the_thesis_section_7_1_values():
     assert set(LIMITS) == set(want)
     for k, v in want.items():
         assert LIMITS[k] == pytest.approx(v, rel=1e-12), k
+
+
+def test_dob_gain_sweep_sets_each_observer_bandwidth_from_the_flc_pole(monkeypatch):
+    """Default sweep 3, 6, 10, 20 x each channel's FLC pole ``omega = Kd / 2`` (critically
+    damped error dynamics): the k vectors handed to the runs, read back from stand-in runs
+    whose torques differ by run, and each row's keys."""
+    from ballbot_casadi.control.disturbance_observer import DOB_GAIN_NAMES
+    from ballbot_casadi.control.flc import FLC_GAIN_NAMES
+    from ballbot_casadi.sim.scenario import Scenario
+    from ballbot_casadi.studies import envelope as env
+
+    assert env.DOB_SWEEP == (3.0, 6.0, 10.0, 20.0)
+    seen = []
+
+    def fake_run(sc, sim):
+        seen.append(sc)
+        n = len(seen)
+        tau = np.zeros((5, 3))
+        tau[2, 0] = n  # total variation 2 n over the run
+        return {"tau_cmd": tau, "run": n}
+
+    monkeypatch.setattr(env, "run_scenario", fake_run)
+    monkeypatch.setattr(env, "peak_motion", lambda log: {"tilt_deg": 0.1 * log["run"]})
+    rows = env.dob_gain_sweep(sim=None, estimator="ukf")
+    assert [r["controller"] for r in rows] == ["flc"] + ["flc_dob"] * 4
+    assert [r["separation"] for r in rows] == [None, 3.0, 6.0, 10.0, 20.0]
+    np.testing.assert_allclose([r["tilt_deg"] for r in rows], [0.1, 0.2, 0.3, 0.4, 0.5], rtol=1e-15)
+    np.testing.assert_allclose([r["torque_tv_nm_per_s"] for r in rows],
+                               [2 * n / env._DURATION for n in range(1, 6)], rtol=1e-15)
+    assert all(sc.estimator == "ukf" for sc in seen)
+    k_flc = np.array(Scenario(name="k", controller="flc", duration=0.01).inputs()["k_bal"], float)
+    k_dob = np.array(Scenario(name="k", controller="flc_dob", duration=0.01).inputs()["k_bal"], float)
+    np.testing.assert_array_equal(seen[0].k_bal, k_flc)
+    Kd = k_dob[[FLC_GAIN_NAMES.index(f"Kd{i}") for i in (1, 2, 3)]]
+    L = [DOB_GAIN_NAMES.index(f"L{i}") for i in (1, 2, 3)]
+    others = [i for i in range(k_dob.size) if i not in L]
+    for sc, sep in zip(seen[1:], env.DOB_SWEEP):
+        k = np.array(sc.k_bal, float)
+        np.testing.assert_allclose(k[L], sep * Kd / 2, rtol=1e-15)
+        np.testing.assert_array_equal(k[others], k_dob[others])
