@@ -5,11 +5,9 @@ scatter collections; the data are compared with values computed here independent
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-from matplotlib.figure import Figure
+from _figures import line
 
 from ballbot_casadi.analysis import linear as an
 from ballbot_casadi.core.params import load_params
@@ -21,51 +19,24 @@ from ballbot_casadi.studies import montecarlo_report as mr
 from ballbot_casadi.studies.registry import shipped_scenarios
 
 
-@pytest.fixture
-def saved(monkeypatch):
-    """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)],
-    "xlabel", "ylabel"}."""
-    figs: dict[str, list[dict]] = {}
-    real = Figure.savefig
-
-    def grab(self, fname, *a, **kw):
-        axes = []
-        for ax in self.axes:
-            axes.append({"lines": [(ln.get_label(), np.asarray(ln.get_xdata(), float),
-                                    np.asarray(ln.get_ydata(), float)) for ln in ax.lines],
-                         "scatter": [(c.get_label(), np.asarray(c.get_offsets(), float)) for c in ax.collections],
-                         "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel()})
-        figs[Path(fname).name] = axes
-        return real(self, fname, *a, **kw)
-
-    monkeypatch.setattr(Figure, "savefig", grab)
-    return figs
-
-
-def _line(axes: dict, label: str):
-    hits = [(x, y) for lab, x, y in axes["lines"] if lab == label]
-    assert len(hits) == 1, [lab for lab, *_ in axes["lines"]]
-    return hits[0]
-
-
 def test_pole_zero_and_singular_value_plots_draw_the_analysis(saved, tmp_path):
     lin, result = an.analyze_plant(load_params())
     analysis_report.write_plots(lin, result, tmp_path)
     pz = saved["pole_zero.png"][0]
     er = np.array([complex(*z) for z in result["eigenvalues_reduced"]])
-    x, y = _line(pz, "poles (reduced 10-state model)")
+    x, y = line(pz, "poles (reduced 10-state model)")
     np.testing.assert_allclose(x, er.real, rtol=0, atol=0)  # Re on x, Im on y
     np.testing.assert_allclose(y, er.imag, rtol=0, atol=0)
     assert np.any(x > 0)  # the balancing robot is open-loop unstable: a pole on the right
     cons = np.array([complex(*z) for z in result["constraint_eigenvalues"]])
-    x, y = _line(pz, "constraint poles (12-state only)")
+    x, y = line(pz, "constraint poles (12-state only)")
     np.testing.assert_allclose(x + 1j * y, cons, rtol=0, atol=0)
     assert pz["xlabel"].startswith("Re") and pz["ylabel"].startswith("Im")
 
     sv_axes = saved["singular_values.png"]
     assert len(sv_axes) == 3
     for ax, channel in zip(sv_axes, ("position", "tilt", "heading")):
-        w, db = _line(ax, "sigma_1")
+        w, db = line(ax, "sigma_1")
         assert w[0] == pytest.approx(1e-2, rel=1e-12) and w[-1] == pytest.approx(1e2, rel=1e-12)
         assert np.all(np.diff(np.log10(w)) > 0) and np.allclose(np.diff(np.log10(w)), np.diff(np.log10(w))[0])
         sv = an.singular_values(lin, w[[0, len(w) // 2, -1]], channel)
@@ -94,7 +65,7 @@ def test_monte_carlo_scatter_draws_each_run_at_its_drawn_value_and_metric(saved,
         np.testing.assert_array_equal(got["fail"], np.column_stack([xs[~ok], np.array(tilts)[~ok]]))
     hist = saved["histograms.png"]
     tilt_ax = next(a for a in hist if any(lab.startswith("spec") for lab, *_ in a["lines"]))
-    x, _ = _line(tilt_ax, "spec < 1.0")
+    x, _ = line(tilt_ax, "spec < 1.0")
     assert np.all(x == 1.0)  # the spec threshold, in the metric's units
     x, _ = next((x, y) for lab, x, y in tilt_ax["lines"] if lab.startswith("§7.1 limit"))
     assert np.allclose(x, 5.0, rtol=1e-12, atol=0)  # 5 deg (thesis §7.1 tilt limit), in degrees

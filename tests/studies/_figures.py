@@ -1,0 +1,18 @@
+"""Reading back what the ``saved`` fixture (conftest.py) recorded of a figure."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def line(axes: dict, label: str) -> tuple[np.ndarray, np.ndarray]:
+    """The one line labelled ``label`` on these axes: (x, y)."""
+    hits = [(x, y) for lab, x, y in axes["lines"] if lab == label]
+    assert len(hits) == 1, [lab for lab, *_ in axes["lines"]]
+    return hits[0]
+
+
+def hlines(axes: dict) -> list[float]:
+    """The y of each horizontal line across the axes (``axhline``), in drawing order."""
+    return [float(y[0]) for _, x, y in axes["lines"]
+            if x.size == 2 and y.size == 2 and y[0] == y[1] and list(x) == [0.0, 1.0]]

@@ -1,0 +1,34 @@
+"""Fixtures of the study tests: what the plots draw, read back when they are saved."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+
+@pytest.fixture
+def saved(monkeypatch):
+    """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)],
+    "xlabel", "ylabel", "title", "yscale"}, plus the figure's suptitle under
+    ``"<file name>:suptitle"``; ``Figure.savefig`` is wrapped to record them."""
+    figs: dict[str, list[dict]] = {}
+    real = Figure.savefig
+
+    def grab(self, fname, *a, **kw):
+        axes = []
+        for ax in self.axes:
+            axes.append({"lines": [(ln.get_label(), np.asarray(ln.get_xdata(), float),
+                                    np.asarray(ln.get_ydata(), float)) for ln in ax.lines],
+                         "scatter": [(c.get_label(), np.asarray(c.get_offsets(), float)) for c in ax.collections],
+                         "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(), "title": ax.get_title(),
+                         "yscale": ax.get_yscale()})
+        figs[Path(fname).name] = axes
+        figs[Path(fname).name + ":suptitle"] = self._suptitle.get_text() if self._suptitle else ""
+        return real(self, fname, *a, **kw)
+
+    monkeypatch.setattr(Figure, "savefig", grab)
+    return figs
+
