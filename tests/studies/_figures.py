@@ -16,3 +16,9 @@ def hlines(axes: dict) -> list[float]:
     """The y of each horizontal line across the axes (``axhline``), in drawing order."""
     return [float(y[0]) for _, x, y in axes["lines"]
             if x.size == 2 and y.size == 2 and y[0] == y[1] and list(x) == [0.0, 1.0]]
+
+
+def vlines(axes: dict) -> list[float]:
+    """The x of each vertical line across the axes (``axvline``), in drawing order."""
+    return [float(x[0]) for _, x, y in axes["lines"]
+            if x.size == 2 and y.size == 2 and x[0] == x[1] and list(y) == [0.0, 1.0]]

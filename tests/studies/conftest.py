@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 @pytest.fixture
 def saved(monkeypatch):
     """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)],
-    "xlabel", "ylabel", "title", "yscale"}, plus the figure's suptitle under
+    "xlabel", "ylabel", "title", "xscale", "yscale", "xlim", "ylim"}, plus the figure's suptitle under
     ``"<file name>:suptitle"``; ``Figure.savefig`` is wrapped to record them."""
     figs: dict[str, list[dict]] = {}
     real = Figure.savefig
@@ -24,7 +24,8 @@ def saved(monkeypatch):
                                     np.asarray(ln.get_ydata(), float)) for ln in ax.lines],
                          "scatter": [(c.get_label(), np.asarray(c.get_offsets(), float)) for c in ax.collections],
                          "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(), "title": ax.get_title(),
-                         "yscale": ax.get_yscale()})
+                         "yscale": ax.get_yscale(), "xscale": ax.get_xscale(),
+                         "xlim": tuple(map(float, ax.get_xlim())), "ylim": tuple(map(float, ax.get_ylim()))})
         figs[Path(fname).name] = axes
         figs[Path(fname).name + ":suptitle"] = self._suptitle.get_text() if self._suptitle else ""
         return real(self, fname, *a, **kw)
