@@ -39,10 +39,10 @@ from ballbot_casadi.analysis.guidance_samples import (
     time_samples,
     timing_summary,
 )
-from ballbot_casadi.analysis.metrics import limit_metrics
+from ballbot_casadi.analysis.metrics import limit_metrics, tilt_deg
 from ballbot_casadi.analysis.path_metrics import path_errors, path_metrics
 from ballbot_casadi.core.constants import THESIS_LIMITS
-from ballbot_casadi.core.layout import STATE_XY
+from ballbot_casadi.core.layout import STATE, STATE_XY
 from ballbot_casadi.errors import SolverError
 from ballbot_casadi.guidance.mpc import FIRST_SAMPLE_QPS, workspace_bytes
 from ballbot_casadi.guidance.paths import path_from_spec
@@ -345,8 +345,7 @@ def path_plots(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path
         x = log.arrays["state"]
         _, lat = path_errors(path, x[::20, STATE_XY])
         axes[0].plot(t[::20], 100 * lat, label=_tag(log))
-        q = x[:, 3:7]
-        tilt = np.degrees(2 * np.arcsin(np.clip(np.hypot(q[:, 1], q[:, 2]), 0, 1)))
+        tilt = tilt_deg(x[:, STATE["q"]])
         axes[1].plot(t, tilt, lw=0.8)
         dq = np.gradient(tilt, t)
         axes[2].plot(t, np.abs(dq), lw=0.6)

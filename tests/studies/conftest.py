@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 
 @pytest.fixture
 def saved(monkeypatch):
-    """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)],
+    """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)], "circles": [(centre, r)],
     "xlabel", "ylabel", "title", "xscale", "yscale", "xlim", "ylim"}, plus the figure's suptitle under
     ``"<file name>:suptitle"``; ``Figure.savefig`` is wrapped to record them."""
     figs: dict[str, list[dict]] = {}
@@ -23,6 +23,8 @@ def saved(monkeypatch):
             axes.append({"lines": [(ln.get_label(), np.asarray(ln.get_xdata(), float),
                                     np.asarray(ln.get_ydata(), float)) for ln in ax.lines],
                          "scatter": [(c.get_label(), np.asarray(c.get_offsets(), float)) for c in ax.collections],
+                         "circles": [(tuple(map(float, c.get_center())), float(c.get_radius()))
+                                     for c in ax.patches if hasattr(c, "get_radius")],
                          "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(), "title": ax.get_title(),
                          "yscale": ax.get_yscale(), "xscale": ax.get_xscale(),
                          "xlim": tuple(map(float, ax.get_xlim())), "ylim": tuple(map(float, ax.get_ylim()))})
