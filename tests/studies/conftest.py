@@ -11,9 +11,10 @@ from matplotlib.figure import Figure
 
 @pytest.fixture
 def saved(monkeypatch):
-    """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)], "circles": [(centre, r)],
-    "xlabel", "ylabel", "title", "xscale", "yscale", "xlim", "ylim"}, plus the figure's suptitle under
-    ``"<file name>:suptitle"``; ``Figure.savefig`` is wrapped to record them."""
+    """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)],
+    "circles": [(centre, r)], "spans": [(label, ymin, ymax)] (other patches, e.g. ``axhspan``),
+    "xlabel", "ylabel", "title", "xscale", "yscale", "xlim", "ylim"}, plus the figure's
+    suptitle under ``"<file name>:suptitle"``; ``Figure.savefig`` is wrapped to record them."""
     figs: dict[str, list[dict]] = {}
     real = Figure.savefig
 
@@ -25,6 +26,8 @@ def saved(monkeypatch):
                          "scatter": [(c.get_label(), np.asarray(c.get_offsets(), float)) for c in ax.collections],
                          "circles": [(tuple(map(float, c.get_center())), float(c.get_radius()))
                                      for c in ax.patches if hasattr(c, "get_radius")],
+                         "spans": [(c.get_label(), *_y_range(c)) for c in ax.patches
+                                   if not hasattr(c, "get_radius")],
                          "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(), "title": ax.get_title(),
                          "yscale": ax.get_yscale(), "xscale": ax.get_xscale(),
                          "xlim": tuple(map(float, ax.get_xlim())), "ylim": tuple(map(float, ax.get_ylim()))})
@@ -35,3 +38,9 @@ def saved(monkeypatch):
     monkeypatch.setattr(Figure, "savefig", grab)
     return figs
 
+
+
+def _y_range(patch) -> tuple[float, float]:
+    """The data y range of a patch (a span's bounds)."""
+    y = patch.get_path().transformed(patch.get_patch_transform()).vertices[:, 1]
+    return float(y.min()), float(y.max())

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from _figures import line
 
 import studies.heading as H
 
@@ -23,6 +24,10 @@ def _run(time, err_deg, bias=None, bias_hat=None):
 
 @pytest.fixture
 def study(tmp_path, monkeypatch):
+    return _study(tmp_path, monkeypatch, plot=False)
+
+
+def _study(tmp_path, monkeypatch, plot):
     t = np.arange(0.0, 200.0, 1.0)  # duration 200 s: the loss window is (100, 160)
     aided_err = np.where(t < 60.0, 5.0, 0.0) + np.where(t >= 60.0, (-1.0) ** np.arange(t.size) * 0.2, 0.0)
     aided_err[120] = 0.4  # the largest after the first minute
@@ -43,8 +48,8 @@ def study(tmp_path, monkeypatch):
         return _run(t, np.full_like(t, 0.5 * (seed + 1)) * (1 if seed % 2 else -1))
 
     monkeypatch.setattr(H, "heading_run", fake)
-    m = H.run_heading_study(tmp_path, plot=False, duration=200.0, seeds=(3, 4))
-    return m, calls, tmp_path, (t, aided_err)
+    m = H.run_heading_study(tmp_path, plot=plot, duration=200.0, seeds=(3, 4))
+    return m, calls, tmp_path, (t, aided_err, lost_err)
 
 
 def test_the_runs_asked_for(study):
@@ -56,7 +61,7 @@ def test_the_runs_asked_for(study):
 
 
 def test_every_metric_by_hand(study):
-    m, _, out, (t, e) = study
+    m, _, out, (t, e, _) = study
     late = e[t >= 60.0]
     assert m["duration_s"] == 199.0
     assert m["aided_error_max_deg"] == pytest.approx(0.4, abs=1e-12)
@@ -85,3 +90,21 @@ def test_the_verdict_at_and_past_the_bound(tmp_path, monkeypatch):
         monkeypatch.setattr(H, "heading_run", lambda d, seed, aided, bias0=(0, 0, 0), loss=None, e=err:
                             _run(t, e if loss is None else np.zeros_like(t)))
         assert H.run_heading_study(tmp_path, plot=False, duration=200.0, seeds=(0,))["passed"] is ok
+
+
+def test_the_plot_draws_each_run_in_minutes_against_its_band(tmp_path, monkeypatch, saved):
+    import matplotlib.pyplot as plt
+
+    _, _, _, (t, aided_err, lost_err) = _study(tmp_path, monkeypatch, plot=True)
+    plt.close("all")
+    top, bottom = saved["heading.png"]
+    x, y = line(top, "aided (10 Hz heading)")
+    np.testing.assert_allclose(x, t / 60, rtol=1e-15)
+    np.testing.assert_array_equal(y, aided_err)
+    np.testing.assert_array_equal(line(top, "aided, 60 s loss")[1], lost_err)
+    for seed, sign in ((3, 1), (4, -1)):
+        np.testing.assert_array_equal(line(bottom, f"unaided QUKF, seed {seed}")[1], sign * 0.5 * (seed + 1))
+    assert top["spans"] == [("±0.5 deg", -H.HEADING_SPEC_DEG, H.HEADING_SPEC_DEG)]
+    assert bottom["spans"] == [("thesis §7.1: ±5 deg", -5.0, 5.0)]
+    assert (top["ylabel"], bottom["ylabel"], bottom["xlabel"]) == (
+        "heading error (deg)", "heading error (deg)", "time (min)")
