@@ -2,8 +2,8 @@
 its documented spread (``ballbot montecarlo --help``, dispersions.py): body mass +-5 % and
 inertias +-10 % (1 sigma, relative), COM offset 5 mm in x and y and COM height 1 cm (1 sigma,
 absolute), viscous frictions uniform on [0, 0.5], [0, 0.005], [0, 0.05], initial roll and
-pitch uniform +-1 deg; plus the obstacle-over-the-start fallback direction (issue 23: a
-changed spread, a relative flag flipped, two rows swapped or an axis swapped must show)."""
+pitch uniform +-1 deg (issue 23: a changed spread, a relative flag flipped or two rows
+swapped must show)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.sim.scenario import parse_scenario
-from ballbot_casadi.sim.scenario.dispersions import _clear_waypoints, draw_runs
+from ballbot_casadi.sim.scenario.dispersions import draw_runs
 
 
 def test_default_set_values_follow_the_documented_spread_in_order():
@@ -39,14 +39,4 @@ def test_default_set_values_follow_the_documented_spread_in_order():
                                            rel=1e-15, abs=1e-15)
         assert t["initial"] == pytest.approx({"roll_deg": want["initial.roll_deg"],
                                               "pitch_deg": want["initial.pitch_deg"]}, rel=1e-15)
-
-
-def test_an_obstacle_centred_on_a_waypoint_moves_along_plus_y():
-    # no direction to move it away along: the fallback is +y, by r + the 5 cm default margin
-    table = {"initial": {"x_m": -4.0, "y_m": 0.0},
-             "path": {"type": "waypoints", "waypoints": [[1.0, 2.0], [3.0, 0.0]]},
-             "obstacle": [{"x": 1.0, "y": 2.0, "r": 0.25}]}
-    _clear_waypoints(table)
-    o = table["obstacle"][0]
-    assert (o["x"], o["y"]) == pytest.approx((1.0, 2.3), abs=1e-15)
 
