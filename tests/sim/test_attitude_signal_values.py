@@ -157,24 +157,3 @@ def test_each_refusal_names_its_key():
     with pytest.raises(ScenarioError) as info:  # Scenario names (not file names) in code
         check_attitude({"roll": {"type": "step", "amplitude_deg": 1.0, "t_step_s": 0.1}}, TS)
     assert info.value.key == "attitude.roll.t_step_s"
-
-
-@pytest.mark.parametrize("table, t, want, want_d1", [
-    # const: value 0
-    ({"type": "const"}, [0.0, 0.7], [0.0, 0.0], [0.0, 0.0]),
-    # sine: phase 0 rad, offset 0 deg
-    ({"type": "sine", "amplitude_deg": 2.0, "frequency_hz": 1.25}, [0.1],
-     [D(2.0) * math.sin(0.25 * math.pi)], [D(2.0) * 2.5 * math.pi * math.cos(0.25 * math.pi)]),
-    # step: at t = 0, ideal (no rise), offset 0
-    ({"type": "step", "amplitude_deg": 2.0}, [0.0, 0.003], [D(2.0), D(2.0)], [0.0, 0.0]),
-    # ramp: from t = 0, offset 0 (3 deg at 4 deg/s: inside until 0.75 s)
-    ({"type": "ramp", "amplitude_deg": 3.0, "rate_deg_s": 4.0}, [0.25, 1.0], [D(1.0), D(3.0)],
-     [D(4.0), 0.0]),
-    # chirp: offset 0 (f 1 -> 3 Hz over 2 s, phi(0.25) = 2 pi (0.25 + 0.25^2 / 2))
-    ({"type": "chirp", "amplitude_deg": 1.5, "f0_hz": 1.0, "f1_hz": 3.0, "sweep_s": 2.0}, [0.25],
-     [D(1.5) * math.sin(2 * math.pi * 0.28125)], [D(1.5) * 2.5 * math.pi * math.cos(2 * math.pi * 0.28125)]),
-], ids=["const", "sine", "step", "ramp", "chirp"])
-def test_omitted_optional_keys_take_their_documented_defaults(table, t, want, want_d1):
-    v, d1, _ = _sig(table, t)
-    np.testing.assert_allclose(v, want, rtol=1e-12, atol=1e-15)
-    np.testing.assert_allclose(d1, want_d1, rtol=1e-12, atol=1e-15)
