@@ -40,12 +40,20 @@ def test_compiled_equals_symbolic_with_estimators():
 
 
 def test_noise_free_readings_are_the_sensor_model_at_the_logged_state(sim):
-    sc = _sine(noise=False)
+    # a wheel-torque disturbance on [0.25, 1.0) s: the torque the IMU model sees as the
+    # previous one is the torque that acted (saturated command plus the disturbance)
+    dist = (0.6, -0.4, 0.25)
+    sc = _sine(noise=False, torque_disturbances=((0.25, 1.0, *dist),))
     log = run_scenario(sc, sim)
     f = make_model_functions()
     sensors = make_sensors(f["ode"])
     p = load_params()
     x, tau, meas = log["state"], log["tau"], log["meas"]
+    # the logged torque holds the disturbance (periods 50..199); without it the
+    # accelerometer reads something else
+    np.testing.assert_allclose(tau[57] - log["tau_cmd"][57], dist, rtol=0, atol=1e-12)
+    acc_cmd = np.asarray(sensors(x[58], log["tau_cmd"][57], p.to_vector())[0]).ravel()
+    assert np.max(np.abs(acc_cmd - meas[58, 0:3])) > 1e-3
     for k in (1, 57, 200, 399):
         acc, gyro, _ = sensors(x[k], tau[k - 1], p.to_vector())  # torque acting just before t_k
         np.testing.assert_allclose(meas[k, 0:3], np.asarray(acc).ravel(), rtol=0, atol=1e-12)

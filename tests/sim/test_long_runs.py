@@ -46,3 +46,18 @@ def test_bad_log_options(sim):
     for kw in ({"log_every": 0}, {"segment_periods": -3}, {"log_every": 1.5}):
         with pytest.raises(ScenarioError, match="int >= 1"):
             run_scenario(sc, sim, **kw)
+
+
+def test_decimation_counts_periods_from_the_run_start_across_unaligned_segments(sim):
+    """Segments of 12 periods and every 7th period kept: the kept periods are 0, 7, 14, ...
+    of the whole run (the count carries over the segment edges 12, 24, ..., which are not
+    multiples of 7), so the log equals the one-call log decimated."""
+    sc = study_scenarios("sine", "flc")[0].replace(duration=0.5)
+    full = run_scenario(sc, sim)
+    dec = run_scenario(sc, sim, log_every=7, segment_periods=12)
+    n = sc.n_periods
+    assert n == 100 and dec["state"].shape[0] == len(range(0, n, 7)) + 1 == 16
+    np.testing.assert_array_equal(dec["state"][:-1], full["state"][:n:7])
+    np.testing.assert_array_equal(dec["state"][-1], full["state"][-1])
+    np.testing.assert_array_equal(dec["tau"], full["tau"][::7])
+    np.testing.assert_allclose(dec["time"], [*(0.005 * k for k in range(0, n, 7)), 0.5], rtol=0, atol=1e-12)

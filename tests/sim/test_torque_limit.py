@@ -65,5 +65,10 @@ def test_cascade_with_attitude_sine_refused_naming_the_key():
              "attitude": {"roll": {"type": "sine", "amplitude_deg": 3.0, "frequency_hz": 0.5}}}
     with pytest.raises(ScenarioError, match=r"attitude\.roll.*ignored with cascade = true"):
         parse_scenario(table)
+    # with several axes the refusal names the first in sorted order (pitch before roll, yaw)
+    table["attitude"] = {"yaw": table["attitude"]["roll"], **table["attitude"],
+                         "pitch": table["attitude"]["roll"]}
+    with pytest.raises(ScenarioError, match=r"key 'attitude\.pitch': an attitude reference is ignored"):
+        parse_scenario(table)
     with pytest.raises(ScenarioError, match="ignored with cascade = true"):
         Scenario("s", cascade=True, attitude=_FAST_SINE)
