@@ -8,7 +8,6 @@ of the closed loop, and the same table again (a fixed point).
 from __future__ import annotations
 
 import copy
-import dataclasses
 import pickle
 import tomllib
 
@@ -72,12 +71,6 @@ def test_attributes_read_through_the_sections_and_stay_immutable():
     assert sc.replace(seed=7).sensors.seed == 7 and sc.seed == 0
     with pytest.raises(AttributeError, match="immutable"):
         sc.seed = 3
-    for section, cls in SCENARIO_SECTIONS:  # nor through a section: each is frozen
-        held = getattr(sc, section)
-        assert type(held) is cls
-        field = dataclasses.fields(held)[0].name
-        with pytest.raises(dataclasses.FrozenInstanceError):
-            setattr(held, field, getattr(held, field))
     assert Scenario.from_dict(sc.to_dict()) == sc
     assert pickle.loads(pickle.dumps(sc)) == sc and copy.deepcopy(sc) == sc   # Dask, caches
     assert Scenario("s", "smc", 2.0) == Scenario("s", controller="smc", duration=2.0)
