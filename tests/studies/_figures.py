@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
+import json
+import os
+from pathlib import Path
+
 import numpy as np
+
+#: Pinned looks of the study figures; ``BALLBOT_PIN_FIGURES=1`` rewrites them (review the diff).
+GOLDEN = Path(__file__).parent / "figure_styles"
 
 
 def line(axes: dict, label: str) -> tuple[np.ndarray, np.ndarray]:
@@ -22,3 +29,16 @@ def vlines(axes: dict) -> list[float]:
     """The x of each vertical line across the axes (``axvline``), in drawing order."""
     return [float(x[0]) for _, x, y in axes["lines"]
             if x.size == 2 and y.size == 2 and x[0] == x[1] and list(y) == [0.0, 1.0]]
+
+
+def assert_style(saved: dict, name: str) -> None:
+    """The look of figure ``name`` (sizes, widths, markers, colours of patches, font sizes)
+    equals its pinned copy ``figure_styles/<name>.json``: a changed line width or font size
+    is a change a reader sees, made on purpose by re-pinning."""
+    got = json.loads(json.dumps(saved[name + ":style"]))
+    path = GOLDEN / f"{name}.json"
+    if os.environ.get("BALLBOT_PIN_FIGURES") == "1":
+        GOLDEN.mkdir(exist_ok=True)
+        path.write_text(json.dumps(got, indent=1) + "\n")
+    assert path.is_file(), f"no pinned look for {name}: run with BALLBOT_PIN_FIGURES=1 and review"
+    assert got == json.loads(path.read_text()), f"{name} looks different from {path}"

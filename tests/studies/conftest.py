@@ -14,7 +14,8 @@ def saved(monkeypatch):
     """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)],
     "circles": [(centre, r)], "spans": [(label, ymin, ymax)] (other patches, e.g. ``axhspan``),
     "xlabel", "ylabel", "title", "xscale", "yscale", "xlim", "ylim"}, plus the figure's
-    suptitle under ``"<file name>:suptitle"``; ``Figure.savefig`` is wrapped to record them."""
+    suptitle under ``"<file name>:suptitle"`` and its look (:func:`_style`) under
+    ``"<file name>:style"``; ``Figure.savefig`` is wrapped to record them."""
     figs: dict[str, list[dict]] = {}
     real = Figure.savefig
 
@@ -33,6 +34,7 @@ def saved(monkeypatch):
                          "xlim": tuple(map(float, ax.get_xlim())), "ylim": tuple(map(float, ax.get_ylim()))})
         figs[Path(fname).name] = axes
         figs[Path(fname).name + ":suptitle"] = self._suptitle.get_text() if self._suptitle else ""
+        figs[Path(fname).name + ":style"] = _style(self, kw.get("dpi"))
         return real(self, fname, *a, **kw)
 
     monkeypatch.setattr(Figure, "savefig", grab)
@@ -44,3 +46,18 @@ def _y_range(patch) -> tuple[float, float]:
     """The data y range of a patch (a span's bounds)."""
     y = patch.get_path().transformed(patch.get_patch_transform()).vertices[:, 1]
     return float(y.min()), float(y.max())
+
+
+def _style(fig, dpi) -> dict:
+    """What a figure looks like beyond its data: size, resolution, and per axes the lines'
+    width, style, marker and size, alpha and colour, the patches' colours, the legend's
+    and title's font sizes (compared with a pinned copy by ``_figures.assert_style``)."""
+    def legend(ax):
+        leg = ax.get_legend()
+        return None if leg is None else {"fontsize": leg.get_texts()[0].get_fontsize() if leg.get_texts() else None,
+                                         "loc": leg._loc, "ncol": leg._ncols}
+    return {"figsize": [float(v) for v in fig.get_size_inches()], "dpi": dpi,
+            "axes": [{"lines": [[ln.get_linewidth(), ln.get_linestyle(), ln.get_marker(), ln.get_markersize(),
+                                 ln.get_alpha(), ln.get_drawstyle()] for ln in ax.lines],
+                      "patches": [[[float(v) for v in p.get_facecolor()], p.get_alpha()] for p in ax.patches],
+                      "legend": legend(ax), "title_size": ax.title.get_fontsize()} for ax in fig.axes]}

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from _figures import hlines, line, vlines
+from _figures import assert_style, hlines, line, vlines
 
 from ballbot_casadi.analysis.bandwidth import FALL_TILT_DEG
 from ballbot_casadi.core import quaternion as Q
@@ -93,6 +93,8 @@ def test_chirp_plots_draw_both_modes_their_torques_and_the_linear_responses(save
     assert gain["xscale"] == "log" and gain["xlim"] == (0.05, 5.0)
     assert gain["ylim"] == (-20.0, 6.0) and phase["ylim"] == (-200.0, 30.0)
     assert (gain["ylabel"], phase["ylabel"], phase["xlabel"]) == ("gain (dB)", "phase (deg)", "frequency (Hz)")
+    assert_style(saved, "chirp_time.png")
+    assert_style(saved, "chirp_bode.png")
 
 
 def test_a_yaw_chirp_shows_roll_as_the_other_tilt(saved, tmp_path):

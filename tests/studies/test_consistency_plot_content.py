@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _figures import line
+from _figures import assert_style, line
 from scipy.stats import chi2
 
 from ballbot_casadi.studies import consistency as C
@@ -52,6 +52,7 @@ def test_nis_figure_draws_each_filter_on_its_panel_with_the_band(monkeypatch, tm
         assert ax["yscale"] == "log"
     assert (att["ylabel"], vel["ylabel"], vel["xlabel"]) == (
         "attitude NIS (1 s mean)", "velocity NIS (1 s mean)", "time (s)")
+    assert_style(saved, "nis.png")
 
 
 @pytest.fixture(autouse=True)

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from _figures import line
+from _figures import assert_style, line
 
 from ballbot_casadi.analysis.estimates import tilt_heading_error_deg
 from ballbot_casadi.core import quaternion as Q
@@ -70,6 +70,7 @@ def test_estimate_errors_are_drawn_per_scenario_and_panel(saved, tmp_path):
             "estimate - true (deg)", "heading drift (deg)", "|v error| (m/s)", "|position error| (m)",
             "| |q| - 1 |"]
         assert norm["yscale"] == "log" and norm["xlabel"] == "time (s)"
+        assert_style(saved, fig)
 
 
 @pytest.fixture(autouse=True)

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from _figures import line
+from _figures import assert_style, line
 
 import studies.heading as H
 
@@ -108,3 +108,4 @@ def test_the_plot_draws_each_run_in_minutes_against_its_band(tmp_path, monkeypat
     assert bottom["spans"] == [("thesis §7.1: ±5 deg", -5.0, 5.0)]
     assert (top["ylabel"], bottom["ylabel"], bottom["xlabel"]) == (
         "heading error (deg)", "heading error (deg)", "time (min)")
+    assert_style(saved, "heading.png")

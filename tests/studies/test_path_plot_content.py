@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from _figures import hlines, line
+from _figures import assert_style, hlines, line
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import THESIS_LIMITS
@@ -72,6 +72,8 @@ def test_path_figures_draw_traces_errors_and_limits(saved, tmp_path):
     assert hlines(torque) == [logs[-1].params.tau_max] == [4.0]
     assert [ax["ylabel"] for ax in (err, tilt, rate, torque)] == [
         "lateral error (cm)", "tilt (deg)", "|tilt rate| (deg/s)", "max |torque cmd| (N m)"]
+    assert_style(saved, "path_xy.png")
+    assert_style(saved, "path_errors_limits.png")
 
 
 @pytest.fixture(autouse=True)

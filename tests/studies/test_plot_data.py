@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _figures import line
+from _figures import assert_style, line
 
 from ballbot_casadi.analysis import linear as an
 from ballbot_casadi.core.params import load_params
@@ -41,6 +41,8 @@ def test_pole_zero_and_singular_value_plots_draw_the_analysis(saved, tmp_path):
         assert np.all(np.diff(np.log10(w)) > 0) and np.allclose(np.diff(np.log10(w)), np.diff(np.log10(w))[0])
         sv = an.singular_values(lin, w[[0, len(w) // 2, -1]], channel)
         np.testing.assert_allclose(db[[0, len(w) // 2, -1]], 20 * np.log10(sv[:, 0]), rtol=1e-12, atol=1e-12)
+    assert_style(saved, "pole_zero.png")
+    assert_style(saved, "singular_values.png")
 
 
 def test_monte_carlo_scatter_draws_each_run_at_its_drawn_value_and_metric(saved, tmp_path):
@@ -69,3 +71,5 @@ def test_monte_carlo_scatter_draws_each_run_at_its_drawn_value_and_metric(saved,
     assert np.all(x == 1.0)  # the spec threshold, in the metric's units
     x, _ = next((x, y) for lab, x, y in tilt_ax["lines"] if lab.startswith("§7.1 limit"))
     assert np.allclose(x, 5.0, rtol=1e-12, atol=0)  # 5 deg (thesis §7.1 tilt limit), in degrees
+    assert_style(saved, "scatter.png")
+    assert_style(saved, "histograms.png")

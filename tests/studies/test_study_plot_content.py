@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from _figures import hlines, line
+from _figures import assert_style, hlines, line
 
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import STATE
@@ -84,6 +84,7 @@ def test_run_plot_draws_angles_velocities_torques_and_errors_on_their_panels(sav
     peak = max(math.degrees(math.acos(math.cos(math.radians(r)) * math.cos(math.radians(p))))
                for r, p, _ in rpy)
     assert saved["plot.png:suptitle"] == f"study demo (smc): peak tilt {peak:.2f} deg"
+    assert_style(saved, "plot.png")
 
 
 def test_run_plot_without_the_velocity_loop_draws_no_velocity_reference(saved, tmp_path):
@@ -125,6 +126,7 @@ def test_com_plot_draws_distance_com_error_and_inclination_with_the_spec_limits(
     assert com_ax["ylabel"] == "|COM estimate - observable| (mm)"
     assert inc_ax["ylabel"] == "inclination error vs ref (deg)"
     assert f"{COM.WINDOW_S:g} s" in inc_ax["title"]
+    assert_style(saved, "com_observer.png")
 
 
 @pytest.fixture(autouse=True)
