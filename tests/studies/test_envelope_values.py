@@ -65,3 +65,40 @@ def test_dob_gain_sweep_sets_each_observer_bandwidth_from_the_flc_pole(monkeypat
         k = np.array(sc.k_bal, float)
         np.testing.assert_allclose(k[L], sep * Kd / 2, rtol=1e-15)
         np.testing.assert_array_equal(k[others], k_dob[others])
+
+
+def test_the_polar_plot_draws_each_controllers_push_envelope_mirrored_into_four_quadrants(monkeypatch, tmp_path,
+                                                                                          saved):
+    """Stand-in runs and rows (no simulation): each controller's curve is closed, its angles
+    ascend, and every point's radius is the push of the direction it points along (roll on
+    the x axis, pitch on the y axis, the diagonal between), per estimator panel."""
+    import matplotlib.pyplot as plt
+    from _figures import assert_style
+
+    from ballbot_casadi.studies import envelope as env
+
+    pushes = {("true", "flc"): (12.0, 9.0, 7.5), ("true", "smc"): (6.0, 5.0, 4.0),
+              ("ukf", "flc"): (11.0, 8.0, 6.5), ("ukf", "smc"): (3.0, 2.5, 2.0)}
+    x = np.zeros((5, 12))
+    x[:, 2] = 1.0
+    monkeypatch.setattr(env, "run_scenario", lambda sc, sim: {"state": x, "time": np.arange(5) * 0.25})
+    monkeypatch.setattr(env, "_envelope_row", lambda sim, c, est, *a: dict(zip(
+        ("push_roll_deg", "push_pitch_deg", "push_diagonal_deg"), pushes[(est, c)])))
+    monkeypatch.setattr(env, "envelope_report_lines", lambda m: [])  # the report reads more columns
+    env.run_envelope_study(tmp_path, controllers=("flc", "smc"), estimators=("true", "ukf"), sim=object())
+    plt.close("all")
+    panels = saved["envelope.png"]
+    assert [p["title"] for p in panels] == ["largest push recovered (deg), true",
+                                            "largest push recovered (deg), ukf"]
+    for panel, est in zip(panels, ("true", "ukf")):
+        assert [lab for lab, *_ in panel["lines"]] == ["flc", "smc"]
+        for lab, a, r in panel["lines"]:
+            roll, pitch, diag = pushes[(est, lab)]
+            assert a.size == r.size == 13 and a[0] == a[-1] and r[0] == r[-1]
+            assert np.all(np.diff(a[:-1]) >= 0)
+            for ang, rad in zip(a[:-1], r[:-1]):
+                c, s = abs(math.cos(ang)), abs(math.sin(ang))
+                want = roll if c > 0.99 else pitch if s > 0.99 else diag
+                assert rad == want, (est, lab, ang)
+            assert sorted({round(math.degrees(v) % 360, 6) for v in a}) == [0, 45, 90, 135, 180, 225, 270, 315]
+    assert_style(saved, "envelope.png")
