@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _figures import assert_style, line
+from _figures import assert_style, hlines, line, vlines
 
 from ballbot_casadi.analysis import linear as an
 from ballbot_casadi.core.params import load_params
@@ -21,7 +21,21 @@ from ballbot_casadi.studies.registry import shipped_scenarios
 
 def test_pole_zero_and_singular_value_plots_draw_the_analysis(saved, tmp_path):
     lin, result = an.analyze_plant(load_params())
-    analysis_report.write_plots(lin, result, tmp_path)
+    fr = {"inner": {"omega": [1.0, 10.0, 100.0], "mag": [1.0, 0.5, 0.01]},
+          "outer": {"omega": [0.5, 5.0], "mag": [0.9, 0.1]}}
+    result = {**result, "closed_loop": {"frequency_response": fr}, "bandwidth_sensitivity_inner_hz": 1.7,
+              "bandwidth_sensitivity_outer_hz": 0.4}
+    files = analysis_report.write_plots(lin, result, tmp_path)
+    assert [f.name for f in files] == ["pole_zero.png", "singular_values.png", "closed_loop.png"]
+    cl, = saved["closed_loop.png"]
+    for key, label in (("inner", "inner loop: q_ref -> tilt"), ("outer", "outer loop: v_ref -> ball velocity")):
+        x, y = line(cl, label)
+        np.testing.assert_allclose(x, np.array(fr[key]["omega"]) / (2 * np.pi), rtol=1e-15)
+        np.testing.assert_allclose(y, 20 * np.log10(fr[key]["mag"]), rtol=1e-15, atol=1e-15)
+    assert vlines(cl) == [1.7, 0.4] and hlines(cl) == [-3.01]
+    assert cl["ylim"] == (-60.0, 10.0) and cl["xscale"] == "log"
+    assert (cl["xlabel"], cl["ylabel"]) == ("frequency (Hz)", "|T| (dB)")
+    assert_style(saved, "closed_loop.png")
     pz = saved["pole_zero.png"][0]
     er = np.array([complex(*z) for z in result["eigenvalues_reduced"]])
     x, y = line(pz, "poles (reduced 10-state model)")
