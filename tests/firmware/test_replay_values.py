@@ -69,3 +69,12 @@ def test_a_short_or_mislabelled_output_is_a_build_error(tmp_path):
     _write(tmp_path / "b.bin", 5, 0, header_n=4)
     with pytest.raises(BuildError, match="stopped early"):
         R._read_output(tmp_path / "b.bin", 5)
+
+
+def test_a_command_fails_exactly_on_a_nonzero_exit(tmp_path):
+    import sys
+    R._run([sys.executable, "-c", "pass"], tmp_path, "the host check", 60.0)  # exit 0: no error
+    for code in (1, 3):
+        with pytest.raises(BuildError, match=rf"^the host check failed \(exit {code}\): boom$"):
+            R._run([sys.executable, "-c", f"import sys; sys.stderr.write('boom\\n'); sys.exit({code})"],
+                   tmp_path, "the host check", 60.0)

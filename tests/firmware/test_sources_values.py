@@ -155,3 +155,14 @@ def test_write_replay_input_refuses_a_bad_delay(tmp_path):
     for bad in (-1, 1.5):
         with pytest.raises(ScenarioError, match=r"bg_delay must be an int >= 0 periods"):
             R.write_replay_input(tmp_path / "in.bin", None, None, bad)
+
+
+def test_guidance_every_is_the_law_period_in_control_periods():
+    from types import SimpleNamespace
+
+    from ballbot_casadi.core.constants import TS_CONTROL
+    from ballbot_casadi.firmware.sources import guidance_every
+    from ballbot_casadi.sim.guided import GUIDANCE_EVERY
+    assert TS_CONTROL == pytest.approx(0.005, rel=0, abs=1e-15) and GUIDANCE_EVERY == 20
+    assert guidance_every(SimpleNamespace(config=SimpleNamespace(dt=0.035))) == 7  # 35 ms / 5 ms
+    assert guidance_every(SimpleNamespace(config=None)) == 20
