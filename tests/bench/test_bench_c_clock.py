@@ -1,0 +1,42 @@
+"""The control benchmark's C program against a stand-in clock: compiled with a header that
+replaces ``clock_gettime`` by a counter advancing 1 ms per reading, every timed section
+lasts exactly 1 ms, so the printed figures are the program's own arithmetic: 1 ms over N
+calls in microseconds, and 1 ms over the 200-period chunk (the ns -> us conversion, the
+divisions by N and by the chunk, which result goes to which key)."""
+
+from __future__ import annotations
+
+import pytest
+
+from ballbot_casadi.bench import control as bench_control_mod
+from ballbot_casadi.bench.exports import control_bench_library
+from ballbot_casadi.core.toolchain import compiler_command
+
+pytestmark = pytest.mark.needs_cc
+
+FAKE_CLOCK = """#define _POSIX_C_SOURCE 199309L /* as the program defines it */
+#include <time.h>
+static long long bench_fake_ns;
+static inline int bench_fake_clock(clockid_t id, struct timespec *ts) {
+  (void)id;
+  bench_fake_ns += 1000000;
+  ts->tv_sec = (time_t)(bench_fake_ns / 1000000000);
+  ts->tv_nsec = (long)(bench_fake_ns % 1000000000);
+  return 0;
+}
+#define clock_gettime bench_fake_clock
+"""
+
+
+@pytest.mark.parametrize("n_calls", [50, 8])
+def test_control_bench_program_reports_its_sections_in_microseconds(monkeypatch, tmp_path, n_calls):
+    header = tmp_path / "fake_clock.h"
+    header.write_text(FAKE_CLOCK)
+    monkeypatch.setattr(bench_control_mod, "build_root", lambda: tmp_path)  # not the real bench's binary
+    monkeypatch.setattr(bench_control_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
+    _, inputs = bench_control_mod.mission_inputs(0.1)
+    data = bench_control_mod._c_bench(control_bench_library(), inputs, n_calls)
+    per_call = 1e6 / n_calls / 1000.0
+    assert data == pytest.approx({"control_step_us": per_call, "control_step_smc_us": per_call,
+                                  "cl_period_us": per_call, "cl_chunk_period_us": 1e6 / 200 / 1000.0},
+                                 rel=0, abs=5e-5)  # printed with 4 decimals
