@@ -48,3 +48,15 @@ def test_no_program_header_is_refused():
     data = _elf(0)
     struct.pack_into("<H", data, 0x38, 0)
     assert "truncated" in shared_object_problem(bytes(data))
+
+
+@pytest.mark.parametrize("shoff, problem", [
+    (104, None),                                   # 2 x 64-byte section headers end at 232 = size
+    (105, "truncated: section headers end at 233, file has 232 bytes"),
+])
+def test_section_headers_must_all_lie_inside(shoff, problem):
+    size = 64 + N_PH * PH                          # 232
+    data = _elf(size)
+    struct.pack_into("<Q", data, 0x28, shoff)
+    struct.pack_into("<HH", data, 0x3A, 64, 2)     # e_shentsize, e_shnum
+    assert shared_object_problem(bytes(data)) == problem

@@ -1,0 +1,61 @@
+"""The plain-C plant host (fmu/tools/host.c with fmi2_host.h): each failure has its own exit
+status and message, as its usage line documents, and the benchmark field appears only when asked.
+
+Statuses: 2 usage, 3 the binary cannot be loaded, 4 fmi2Instantiate refused, 5 the
+initialisation refused, 6 a step refused."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import pytest
+from _fmu_support import plant_build
+
+from ballbot_casadi.fmi.build import build_tool
+
+pytestmark = pytest.mark.needs_cc
+
+
+def _host(*args: str) -> subprocess.CompletedProcess:
+    b = plant_build()
+    exe = build_tool(b, "host")
+    return subprocess.run([str(exe), *[a.format(lib=b.binary, guid=b.guid) for a in args]],
+                          capture_output=True, text=True, timeout=60)
+
+
+def test_too_few_arguments_print_the_usage_and_exit_2():
+    res = _host("{lib}", "{guid}", "1", "0.005", "0", "0", "0")  # no roll0
+    assert res.returncode == 2
+    assert "usage:" in res.stderr and res.stdout == ""
+
+
+def test_a_missing_binary_exits_3_with_the_loader_message(tmp_path):
+    res = _host(str(tmp_path / "none.so"), "{guid}", "1", "0.005", "0", "0", "0", "0")
+    assert res.returncode == 3
+    assert "dlopen failed" in res.stderr and res.stdout == ""
+
+
+def test_a_refused_initialisation_exits_5():
+    res = _host("{lib}", "{guid}", "1", "0.005", "nan", "0", "0", "0")  # NaN torque input
+    assert res.returncode == 5, res.stderr
+    assert "tau0" in res.stderr and res.stdout == ""
+
+
+def test_a_refused_step_exits_6():
+    res = _host("{lib}", "{guid}", "1", "-0.005", "0", "0", "0", "0")  # a negative step
+    assert res.returncode == 6, res.stderr
+    assert "fmi2DoStep" in res.stderr and "(status 3)" in res.stderr and res.stdout == ""
+
+
+def test_upright_at_rest_stays_there_and_the_repetitions_restart_from_it():
+    """No torque from the upright rest state: an equilibrium, read back exactly; with
+    repetitions each starts a fresh instance, so the end state is the same."""
+    rest = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    for reps in ("0", "2"):
+        res = _host("{lib}", "{guid}", "3", "0.005", "0", "0", "0", "0", reps)
+        assert res.returncode == 0, res.stderr
+        out = json.loads(res.stdout)
+        assert out["t"] == pytest.approx(0.015, rel=0, abs=1e-15)
+        assert out["x"] == rest
+        assert 0.0 < out["step_us"] < 1e300  # measured: not the initial "none yet" value
