@@ -118,6 +118,8 @@ def test_c_defines_are_the_table_sizes_and_tolerances(line):
                  "V_MAX": repr(float(THESIS_LIMITS["v_max"])), "S0_TOL": "0.01",
                  "TANGENT_TOL": "1e-06"}
     assert (S0_TOL, TANGENT_TOL) == (0.01, 1e-6)
+    # written into C as counts (array sizes): "50", never "50.0"
+    assert type(c["PATH_SAMPLES"]) is int and type(c["PATH_OBSTACLES"]) is int
 
 
 def test_mpc_dependencies_and_their_size_checks():
