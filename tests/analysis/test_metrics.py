@@ -126,3 +126,16 @@ def test_specs_evaluate_each_criterion():
     assert Spec("m", "abs<=", 1.0, "").evaluate({"m": -1.0})["ok"] is True
     with pytest.raises(ValueError, match="unknown study"):
         get_study("nope")
+
+
+def test_final_velocity_error_is_read_at_the_last_sample():
+    """Errors 0, 0, 0.05, 0.03 m/s at 1 s steps (no delay candidate but 0): the final error
+    is 0.03 (the sample before it is 0.05)."""
+    vr = np.zeros((4, 3))
+    vr[:, 0] = 0.2
+    state = np.zeros((5, 12))
+    state[:, 2] = 1.0
+    state[:4, 6] = [0.2, 0.2, 0.15, 0.23]
+    m = velocity_metrics({"time": np.arange(5) * 1.0, "state": state, "v_ref": vr})
+    assert m["final_velocity_error_mps"] == pytest.approx(0.03, abs=1e-12)
+    assert m["velocity_error_max_mps"] == pytest.approx(0.05, abs=1e-12)
