@@ -64,6 +64,8 @@ def _sine_log(chatter: float) -> dict:
 def test_sine_metrics_values_and_chattering_detection():
     smooth = sine_metrics(_sine_log(0.0), 0.5)
     assert smooth["roll_lag_s"] == pytest.approx(0.01, abs=1e-6)
+    # 3 deg (sin wt - sin w(t - 0.01)) peaks at 6 sin(w 0.005) deg, on the sample t = 0.005 s
+    assert smooth["roll_error_max_deg"] == pytest.approx(6 * np.sin(np.pi * 0.005), abs=1e-5)
     assert smooth["pitch_error_max_deg"] == pytest.approx(0.002, abs=1e-6)
     assert smooth["yaw_error_max_deg"] < 1e-6
     assert smooth["torque_tv_ratio"] == pytest.approx(1.0, abs=0.01)
