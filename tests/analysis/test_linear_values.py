@@ -156,3 +156,11 @@ def test_channel_outputs_pick_the_named_reduced_states(lin):
         assert C.shape == (len(idx), 10) and list(sys.output_labels) == list(outs)
         np.testing.assert_array_equal(np.argmax(C, axis=1), idx)
         assert np.count_nonzero(C) == len(idx)
+
+
+def test_mode_groups_tolerance_scales_with_the_eigenvalue_above_one():
+    """tol * max(1, |ref|): 100 and 100 + 5e-5 are one group (5e-5 <= 1e-4), 3 and 3 + 5e-6 are
+    two (5e-6 > 3e-6), -0.5 and -0.5 - 5e-7 are one (5e-7 <= 1e-6, the floor of 1)."""
+    A = np.diag([100.0, 100.0 + 5e-5, 3.0, 3.0 + 5e-6, -0.5, -0.5 - 5e-7])
+    sizes = sorted((len(g), round(float(np.min(g.real)), 3)) for g in an.mode_groups(A))
+    assert sizes == [(1, 3.0), (1, 3.0), (2, -0.5), (2, 100.0)]

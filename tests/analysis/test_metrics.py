@@ -64,6 +64,8 @@ def _sine_log(chatter: float) -> dict:
 def test_sine_metrics_values_and_chattering_detection():
     smooth = sine_metrics(_sine_log(0.0), 0.5)
     assert smooth["roll_lag_s"] == pytest.approx(0.01, abs=1e-6)
+    # 3 deg (sin wt - sin w(t - 0.01)) peaks at 6 sin(w 0.005) deg, on the sample t = 0.005 s
+    assert smooth["roll_error_max_deg"] == pytest.approx(6 * np.sin(np.pi * 0.005), abs=1e-5)
     assert smooth["pitch_error_max_deg"] == pytest.approx(0.002, abs=1e-6)
     assert smooth["yaw_error_max_deg"] < 1e-6
     assert smooth["torque_tv_ratio"] == pytest.approx(1.0, abs=0.01)
@@ -136,3 +138,16 @@ def test_sine_metrics_torque_ratio_without_torque_is_infinite():
     m = sine_metrics(log, 0.5)
     assert m["torque_total_variation"] == 0.0
     assert m["torque_tv_ratio"] == math.inf
+
+
+def test_final_velocity_error_is_read_at_the_last_sample():
+    """Errors 0, 0, 0.05, 0.03 m/s at 1 s steps (no delay candidate but 0): the final error
+    is 0.03 (the sample before it is 0.05)."""
+    vr = np.zeros((4, 3))
+    vr[:, 0] = 0.2
+    state = np.zeros((5, 12))
+    state[:, 2] = 1.0
+    state[:4, 6] = [0.2, 0.2, 0.15, 0.23]
+    m = velocity_metrics({"time": np.arange(5) * 1.0, "state": state, "v_ref": vr})
+    assert m["final_velocity_error_mps"] == pytest.approx(0.03, abs=1e-12)
+    assert m["velocity_error_max_mps"] == pytest.approx(0.05, abs=1e-12)
