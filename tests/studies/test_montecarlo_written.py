@@ -14,9 +14,9 @@ from ballbot_casadi.core.specs import spec_ok
 from ballbot_casadi.errors import ClusterError
 from ballbot_casadi.studies import montecarlo_report as mc
 
-LAG = [0.001, 0.019, 0.03, -0.015, 0.0]      # roll_lag_s abs<= 0.02: run 2 fails
-TV = [1.0, 1.2, 1.4, 0.5, 0.1]                # torque_tv_ratio <= 1.5
-TILT = [1.0, 2.0, 3.0, 4.0, 0.5]
+LAG = [0.001, 0.019, 0.03, -0.015, 0.0, 0.004, 0.008]      # roll_lag_s abs<= 0.02: run 2 fails
+TV = [1.0, 1.2, 1.4, 0.5, 0.1, 0.15, 0.45]                 # torque_tv_ratio <= 1.5
+TILT = [1.0, 2.0, 3.0, 4.0, 0.5, 0.5, 0.5]
 
 
 def _results(source, runs):
@@ -56,6 +56,17 @@ def test_the_worst_runs_and_their_files(written):
     assert [r["ok"] for r in saved["runs"]] == [True, True, False, True]
     assert [r["metrics"]["roll_lag_s"] for r in saved["runs"]] == LAG[:4]
     assert [s["pass_rate"] for s in saved["specs"]] == [1.0, 0.75, 1.0]
+
+
+def test_only_the_five_worst_runs_are_kept(monkeypatch, tmp_path):
+    # 7 runs: run 2 fails, then the shares 0.95 (1), 0.75 (3), 0.667 (0), 0.4 (6), 0.2 (5), 0.067 (4);
+    # N_WORST = 5 keeps the first five and writes only their files
+    monkeypatch.setattr(mc, "execute", lambda source, runs, *a, **k: _results(source, runs))
+    doc = mc.run_montecarlo("sine", 7, tmp_path / "mc", workers=0, quiet=True, seed=5)
+    assert mc.N_WORST == 5
+    assert [w["index"] for w in doc["worst"]] == [2, 1, 3, 0, 6]
+    assert sorted(p.name for p in (tmp_path / "mc" / "worst").iterdir()) == [
+        f"sine_mc000{i}.toml" for i in (0, 1, 2, 3, 6)]
 
 
 def test_the_report_rows(written):

@@ -101,6 +101,10 @@ def test_sample_metrics_of_an_mpc_run(mpc_log):
     d = log.extra[SAMPLES_KEY]
     np.testing.assert_allclose(d["t_s"], 0.1 * np.arange(10), rtol=0, atol=1e-12)
     assert len(d["wall_us"]) == len(d["cpu_us"]) == 10 and d["r_prim"] == r.tolist()
+    # the saved samples are the summarised ones, both in microseconds
+    for k, pre in (("wall_us", "sample_us"), ("cpu_us", "sample_cpu_us")):
+        assert max(d[k]) == pytest.approx(m[f"{pre}_max"], rel=1e-12)
+        assert float(np.median(d[k])) == pytest.approx(m[f"{pre}_median"], rel=1e-12)
     # the solver's static memory (the 64 KiB target) inside the block's
     assert 0 < m["solver_workspace_bytes"] <= 64 * 1024 < m["block_workspace_bytes"]
 

@@ -203,7 +203,8 @@ def test_a_row_records_both_values_the_bound_and_its_sources():
     assert TH.VERDICTS == ("pass", "differs", "not reproducible") and TH.CHAPTERS == ("6", "7", "8", "9")
 
 
-@pytest.mark.parametrize("a, b, want", [(6.0, 3.0, 2.0), ("x", 3.0, None), (6.0, 0.0, None), (None, 1.0, None)])
+@pytest.mark.parametrize("a, b, want", [(6.0, 3.0, 2.0), ("x", 3.0, None), (6.0, 0.0, None), (None, 1.0, None),
+                                         (6.0, 1.0, 6.0), (6, -3, -2.0), (6.0, "y", None)])
 def test_a_ratio_of_measured_values(a, b, want):
     runs = {("s", "flc"): {"a": a, "b": b}}
     assert TH.Ratio(TH.Col("s", "a"), TH.Col("s", "b")).value(runs) == want
