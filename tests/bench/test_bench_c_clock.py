@@ -1,4 +1,4 @@
-"""The control benchmark's C program against a stand-in clock: compiled with a header that
+"""The benchmarks' C programs against a stand-in clock: compiled with a header that
 replaces ``clock_gettime`` by a counter advancing 1 ms per reading, every timed section
 lasts exactly 1 ms, so the printed figures are the program's own arithmetic: 1 ms over N
 calls in microseconds, and 1 ms over the 200-period chunk (the ns -> us conversion, the
@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import pytest
 
+import casadi as ca
+
 from ballbot_casadi.bench import control as bench_control_mod
+from ballbot_casadi.bench import estimation as bench_estimation_mod
 from ballbot_casadi.bench.exports import control_bench_library
-from ballbot_casadi.core.toolchain import compiler_command
+from ballbot_casadi.core.toolchain import build_library, compiler_command
 
 pytestmark = pytest.mark.needs_cc
 
@@ -40,3 +43,18 @@ def test_control_bench_program_reports_its_sections_in_microseconds(monkeypatch,
     assert data == pytest.approx({"control_step_us": per_call, "control_step_smc_us": per_call,
                                   "cl_period_us": per_call, "cl_chunk_period_us": 1e6 / 200 / 1000.0},
                                  rel=0, abs=5e-5)  # printed with 4 decimals
+
+
+@pytest.mark.parametrize("n_calls", [1, 40])
+def test_function_bench_program_reports_microseconds_per_call_down_to_one_call(monkeypatch, tmp_path, n_calls):
+    """``bench_function.c`` on a small Function: 1 ms over N calls, in microseconds; a
+    single call is a valid run (N >= 1)."""
+    header = tmp_path / "fake_clock.h"
+    header.write_text(FAKE_CLOCK)
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("bench_probe", [x, ca.SX.sym("k")], [ca.vertcat(x[0] * x[1], x[0] - x[1])])
+    lib = build_library("bench_probe", [f], root=tmp_path / "lib")
+    monkeypatch.setattr(bench_estimation_mod, "build_root", lambda: tmp_path)
+    monkeypatch.setattr(bench_estimation_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
+    us = bench_estimation_mod.c_function_us(lib, f, [[1.5, -2.0], 3.0], n_calls)
+    assert us == pytest.approx(1e6 / n_calls / 1000.0, rel=0, abs=5e-5)
