@@ -39,3 +39,14 @@ def test_rate_limit_in_deg_s_and_the_scenario_flag():
     assert rows["peak_tilt_deg"]["by_scenario"] and not rows["peak_tilt_deg"]["exceeded"]
     assert not rows["peak_torque_nm"]["by_scenario"]
     assert _rows(peak_tilt_deg=math.nan)["peak_tilt_deg"]["exceeded"] is True  # not measured = not within
+
+
+@pytest.mark.parametrize("rel, beyond", [(0.5e-9, False), (1.5e-9, True)])
+def test_the_relative_tolerance_of_a_limit_is_1e_9(rel, beyond):
+    """Rounding of a value computed in radians: within 1e-9 of the limit is at it; a start
+    or a peak 1.5e-9 beyond is beyond (for the value and for the scenario flag alike)."""
+    v = 5.0 * (1 + rel)
+    rows = _rows(peak_tilt_deg=v, initial_tilt_deg=v, peak_tilt_rate_deg_s=20.0 * (1 + rel),
+                 reference_peak_tilt_rate_deg_s=20.0 * (1 + rel))
+    for key in ("peak_tilt_deg", "peak_tilt_rate_deg_s"):
+        assert rows[key]["exceeded"] is beyond and rows[key]["by_scenario"] is beyond
