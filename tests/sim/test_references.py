@@ -123,3 +123,18 @@ def test_rpy_reference_constant_angles():
     np.testing.assert_array_equal(ddq, 0.0)
     with pytest.raises(ShapeError):
         rpy_reference((np.zeros(3), np.zeros(3)), 0.0, 0.0)
+
+
+@pytest.mark.parametrize("f0, f1, duration, refused", [
+    (0.1, 1.0, 0.0, True), (0.1, 1.0, -1.0, True), (-0.1, 1.0, 5.0, True), (0.1, -1.0, 5.0, True),
+    (-0.1, -1.0, 5.0, True), (0.0, 0.0, 5.0, False), (0.1, 1.0, 1e-9, False)])
+def test_chirp_refuses_each_bad_argument_alone(f0, f1, duration, refused):
+    """duration > 0 and both frequencies >= 0, each condition refused on its own, with the
+    values read back."""
+    t = np.linspace(0, 1, 5)
+    if refused:
+        with pytest.raises(ScenarioError, match=rf"chirp needs duration > 0 and frequencies >= 0, got "
+                                                rf"duration={duration}, f0={f0}, f1={f1}$"):
+            chirp(t, 1.0, f0, f1, duration)
+    else:
+        assert np.all(np.isfinite(chirp(t, 1.0, f0, f1, duration).value))
