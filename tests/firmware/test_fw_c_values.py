@@ -173,12 +173,12 @@ def test_step_wires_readings_references_mode_and_parameters(plain):
     # period 0: the encoders (readings 2..4) are missing, the gyroscope is used
     assert rc == PREDICT_ONLY
     assert plain.echo()[:5] == [0.11, 0.12, -1, -1, -1]
-    assert tau == [0.0, 0.11, 10 + 0.005]
+    assert tau == pytest.approx([0.0, 0.11, 10 + 0.005 + 0.124], rel=0, abs=1e-15)  # 1e-3 sum i^2 / 10
     np.testing.assert_array_equal(plain.echo()[5:], [0.1, 0.4, 0.6, 1.1, 1.3, 1.4, 1.5, 1.0,
                                                      0.005, 2.0, 4.0])
     rc, tau = plain.step(meas, refs, balance_only=1)
     assert rc == OK and plain.echo()[:5] == meas
-    assert tau == [1.0, 0.11, 0.005]  # the count of the period before; balance only: cascade 0
+    assert tau == pytest.approx([1.0, 0.11, 0.005 + 0.124], rel=0, abs=1e-15)  # the count before; cascade 0
     assert plain.echo()[12] == 0.0
     assert plain.c() == [2.0, *C0[1:]] and plain.lib.t_period() == 2
 
@@ -321,12 +321,12 @@ def test_a_rejected_snapshot_period_takes_no_snapshot(split):
 
 
 def _input(path: Path, n: int, variant: str, balance_only: float = 0.0, bg_delay: int = 0,
-           npar: int = 7, c0=C0, guid=G0, drop: int = 0) -> Path:
+           npar: int = 7, c0=C0, guid=G0, drop: int = 0, refs=None) -> Path:
     g = VARIANTS[variant][0]
     gd = list(guid) if g else []
     meas = np.tile([0.1, 0.2, 0.3, 0.4, 0.5], (n, 1))
     meas[:, 0] += np.arange(n)  # meas[0] = 0.1 + k: tau[1] names the period
-    refs = np.zeros((n, 15))
+    refs = np.zeros((n, 15)) if refs is None else refs
     hdr = [n, npar, 8, balance_only, R.CALIB_LOOPS, len(gd), bg_delay]
     data = np.concatenate([hdr, P0, c0, gd, np.hstack([meas, refs]).ravel()])
     path.write_bytes(data[:data.size - drop].astype("<f8").tobytes())
@@ -359,6 +359,18 @@ def test_replay_rows_and_header(builds, tmp_path, variant, extra):
     if variant == "guided":
         np.testing.assert_array_equal(out.v_ref, np.tile([0.0, 0.0, 6.0], (12, 1)))
     assert out.v_ref.shape == (12, min(extra, 3))
+
+
+@pytest.mark.parametrize("variant", ["plain", "guided"])
+def test_replay_reads_each_reference_of_each_row_in_place(builds, tmp_path, variant):
+    """Rows of 15 different references (q_ref, dq_ref, ddq_ref, v_ref): the stand-in adds
+    1e-3 sum_j (j + 1) ref_j to tau[2], so a reference read one place off shows."""
+    n = 5
+    refs = (np.arange(15)[None, :] + 1) * 0.01 + np.arange(n)[:, None] * 0.1
+    res, out = _replay(builds, tmp_path, variant, n=n, refs=refs, balance_only=1.0)
+    assert res.returncode == 0, res.stderr
+    want = 0.005 + 1e-3 * refs @ (np.arange(15) + 1)
+    np.testing.assert_allclose(out.tau[:, 2], want, rtol=0, atol=1e-13)
 
 
 def test_replay_mode_cascade(builds, tmp_path):
@@ -459,7 +471,7 @@ def test_run_host_writes_the_input_the_replay_program_reads(builds, tmp_path, mo
     assert data.size == 22 + n_guid + n * 20
     out = R.run_host(fw, rec, bg_delay=1)
     k = np.arange(n)
-    np.testing.assert_allclose(out.tau, np.column_stack([k, 0.1 + k, np.full(n, 10.01)]),
+    np.testing.assert_allclose(out.tau, np.column_stack([k, 0.1 + k, np.full(n, 10.01 + 1e-3 * 15 * 0.25)]),
                                rtol=0, atol=1e-15)  # cascade: balance_only False
     assert list(out.rc) == [PREDICT_ONLY] + [OK] * (n - 1)
     if guidance:
