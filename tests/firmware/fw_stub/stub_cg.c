@@ -1,6 +1,7 @@
 /* stub_cg.c - the stand-in period and guidance sample (tests only; see ballbot_fw_config.h).
  *
- * Period: c_next = c with c[0] + 1; tau_lim = (c[0], meas[0] (NaN -> -1), 10 cascade + Ts);
+ * Period: c_next = c with c[0] + 1; tau_lim = (c[0], meas[0] (NaN -> -1), 10 cascade + Ts
+ *   + 1e-3 sum_j (j + 1) ref_j over the 15 references);
  * echo = the readings (NaN -> -1), q_ref[0], q_ref[3], dq_ref[1], ddq_ref[2], v_ref[0..2],
  * cascade, Ts, Qa[3], k[1].  meas[0] = 666: returns 1; 777: c_next[0] NaN; 888: tau NaN.
  * Guidance: v_ref_used = (c[3], c[1], k_guid[1]); split: the counter c[1] counts modulo
@@ -11,6 +12,20 @@
 #include <math.h>
 
 #include "ballbot_fw_config.h"
+
+/* sum over the 15 references (q_ref, dq_ref, ddq_ref, v_ref in order) of (j + 1) ref_j:
+ * every reference moves the torque by its own amount, so a reference read from the wrong
+ * place shows in the replay's rows */
+static double refs_weighted(const double **arg) {
+    const double *r[4];
+    double sum = 0;
+    int j, i, at = 0;
+    r[0] = arg[BALLBOT_FW_ARG_q_ref]; r[1] = arg[BALLBOT_FW_ARG_dq_ref];
+    r[2] = arg[BALLBOT_FW_ARG_ddq_ref]; r[3] = arg[BALLBOT_FW_ARG_v_ref];
+    for (j = 0; j < 4; ++j)
+        for (i = 0; i < (j < 3 ? 4 : 3); ++i) sum += (double)(++at) * r[j][i];
+    return sum;
+}
 
 int stub_period(const double **arg, double **res, casadi_int *iw, double *w, int mem) {
     const double *c = arg[BALLBOT_FW_ARG_c], *m = arg[BALLBOT_FW_ARG_meas];
@@ -23,7 +38,8 @@ int stub_period(const double **arg, double **res, casadi_int *iw, double *w, int
     cn[0] = m[0] == 777 ? NAN : c[0] + 1;
     tau[0] = c[0];
     tau[1] = isnan(m[0]) ? -1 : m[0];
-    tau[2] = m[0] == 888 ? NAN : 10 * arg[BALLBOT_FW_ARG_cascade][0] + arg[BALLBOT_FW_ARG_Ts][0];
+    tau[2] = m[0] == 888 ? NAN : 10 * arg[BALLBOT_FW_ARG_cascade][0] + arg[BALLBOT_FW_ARG_Ts][0]
+                                 + 1e-3 * refs_weighted(arg);
     for (i = 0; i < BALLBOT_FW_N_READINGS; ++i) e[i] = isnan(m[i]) ? -1 : m[i];
     e[5] = arg[BALLBOT_FW_ARG_q_ref][0];
     e[6] = arg[BALLBOT_FW_ARG_q_ref][3];
