@@ -4,6 +4,7 @@ QUKF does not deviate from the QUKF."""
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -14,7 +15,7 @@ from ballbot_casadi.analysis.renormalisation import (
     norm_probe_dev,
     replay_attitude,
 )
-from ballbot_casadi.core.params import load_params
+from ballbot_casadi.core.params import PARAM_NAMES, load_params
 from ballbot_casadi.estimation import DEFAULT_TUNING
 
 P = load_params().to_vector()
@@ -57,3 +58,18 @@ def test_renormalised_qukf_does_not_deviate_on_a_tilting_body():
     np.testing.assert_allclose(err["qukf_renorm"], err["qukf"], rtol=0, atol=1e-9)
     ratio = np.sqrt(np.mean(err["qukf_additive"] ** 2)) / np.sqrt(np.mean(err["qukf"] ** 2))
     assert ratio <= 1.2
+
+
+def test_the_norm_probe_starts_at_rest_reading_gravity():
+    """A stand-in filter that passes its prior through but scales it by 1 + (how far the probe
+    is from rest: the prior's rate and the readings other than g on z): the probe must give
+    exactly eps, the prior upright at norm 1 + eps, at rest, reading g."""
+    x, P, z, Q, R, dt, p = (ca.SX.sym(n, *s) for n, s in (("x", (7, 1)), ("P", (6, 6)), ("z", (6, 1)),
+                                                           ("Q", (6, 6)), ("R", (6, 6)), ("dt", (1, 1)),
+                                                           ("p", (len(PARAM_NAMES), 1))))
+    g = p[PARAM_NAMES.index("g")]
+    off = ca.sumsqr(x[4:7]) + ca.sumsqr(z - ca.vertcat(0, 0, g, 0, 0, 0)) + ca.sumsqr(x[1:4])
+    f = ca.Function("probe", [x, P, z, Q, R, dt, p], [ca.vertcat(x[:4] * (1 + off), x[4:7])])
+    eps = 1e-6
+    dev = norm_probe_dev(f, np.eye(6), np.eye(6), np.eye(6), load_params().to_vector(), 0.005, eps)
+    assert dev == pytest.approx(eps, rel=1e-9)
