@@ -38,7 +38,10 @@ def saved(monkeypatch):
         return real(self, fname, *a, **kw)
 
     monkeypatch.setattr(Figure, "savefig", grab)
-    return figs
+    yield figs
+    import matplotlib.pyplot as plt
+
+    plt.close("all")  # the figures a plot function left open
 
 
 

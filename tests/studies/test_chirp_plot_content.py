@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 from _figures import assert_style, hlines, line, vlines
 
 from ballbot_casadi.analysis.bandwidth import FALL_TILT_DEG
@@ -106,10 +105,3 @@ def test_a_yaw_chirp_shows_roll_as_the_other_tilt(saved, tmp_path):
     np.testing.assert_allclose(line(main_ax, "yaw (none feed-forward)")[1], 0.5 * s, rtol=0, atol=1e-9)
     np.testing.assert_allclose(line(other_ax, "roll (none)")[1], 2 * s, rtol=0, atol=1e-9)
     assert main_ax["ylabel"] == "yaw (deg)"
-
-
-@pytest.fixture(autouse=True)
-def _close_figures():
-    yield
-    import matplotlib.pyplot as plt
-    plt.close("all")

@@ -53,10 +53,3 @@ def test_nis_figure_draws_each_filter_on_its_panel_with_the_band(monkeypatch, tm
     assert (att["ylabel"], vel["ylabel"], vel["xlabel"]) == (
         "attitude NIS (1 s mean)", "velocity NIS (1 s mean)", "time (s)")
     assert_style(saved, "nis.png")
-
-
-@pytest.fixture(autouse=True)
-def _close_figures():
-    yield
-    import matplotlib.pyplot as plt
-    plt.close("all")

@@ -72,7 +72,6 @@ def test_the_polar_plot_draws_each_controllers_push_envelope_mirrored_into_four_
     """Stand-in runs and rows (no simulation): each controller's curve is closed, its angles
     ascend, and every point's radius is the push of the direction it points along (roll on
     the x axis, pitch on the y axis, the diagonal between), per estimator panel."""
-    import matplotlib.pyplot as plt
     from _figures import assert_style
 
     from ballbot_casadi.studies import envelope as env
@@ -86,7 +85,6 @@ def test_the_polar_plot_draws_each_controllers_push_envelope_mirrored_into_four_
         ("push_roll_deg", "push_pitch_deg", "push_diagonal_deg"), pushes[(est, c)])))
     monkeypatch.setattr(env, "envelope_report_lines", lambda m: [])  # the report reads more columns
     env.run_envelope_study(tmp_path, controllers=("flc", "smc"), estimators=("true", "ukf"), sim=object())
-    plt.close("all")
     panels = saved["envelope.png"]
     assert [p["title"] for p in panels] == ["largest push recovered (deg), true",
                                             "largest push recovered (deg), ukf"]

@@ -71,10 +71,3 @@ def test_estimate_errors_are_drawn_per_scenario_and_panel(saved, tmp_path):
             "| |q| - 1 |"]
         assert norm["yscale"] == "log" and norm["xlabel"] == "time (s)"
         assert_style(saved, fig)
-
-
-@pytest.fixture(autouse=True)
-def _close_figures():
-    yield
-    import matplotlib.pyplot as plt
-    plt.close("all")

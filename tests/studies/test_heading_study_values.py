@@ -93,10 +93,7 @@ def test_the_verdict_at_and_past_the_bound(tmp_path, monkeypatch):
 
 
 def test_the_plot_draws_each_run_in_minutes_against_its_band(tmp_path, monkeypatch, saved):
-    import matplotlib.pyplot as plt
-
     _, _, _, (t, aided_err, lost_err) = _study(tmp_path, monkeypatch, plot=True)
-    plt.close("all")
     top, bottom = saved["heading.png"]
     x, y = line(top, "aided (10 Hz heading)")
     np.testing.assert_allclose(x, t / 60, rtol=1e-15)

@@ -74,10 +74,3 @@ def test_path_figures_draw_traces_errors_and_limits(saved, tmp_path):
         "lateral error (cm)", "tilt (deg)", "|tilt rate| (deg/s)", "max |torque cmd| (N m)"]
     assert_style(saved, "path_xy.png")
     assert_style(saved, "path_errors_limits.png")
-
-
-@pytest.fixture(autouse=True)
-def _close_figures():
-    yield
-    import matplotlib.pyplot as plt
-    plt.close("all")

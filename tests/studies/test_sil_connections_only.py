@@ -42,14 +42,12 @@ def test_a_system_without_its_scenario_is_refused_naming_the_tool_that_writes_it
 
 
 def test_the_comparison_plot_draws_both_differences_floored_against_1e_9(saved, tmp_path):
-    import matplotlib.pyplot as plt
     from _figures import assert_style, hlines, line
 
     time = np.arange(5) * 0.005
     diff = {"state_diff": np.array([0.0, 1e-12, 3e-10, 2e-9, 0.0]), "tau_diff": np.array([0.0, 4e-11, 5e-8, 0.0]),
             "reference": "compiled mission"}
     assert sil.plot_compare(time, diff, tmp_path / "c.png") == tmp_path / "c.png"
-    plt.close("all")
     ax, = saved["c.png"]
     x, y = line(ax, "max |state - mission|")
     np.testing.assert_array_equal(x, time)

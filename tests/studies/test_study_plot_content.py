@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 from _figures import assert_style, hlines, line
 
 from ballbot_casadi.core import quaternion as Q
@@ -127,10 +126,3 @@ def test_com_plot_draws_distance_com_error_and_inclination_with_the_spec_limits(
     assert inc_ax["ylabel"] == "inclination error vs ref (deg)"
     assert f"{COM.WINDOW_S:g} s" in inc_ax["title"]
     assert_style(saved, "com_observer.png")
-
-
-@pytest.fixture(autouse=True)
-def _close_figures():
-    yield
-    import matplotlib.pyplot as plt
-    plt.close("all")
