@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import ballbot_casadi.bench as bench
+from ballbot_casadi.bench import control as bench_control_mod
 from ballbot_casadi.bench import firmware as bf
 from ballbot_casadi.bench import guidance as bg
 from ballbot_casadi.bench import montecarlo as bm
@@ -292,7 +293,8 @@ def test_montecarlo_group_by_hand(monkeypatch):
     clock = _Clock([4.0, 2.0, 1.25], [])
     monkeypatch.setattr(bm, "time", clock)
     out = bm.bench_montecarlo(n_runs=8, duration=0.5)
-    assert [c["n_workers"] for c in clusters] == [1, 2]
+    assert clusters == [dict(n_workers=k, threads_per_worker=1, processes=True, dashboard_address=None)
+                        for k in (1, 2)]  # worker processes, one thread each, no dashboard
     assert out == {"montecarlo_serial_runs_per_s": 2.0, "montecarlo_runs_per_s_1w": 4.0,
                    "montecarlo_runs_per_s_2w": 6.4, "montecarlo_dask_equals_serial": 1.0,
                    "montecarlo_parallel_efficiency": pytest.approx(0.8, rel=1e-12),
@@ -421,3 +423,19 @@ def test_estimation_group_keys_are_the_parts_of_each_estimator(monkeypatch):
     assert set(data) == {*want, "mission_full_100s_s", "mission_full_100s_with_inputs_s",
                          "mission_full_100s_target_s", "estimator_step_target_us"}
     assert (be.MATCHED, be.ADAPTIVE) == ("ukf_consistent", "ukf_adaptive")
+
+
+def test_control_group_times_the_compiled_closed_loop(monkeypatch):
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def closed_loop(**kw):
+        seen.append(kw)
+        raise Stop
+
+    monkeypatch.setattr(bench_control_mod, "ClosedLoop", closed_loop)
+    with pytest.raises(Stop):
+        bench_control_mod.bench_control(n_calls=1, repeats=1)
+    assert seen == [{"compiled": True}]
