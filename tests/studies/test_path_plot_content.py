@@ -74,3 +74,61 @@ def test_path_figures_draw_traces_errors_and_limits(saved, tmp_path):
         "lateral error (cm)", "tilt (deg)", "|tilt rate| (deg/s)", "max |torque cmd| (N m)"]
     assert_style(saved, "path_xy.png")
     assert_style(saved, "path_errors_limits.png")
+
+
+class _Law:
+    """Stand-in for the scenario's MPC law: only the ADMM's iteration count is read."""
+
+    class config:
+        iterations = 7
+
+
+def _mpc_predictions(n_samples: int):
+    """Predicted positions (n_samples, N+1 = 4, 2) that tell every sample and node apart."""
+    i, n = np.meshgrid(np.arange(n_samples), np.arange(4), indexing="ij")
+    return np.stack([10.0 * i + n, -(100.0 * i + 0.5 * n)], axis=-1)
+
+
+def test_path_figures_draw_the_mpc_horizons_and_the_sample_times(saved, tmp_path, monkeypatch):
+    import ballbot_casadi.studies.path as study
+
+    pos = _mpc_predictions(12)
+    calls = []
+    monkeypatch.setattr(study, "scenario_law", lambda sc: calls.append(sc.name) or _Law())
+    monkeypatch.setattr(study, "predictions", lambda law, arrays, every: (
+        np.arange(12) * every, pos))
+    log = _log("path_fig8_mpc", 1.0, guidance="mpc", cascade=True)
+    other = _log("path_obstacles_mpc_ukf", 2.0, guidance="mpc", estimator="ukf", cascade=True)
+    t = [0.0, 0.1, 0.2, 0.3]
+    log.extra[study.SAMPLES_KEY] = {"t_s": t, "wall_us": [900.0, 40.0, 35.0, 50.0],
+                                    "cpu_us": [800.0, 30.0, 33.0, 45.0], "r_prim": [1e-3, 0.0, 2e-6, 1e-15]}
+    path_plots([log, other], {}, tmp_path)
+
+    fig8, obst = saved["path_xy.png"]
+    shown = study.horizon_samples(12)
+    np.testing.assert_array_equal(shown, [1, 4, 6, 8, 11])
+    drawn = [(lab, x, y) for lab, x, y in fig8["lines"] if x.size == 4]
+    assert len(drawn) == len(shown)
+    for j, (i, (lab, x, y)) in enumerate(zip(shown, drawn)):
+        assert lab == "fig8_mpc: predicted horizons (2 s)" if j == 0 else lab.startswith("_")
+        np.testing.assert_array_equal(x, pos[i, :, 0])
+        np.testing.assert_array_equal(y, pos[i, :, 1])
+    starts = [(x[0], y[0]) for lab, x, y in fig8["lines"] if x.size == 1]
+    assert starts == [tuple(pos[i, 0]) for i in shown]
+    assert not [1 for _, x, _ in obst["lines"] if x.size in (1, 4)]  # no horizons with an estimator
+    assert calls == ["path_fig8_mpc", "path_fig8_mpc"]  # the horizons, then the samples' title
+
+    times, resid = saved["path_samples.png"]
+    x, y = line(times, "fig8_mpc wall-clock")
+    np.testing.assert_array_equal(x, t)
+    np.testing.assert_array_equal(y, [900.0, 40.0, 35.0, 50.0])
+    x, y = line(times, "fig8_mpc CPU")
+    np.testing.assert_array_equal(y, [800.0, 30.0, 33.0, 45.0])
+    assert hlines(times) == [1000.0]
+    x, y = line(resid, "fig8_mpc")
+    np.testing.assert_array_equal(y, [1e-3, 1e-12, 2e-6, 1e-12])  # zero floored for the log scale
+    assert [(ax["yscale"], ax["xscale"]) for ax in (times, resid)] == [("log", "linear")] * 2
+    assert resid["title"].startswith("ADMM: a fixed 7 iterations per QP (first sample: 5 QPs)")
+    assert (times["ylabel"], resid["ylabel"], resid["xlabel"]) == (
+        "time per sample (µs)", "ADMM primal residual r_prim", "t (s)")
+    assert_style(saved, "path_samples.png")
