@@ -125,3 +125,12 @@ def test_bad_latency_refused():
         make_guidance("toy", _sample(), EVERY, 3, -1)
     with pytest.raises(ScenarioError, match="needs latency >= 1"):
         make_guidance("toy", _sample(), EVERY, 0, split=True)
+
+
+def test_a_sample_every_period_is_allowed_and_changes_the_reference_every_period():
+    """``every = 1`` (the smallest interval) is a block whose sample runs in each period;
+    ``every = 0`` is refused."""
+    v = _run(make_guidance("toy", _sample(), 1), 0)
+    assert _changes(v).tolist() == list(range(N))
+    with pytest.raises(ScenarioError, match="every must be an int >= 1 periods, got 0"):
+        make_guidance("toy", _sample(), 0)

@@ -104,6 +104,11 @@ def test_keyframe_bounds_at_and_past_their_limits():
         with pytest.raises(ScenarioError) as e:
             R.velocity_profile(t, [row])
         assert str(e.value) == f"keyframe 0: target speed {said} exceeds the limits 0.5 m/s, 1.0 rad/s"
+    # the limits carry a 1e-12 tolerance: exactly at it is read, one step of 1e-12 past it refused
+    R.velocity_profile(t, [(0.0, 0.5 + 1e-12, 0.0, 1.0 + 1e-12)])
+    for row in ((0.0, 0.5 + 2e-12, 0.0, 0.0), (0.0, 0.0, 0.0, -(1.0 + 2e-12))):
+        with pytest.raises(ScenarioError, match="exceeds the limits"):
+            R.velocity_profile(t, [row])
     # the second ramp may start exactly when the first one ends (0.5 s at 1 m/s^2), not before
     R.velocity_profile(t, [(0.0, 0.5, 0.0, 0.0), (0.5, 0.0, 0.0, 0.0)])
     with pytest.raises(ScenarioError) as e:
