@@ -2,7 +2,8 @@
  * example_main.c - how the library drops into an STM32 project: a 200 Hz timer interrupt
  * runs one period; the main loop only sleeps.  The sensor and motor drivers are stubs
  * (read_imu, read_encoders, set_wheel_torques: replace them with the board's drivers).
- * Built for Cortex-M7 (links, never runs in the tests); SysTick stands in for the timer:
+ * Built for Cortex-M7 (the tests link it, and run it on the host with stand-in registers:
+ * tests/firmware/example_host.c); SysTick stands in for the timer:
  * with a 400 MHz core clock, reload 400e6 / 200 - 1.
  *
  * With a guidance block (BALLBOT_FW_GUIDANCE) the context starts on the default path
@@ -19,9 +20,12 @@
 
 #define CORE_HZ 400000000u
 #define LOOP_HZ 200u
+#ifndef SYST_CSR /* a host build of the example (the tests) brings its own registers and idle */
 #define SYST_CSR (*(volatile uint32_t *)0xE000E010u)
 #define SYST_RVR (*(volatile uint32_t *)0xE000E014u)
 #define SYST_CVR (*(volatile uint32_t *)0xE000E018u)
+#define WAIT_FOR_INTERRUPT() __asm volatile("wfi")
+#endif
 
 static ballbot_fw_ctx ctx; /* the one caller-owned context */
 static ballbot_fw_references refs;
@@ -57,8 +61,8 @@ int main(void) {
     SYST_CSR = 7u; /* enable, interrupt, processor clock */
 #if BALLBOT_FW_GUIDANCE_SPLIT
     for (;;)
-        if (ballbot_fw_guidance_background(&ctx) == BALLBOT_FW_GUIDANCE_IDLE) __asm volatile("wfi");
+        if (ballbot_fw_guidance_background(&ctx) == BALLBOT_FW_GUIDANCE_IDLE) WAIT_FOR_INTERRUPT();
 #else
-    for (;;) __asm volatile("wfi");
+    for (;;) WAIT_FOR_INTERRUPT();
 #endif
 }
