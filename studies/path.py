@@ -307,7 +307,8 @@ def _sample_lines(m: dict[str, Any]) -> list[str]:
 
 def path_plots(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path) -> list[Path]:
     """xy with obstacles and traces; lateral error over time; tilt, tilt rate and torque
-    against their limits."""
+    against their limits; and, when an MPC run logged its samples, the time and QP residual
+    per sample (no empty figure otherwise, as the report leaves out its table)."""
     matplotlib.use("Agg")
     files = []
     fig, axes = plt.subplots(2, 1, figsize=(13, 9), gridspec_kw={"height_ratios": (2.2, 1)})
@@ -363,8 +364,9 @@ def path_plots(logs: Sequence[SimulationLog], metrics: dict[str, Any], out: Path
     files.append(out / "path_errors_limits.png")
     fig.savefig(files[-1], dpi=110)
     plt.close(fig)
-    files.append(_samples_plot([log for log in logs if SAMPLES_KEY in log.extra],
-                               out / "path_samples.png"))
+    sampled = [log for log in logs if SAMPLES_KEY in log.extra]
+    if sampled:
+        files.append(_samples_plot(sampled, out / "path_samples.png"))
     return files
 
 

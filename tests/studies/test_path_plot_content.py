@@ -5,6 +5,7 @@ error is the distance from the x axis and every number is computed here by hand.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -40,7 +41,11 @@ def _log(name: str, k: float, **scenario) -> SimulationLog:
 def test_path_figures_draw_traces_errors_and_limits(saved, tmp_path):
     logs = [_log("path_fig8_pursuit", 1.0),
             _log("path_obstacles_pursuit", 2.0, obstacles=[[2.0, 0.5, 0.25], [3.0, -0.4, 0.1]])]
-    path_plots(logs, {}, tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # e.g. an empty legend
+        files = path_plots(logs, {}, tmp_path)
+    assert [f.name for f in files] == ["path_xy.png", "path_errors_limits.png"]  # no samples logged
+    assert "path_samples.png" not in saved
     fig8, obst = saved["path_xy.png"]
     for ax, log in ((fig8, logs[0]), (obst, logs[1])):
         x, y = line(ax, "path")
@@ -102,7 +107,8 @@ def test_path_figures_draw_the_mpc_horizons_and_the_sample_times(saved, tmp_path
     t = [0.0, 0.1, 0.2, 0.3]
     log.extra[study.SAMPLES_KEY] = {"t_s": t, "wall_us": [900.0, 40.0, 35.0, 50.0],
                                     "cpu_us": [800.0, 30.0, 33.0, 45.0], "r_prim": [1e-3, 0.0, 2e-6, 1e-15]}
-    path_plots([log, other], {}, tmp_path)
+    files = path_plots([log, other], {}, tmp_path)
+    assert [f.name for f in files] == ["path_xy.png", "path_errors_limits.png", "path_samples.png"]
 
     fig8, obst = saved["path_xy.png"]
     shown = study.horizon_samples(12)
