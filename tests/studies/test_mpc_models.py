@@ -88,3 +88,39 @@ def test_decision_keeps_the_default_unless_a_variant_is_clearly_better() -> None
     # better tracking bought with a §7.1 excess or a lost completion does not count
     assert MM.decide(_metrics({"shipped": 1.0, "full": 1.0, "nmpc": 0.5}, tilt=5.5))[0] == "shipped"
     assert MM.decide(_metrics({"shipped": 1.0, "full": 1.0, "nmpc": 0.5}, completed=0.0))[0] == "shipped"
+
+
+def test_the_nonlinear_variant_predicts_by_stepping_its_model_from_each_new_state(monkeypatch) -> None:
+    """The nmpc variant's predictor rolls its loop model forward one sample at a time, each
+    step from the state the last one reached, and returns the 14-state's position rows
+    (12:14); a stand-in model whose step doubles the position and adds the reference tells a
+    step from the start state (or from any other) apart."""
+    made = {}
+
+    class Loop:
+        def __init__(self, inp, dt):
+            made["loop"] = (inp, dt)
+
+        def step(self, x, v):
+            y = np.array(x, float)
+            y[12:14] = 2.0 * y[12:14] + v
+            y[0] += 1.0
+            return y
+
+    class Mpc:
+        def __init__(self, model, path, config):
+            made["mpc"] = (model, path, config)
+            self.qp_size = {"variables": 3, "rows": 4, "other": 5}
+
+    monkeypatch.setattr(MM, "ClippedLoop", Loop)
+    monkeypatch.setattr(MM, "NonlinearPathMPC", Mpc)
+    config = type("Config", (), {"dt": 0.1})()
+    variant = next(v for v in MM.MPC_MODEL_VARIANTS if v.name == "nmpc")
+    mpc, predict, size = variant.build({"k": 1}, "path", config)
+    assert made["loop"] == ({"k": 1}, 0.1) and made["mpc"][1:] == ("path", config) and mpc.qp_size
+    assert size == {"variables": 3, "rows": 4}
+    X0 = np.zeros(14)
+    X0[12:14] = [1.0, -1.0]
+    v = np.array([[0.5, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    expected = [[1.0, -1.0], [2.5, -2.0], [5.0, -3.0], [11.0, -5.0]]
+    np.testing.assert_array_equal(predict(X0, v), expected)
