@@ -238,3 +238,30 @@ def test_casadis_own_export_of_the_ode_agrees_with_the_fmi3_plant(tmp_path):
     diff = max(float(np.max(np.abs(ours[n] - peer[n]))) for n in ALL_STATES[:12])
     assert diff <= 1e-7, diff
     assert abs(ours["q1"][-1] - ours["q1"][0]) > 1e-3
+
+
+def test_the_fmi3_logger_receives_each_refusal_with_its_status_and_unescaped_text():
+    """Messages reach the FMI 3.0 ``logMessage`` callback (through the FMI 2.0 layer's
+    logger) with their status and category, and the layer's '#' -> '##' escape undone
+    (FMI 3.0 messages have no value-reference syntax): a call out of order and a wrong
+    instantiation token holding '#'."""
+    b = plant3()
+    got = []
+
+    def log(env, status, category, message):
+        got.append((status, category.decode(), message.decode()))
+
+    m = FMU3Model(guid=b.guid, unzipDirectory=str(b.unzipped),
+                  modelIdentifier=b.model_identifier, instanceName="logged")
+    m.instantiate(loggingOn=True, logMessage=log)
+    with pytest.raises(Exception, match="fmi3ExitInitializationMode failed with status 3"):
+        m.exitInitializationMode()
+    assert got[-1] == (3, "logStatusError", "fmi2ExitInitializationMode: not allowed in state instantiated")
+    m.freeInstance()
+    got.clear()
+    bad = FMU3Model(guid="bad#token", unzipDirectory=str(b.unzipped),
+                    modelIdentifier=b.model_identifier, instanceName="wrong")
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        bad.instantiate(logMessage=log)
+    assert got == [(3, "logStatusError", f"fmi2Instantiate: wrong GUID 'bad#token', this binary of "
+                                         f"{b.model_identifier} has GUID '{b.guid}'")]
