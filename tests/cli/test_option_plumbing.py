@@ -346,3 +346,25 @@ def test_fmu_info_and_validate_accept_an_fmu_without_binaries(monkeypatch, capsy
     monkeypatch.setattr(cli_fmu, "validate_fmu", lambda p: ["a", "b"])
     assert main(["fmu", "validate", str(fmu)]) == 1
     assert capsys.readouterr().out == f"problem: a\nproblem: b\n{fmu}: 2 problem(s)\n"
+
+
+def test_study_out_folder_checked_up_front_for_one_study_not_for_all(study_calls, monkeypatch, capsys,
+                                                                     tmp_path):
+    """One study replaces its --out folder as a whole, so a folder holding a file it did
+    not write is refused before anything runs; 'all' writes one subfolder per study into
+    --out, so a folder holding earlier studies' subfolders and the user's own files is
+    accepted."""
+    out = tmp_path / "mine"
+    (out / "sine").mkdir(parents=True)
+    (out / "notes.txt").write_text("mine\n")
+    assert main(["study", "sine", "--out", str(out)]) == 2
+    assert "already holds files that ballbot did not write ('notes.txt'" in _err(capsys)
+    assert study_calls == []
+    ran = []
+    monkeypatch.setattr(cli_study, "run_all", lambda o, plot: ran.append(o) or {})
+    assert main(["study", "all", "--quiet", "--out", str(out)]) == 0
+    assert ran == [out] and (out / "notes.txt").read_text() == "mine\n"
+    (out / "notes.txt").unlink()
+    (out / "sine").rmdir()
+    (out / "report.md").write_text("an earlier run's\n")
+    assert main(["study", "sine", "--quiet", "--out", str(out)]) == 0 and study_calls[0]["out"] == out
