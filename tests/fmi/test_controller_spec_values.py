@@ -118,6 +118,12 @@ def test_default_spec_inputs_and_parameters_start_where_the_robot_rests(spec):
         ["rad", "rad/s", "m", "1"]
     assert not any(v.fixed for v in spec.variables)
     assert not any(n in by for n in V_REF_USED_NAMES)
+    # each internal model's parameters: described by owner, with load_params' unit and rule
+    for owner, who in (("ctrl", "controllers'"), ("est", "filters'")):
+        assert by[f"{owner}_Mb"].description == ("body mass including wheels and motors "
+                                                 f"(the {who} internal model, load_params name Mb)")
+        assert (by[f"{owner}_Mb"].unit, by[f"{owner}_Mb"].rule) == ("kg", "mass")
+        assert (by[f"{owner}_tau_max"].unit, by[f"{owner}_tau_max"].rule) == ("N.m", "torque")
 
 
 def test_controller_values_follow_the_scenario():
