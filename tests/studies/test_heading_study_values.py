@@ -45,7 +45,7 @@ def _study(tmp_path, monkeypatch, plot):
             return _run(t, aided_err, bias, bias_hat)
         if aided:
             return _run(t, lost_err)
-        return _run(t, np.full_like(t, 0.5 * (seed + 1)) * (1 if seed % 2 else -1))
+        return _run(t, 0.5 * (seed + 1) * (t / t[-1]) * (1 if seed % 2 else -1))  # a drift ramp
 
     monkeypatch.setattr(H, "heading_run", fake)
     m = H.run_heading_study(tmp_path, plot=plot, duration=200.0, seeds=(3, 4))
@@ -100,7 +100,8 @@ def test_the_plot_draws_each_run_in_minutes_against_its_band(tmp_path, monkeypat
     np.testing.assert_array_equal(y, aided_err)
     np.testing.assert_array_equal(line(top, "aided, 60 s loss")[1], lost_err)
     for seed, sign in ((3, 1), (4, -1)):
-        np.testing.assert_array_equal(line(bottom, f"unaided QUKF, seed {seed}")[1], sign * 0.5 * (seed + 1))
+        np.testing.assert_array_equal(line(bottom, f"unaided QUKF, seed {seed}")[1],
+                                      sign * 0.5 * (seed + 1) * t / t[-1])
     assert top["spans"] == [("±0.5 deg", -H.HEADING_SPEC_DEG, H.HEADING_SPEC_DEG)]
     assert bottom["spans"] == [("thesis §7.1: ±5 deg", -5.0, 5.0)]
     assert (top["ylabel"], bottom["ylabel"], bottom["xlabel"]) == (
