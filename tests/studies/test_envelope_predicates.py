@@ -118,3 +118,30 @@ def test_the_scenario_of_a_push_and_of_a_torque_step():
     sc = E._scenario("flc", "true", tuple(default_balance_gains("flc")), torque=1.5)
     assert sc.torque_disturbances == ((0.5, 1.0, 1.5, 0.0, 0.0),) and sc.pushes == ()
     assert sc.name == "envelope_flc"
+
+
+def _rows(base: float, changes: dict[str, float]) -> dict[str, dict[str, float]]:
+    keys = [E._key(c, kind) for kind in ("", "_limits") for c, _, _ in E.COLUMNS]
+    flc = {k: base + i for i, k in enumerate(keys)}
+    return {"flc": flc, "flc_dob": {k: v + changes.get(k, 0.0) for k, v in flc.items()}}
+
+
+def test_dob_verdict_differences_and_tolerances_by_hand():
+    """Each column's difference is FLC + DOB minus FLC; it counts when beyond that column's
+    tolerance (the torque pulse's own, the pushes' otherwise), strictly; the verdict follows
+    from which way the counted columns went."""
+    push = E._key(E.COLUMNS[0][0], "")
+    push_lim = E._key(E.COLUMNS[1][0], "_limits")
+    torque = E._key("torque_step", "")
+    assert torque == "torque_step_nm" and push.endswith("_deg") and push_lim.endswith("_limits_deg")
+    v = E.dob_verdict(_rows(2.0, {push: 0.5, torque: -0.25}), push_tol=0.25, torque_tol=0.5)
+    assert v["columns"][push] == {"flc": 2.0, "flc_dob": 2.5, "diff": 0.5}
+    assert v["columns"][torque]["diff"] == -0.25
+    assert (v["raised"], v["lowered"], v["verdict"]) == ([push], [], "raises")  # torque within its 0.5
+    v = E.dob_verdict(_rows(2.0, {push: 0.5, torque: -0.75}), push_tol=0.25, torque_tol=0.5)
+    assert (v["raised"], v["lowered"], v["verdict"]) == ([push], [torque], "mixed")
+    v = E.dob_verdict(_rows(2.0, {push_lim: -0.5}), push_tol=0.25, torque_tol=0.5)
+    assert (v["raised"], v["lowered"], v["verdict"]) == ([], [push_lim], "lowers")
+    v = E.dob_verdict(_rows(2.0, {push: 0.25, push_lim: -0.25, torque: 0.5}), push_tol=0.25, torque_tol=0.5)
+    assert (v["raised"], v["lowered"], v["verdict"]) == ([], [], "same")  # at the tolerance: not counted
+    assert len(v["columns"]) == 2 * len(E.COLUMNS)
