@@ -5,6 +5,8 @@ are the documented ones (600 points from 0.01 rad/s to Nyquist)."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -52,3 +54,24 @@ def test_ratios_and_verdicts_follow_from_the_bandwidths(result):
     assert result["cascade_rule_ok"] is bool(si / so >= 3.0)
     d = result["closed_loop"]
     assert d["max_real_pole"] == max(d["inner"]["max_real_pole"], d["outer"]["max_real_pole"])
+
+
+def test_an_operating_point_the_controllers_do_not_hold_is_skipped_with_each_mismatch(model_functions):
+    """Trim torques other than the ones the default controllers command at the operating
+    point: the closed loop is not analysed, and the message names every mismatch (the
+    balance and the cascade torque both off by the 0.25 N m added to one wheel; the
+    velocity controller's state held)."""
+    import dataclasses
+
+    params = load_params()
+    lin, _ = an.analyze_plant(params, functions=model_functions)
+    off = dataclasses.replace(lin, op=dataclasses.replace(lin.op, tau=lin.op.tau + [0.0, 0.25, 0.0]))
+    r = cla.analyze_closed_loop(params, off, model_functions)
+    assert r["closed_loop"]["status"] == "skipped" and set(r["closed_loop"]) == {"status", "message"}
+    m = re.fullmatch(r"the default controllers do not hold this operating point \(balance torque "
+                     r"mismatch 0\.25, cascade torque mismatch 0\.25, velocity-controller state "
+                     r"mismatch (\S+)\)", r["closed_loop"]["message"])
+    assert m is not None, r["closed_loop"]["message"]
+    assert float(m.group(1)) < 1e-9  # held, to round-off
+    assert all(r[k] is None for k in ("bandwidth_inner_hz", "bandwidth_outer_hz", "bandwidth_ratio",
+                                      "cascade_rule_ok", "cascade_rule_ok_3db"))
