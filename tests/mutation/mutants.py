@@ -262,19 +262,25 @@ def area_folder(rel: str) -> str:
     return "tests"
 
 
-def _pytest(root: Path, targets: list[str], timeout: float) -> tuple[str, float]:
+def _pytest(root: Path, targets: list[str], timeout: float) -> tuple[str, float, str]:
     cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-m", "not slow", "-p", "no:cacheprovider",
            "-p", "no:randomly", *targets]
     t0 = time.monotonic()
     try:
         r = subprocess.run(cmd, cwd=root, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
-        return "timeout", time.monotonic() - t0
+        return "timeout", time.monotonic() - t0, ""
     status = {0: "survived", 5: "no-tests"}.get(r.returncode, "caught")
-    return status, time.monotonic() - t0
+    # pytest's last line (and the first error) show a mutant "caught" by a broken set-up
+    lines = r.stdout.strip().splitlines() or [""]
+    first_error = next((l for l in lines if l.startswith("E ")), "")
+    return status, time.monotonic() - t0, (first_error + " | " + lines[-1])[:300]
 
 
 def run(root: Path, muts: list[dict], out: Path, timeout: float, ids: set[int] | None) -> None:
+    status, _, said = _pytest(root, ["--collect-only", "tests"], timeout)
+    if status != "survived":  # an unmutated checkout whose tests do not even load
+        raise SystemExit(f"{root}: the tests do not collect before any mutant ({said}); fix the set-up")
     done = set()
     if out.exists():
         done = {json.loads(l)["id"] for l in out.read_text().splitlines() if l.strip()}
@@ -288,12 +294,13 @@ def run(root: Path, muts: list[dict], out: Path, timeout: float, ids: set[int] |
             path.write_text(apply_text(original, mut))
             near = nearest_tests(root, mut["path"])
             rec["near"] = near
-            status, dt = _pytest(root, near, timeout) if near else ("no-tests", 0.0)
-            rec["near_status"], rec["near_s"] = status, round(dt, 1)
+            status, dt, said = _pytest(root, near, timeout) if near else ("no-tests", 0.0, "")
+            rec["near_status"], rec["near_s"], rec["near_said"] = status, round(dt, 1), said
             if status in ("survived", "no-tests"):
                 area = area_folder(mut["path"])
-                status, dt = _pytest(root, [area], timeout)
+                status, dt, said = _pytest(root, [area], timeout)
                 rec["area"], rec["area_status"], rec["area_s"] = area, status, round(dt, 1)
+                rec["area_said"] = said
             rec["status"] = status
         finally:
             path.write_text(original)

@@ -104,3 +104,16 @@ def test_run_restores_the_file_and_records_the_verdict(tmp_path, monkeypatch):
     assert (root / "pkg" / "a.py").read_text() == before
     assert [r["status"] for r in recs] == ["caught", "survived"]
     assert recs[0]["near"] == ["tests/test_a.py"]
+    assert recs[0]["near_said"].startswith("E ") and "1 failed" in recs[0]["near_said"]
+    assert recs[1]["area_said"].endswith("1 passed") or "1 passed" in recs[1]["area_said"]
+
+
+def test_run_refuses_a_checkout_whose_tests_do_not_load(tmp_path, monkeypatch):
+    root, _ = _repo(tmp_path)
+    (root / "tests").mkdir()
+    (root / "tests" / "test_a.py").write_text("import not_installed_anywhere\n\ndef test_f():\n    pass\n")
+    monkeypatch.setenv("PYTHONPATH", str(root))
+    muts = [{"id": 0, "path": "pkg/a.py", "line": 2, "col": 13, "old": "+", "new": "-"}]
+    with pytest.raises(SystemExit, match="the tests do not collect before any mutant"):
+        M.run(root, muts, root / "r.jsonl", timeout=120, ids=None)
+    assert not (root / "r.jsonl").exists()
