@@ -77,3 +77,52 @@ def test_reached_at_the_target():
          "rate_noise_needed_rad_s": 2e-3, "rate_noise_rad_s": [1, 1, 1]}
     assert "reached with the estimators" in "\n".join(S.sta_noise_report_lines(m))
     assert "NOT reached" not in "\n".join(S.sta_noise_report_lines(m))
+
+
+def test_one_run_starts_tilted_and_measures_after_the_settling_time(monkeypatch):
+    """One run: the thesis's 5 deg / 5 deg start, the standing robot (cascade) under the STA
+    with the given gains, estimator and seed; S_hat = de + K e from the controller's
+    diagnostics, S from the true state, each measured from t = 1 s on; the torque's total
+    variation per second over the whole run."""
+    from ballbot_casadi.control import BALANCE_DIAG_NAMES
+    from ballbot_casadi.control.super_twisting import STA_GAIN_NAMES
+    from ballbot_casadi.sim.scenario import initial_state
+
+    n, dt = 8, 0.25  # samples at 0, 0.25, ..., 1.75 s: the last four from 1 s on
+    t = np.arange(n + 1) * dt
+    diag = np.zeros((n, len(BALANCE_DIAG_NAMES)))
+    e = np.arange(n)[:, None] * [1.0, -2.0, 0.5]
+    de = np.ones((n, 3)) * [0.1, 0.2, -0.3]
+    diag[:, BALANCE_DIAG_NAMES.index("e1"):BALANCE_DIAG_NAMES.index("e3") + 1] = e
+    diag[:, BALANCE_DIAG_NAMES.index("de1"):BALANCE_DIAG_NAMES.index("de3") + 1] = de
+    tau = np.zeros((n, 3))
+    tau[3] = [1.0, -2.0, 0.0]  # total variation 2 x 3 N m
+    k = np.arange(1.0, len(STA_GAIN_NAMES) + 1) * 0.5  # all > 0, as the scenario requires
+    K = np.array([2.0, 3.0, 4.0])
+    k[STA_GAIN_NAMES.index("K1"):STA_GAIN_NAMES.index("K3") + 1] = K
+    S_true = np.tile([0.01, -0.02, 0.04], (n, 1)) * np.arange(1, n + 1)[:, None]
+    seen = {}
+
+    def run_scenario(sc, sim):
+        seen["sc"], seen["sim"] = sc, sim
+        return {"time": t, "diag": diag, "tau_cmd": tau}
+
+    monkeypatch.setattr(S, "run_scenario", run_scenario)
+    monkeypatch.setattr(S, "true_sliding_variable", lambda log, KK: seen.setdefault("K", KK) is not None
+                        and S_true)
+    sim = object()
+    r = S._run(sim, k, seed=7, duration=2.0, estimator="ukf")
+    sc = seen["sc"]
+    assert seen["sim"] is sim and np.array_equal(seen["K"], K)
+    assert (sc.name, sc.controller, sc.duration, sc.estimator, sc.cascade, sc.seed) == (
+        "sta_noise", "sta", 2.0, "ukf", True, 7)
+    assert tuple(sc.x0) == tuple(initial_state(5, 5)) and tuple(sc.k_bal) == tuple(k)
+    late = slice(4, None)
+    S_hat = de + K * e
+    np.testing.assert_allclose(r["S_hat_rms"], np.sqrt(np.mean(S_hat[late] ** 2, axis=0)), rtol=1e-14)
+    assert r["S_hat_max"] == pytest.approx(np.abs(S_hat[late]).max(), rel=1e-14)
+    np.testing.assert_allclose(r["S_rms"], np.sqrt(np.mean(S_true[late] ** 2, axis=0)), rtol=1e-14)
+    assert r["S_max"] == pytest.approx(0.04 * 8, rel=1e-14)
+    np.testing.assert_allclose(r["e_S_rms"], np.sqrt(np.mean((S_hat - S_true)[late] ** 2, axis=0)),
+                               rtol=1e-14)
+    assert r["torque_tv_per_s"] == pytest.approx(6.0 / 2.0, rel=1e-14)
