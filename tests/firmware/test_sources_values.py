@@ -119,6 +119,16 @@ def test_guidance_latency_makes_the_split_law(latency, split):
     assert law.split == split and law.latency == latency and law.name == "mpc"
 
 
+def test_guidance_defaults_to_no_latency():
+    """Without a latency the guided period is the unsplit mission's (the MPC applied in its
+    own period), for the period and the law alike."""
+    plain = firmware_function("flc", "ukf", "mpc").serialize()
+    assert plain == firmware_function("flc", "ukf", "mpc", 0).serialize()
+    assert plain != firmware_function("flc", "ukf", "mpc", 1).serialize()
+    law = firmware_guidance("mpc")
+    assert (law.latency, law.split) == (0, False)
+
+
 def test_guidance_refusals_name_what_is_allowed():
     assert firmware_guidance(None) is None
     with pytest.raises(ScenarioError, match=r"unknown guidance 'warp'; allowed: .*mpc"):
