@@ -98,6 +98,24 @@ def test_robustness_deviations_are_relative_to_the_nominal_runs_own_excursion():
     assert m["nominal_max_error_deg"] == pytest.approx(2.0, rel=1e-9)
 
 
+def test_robustness_deviation_compares_the_runs_over_their_common_samples():
+    """Runs of different lengths are compared sample by sample over the shorter one: a
+    deviation late in the common part counts, one after the shorter run ends does not."""
+    n = 60
+    s = np.exp(-np.arange(n) / 10.0)
+    nominal = _log(2.0 * s, -1.0 * s, 0.1 * s)
+    # the nominal log holds n + 1 states (the last one repeated): 40 deg after them
+    late = np.concatenate([2.0 * s, [2.0 * s[-1]], np.full(19, 40.0)])
+    late[45] += 0.3                                        # and 0.3 deg well inside them
+    perturbed = _log(late, np.concatenate([-1.0 * s, [-s[-1]], np.full(19, 9.0)]),
+                     np.concatenate([0.1 * s, [0.1 * s[-1]], np.zeros(19)]))
+    m = robustness_metrics(nominal, perturbed)
+    assert m["deviation_roll_deg"] == pytest.approx(0.3, rel=1e-9)
+    assert m["deviation_pitch_deg"] == pytest.approx(0.0, abs=1e-9)
+    m = robustness_metrics(perturbed, nominal)  # either run may be the shorter
+    assert m["deviation_roll_deg"] == pytest.approx(0.3, rel=1e-9)
+
+
 def test_standing_metrics_mean_roll_and_pitch_over_the_last_window():
     p = load_params().replace(com_x=-0.02, com_y=-0.03)
     n = 400
