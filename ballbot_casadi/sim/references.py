@@ -338,7 +338,7 @@ def rpy_reference(roll: Any, pitch: Any, yaw: Any) -> tuple[np.ndarray, np.ndarr
         if not isinstance(s, (int, float, np.floating, np.integer)):
             try:
                 n = max(n, np.asarray(s[0], dtype=float).size)
-            except (TypeError, IndexError):
+            except (TypeError, IndexError, ValueError):
                 raise ShapeError("angles must be numbers or (value, d1, d2) triples") from None
     qx = _axis_quat(1, *_as_signal("roll", roll, n))
     qy = _axis_quat(2, *_as_signal("pitch", pitch, n))
