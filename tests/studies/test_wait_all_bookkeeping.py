@@ -48,8 +48,12 @@ class Client:
 def waits(monkeypatch):
     """``distributed.wait`` finishing one future per call, in the order of ``plan``."""
     plan: list = []
+    polls = []
 
     def wait(pending, timeout, return_when):
+        polls.append(1)
+        if len(polls) > 50:   # a stand-in run is a few polls: more is a hang
+            pytest.fail("wait_all kept polling after the planned futures")
         step = plan.pop(0) if plan else None
         if isinstance(step, BaseException):
             raise step
