@@ -58,3 +58,20 @@ def test_number_cells():
     assert AR._num(None) == "n/a" and AR._num(3.14159) == "3.14"
     assert AR._verdict(None) == "n/a" and AR._verdict(True) == "satisfied" and AR._verdict(False) == "NOT satisfied"
     assert AR._fmt_list([]) == "none"
+
+
+def test_the_limitation_line_reads_the_largest_pole_and_smallest_rhp_zero(result, tmp_path):
+    """|z+p|/|z-p| for the largest unstable pole and the smallest RHP zero, by hand, the
+    z < p remark exactly when it holds, and the z/2 outer bandwidth."""
+    text = AR.write_markdown(result, tmp_path, "thesis App. A defaults", []).read_text(encoding="utf-8")
+    line = next(ln for ln in text.splitlines() if ln.startswith("Limitation:"))
+    p = max(result["unstable_poles"])
+    z = float(line.split("zero z = ")[1].split(" rad/s")[0])
+    assert line.startswith(f"Limitation: with a real RHP pole p = {p:.3f} and zero z = ")
+    assert f"least |z+p|/|z-p| = {abs(z + p) / abs(z - p):.1f}" in line
+    assert ("practically uncontrollable" in line) == (z < p)
+    assert f"roughly z/2 = {z / 2:.2f} rad/s = {z / 4 / np.pi:.2f} Hz" in line
+    # the bound by hand on numbers that separate z+p from z-p and their order
+    assert AR._sensitivity_bound(2.0, 3.0) == pytest.approx(5.0, rel=1e-15)
+    assert AR._sensitivity_bound(3.0, 2.0) == pytest.approx(5.0, rel=1e-15)
+    assert AR._sensitivity_bound(1.0, 5.0) == pytest.approx(1.5, rel=1e-15)

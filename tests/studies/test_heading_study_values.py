@@ -100,9 +100,11 @@ def test_the_plot_draws_each_run_in_minutes_against_its_band(tmp_path, monkeypat
     np.testing.assert_allclose(x, t / 60, rtol=1e-15)
     np.testing.assert_array_equal(y, aided_err)
     np.testing.assert_array_equal(line(top, "aided, 60 s loss")[1], lost_err)
+    np.testing.assert_allclose(line(top, "aided, 60 s loss")[0], t / 60, rtol=1e-15)
     for seed, sign in ((3, 1), (4, -1)):
-        np.testing.assert_allclose(line(bottom, f"unaided QUKF, seed {seed}")[1],
-                                   sign * 0.5 * (seed + 1) * t / t[-1], rtol=1e-14, atol=0)
+        xu, yu = line(bottom, f"unaided QUKF, seed {seed}")
+        np.testing.assert_allclose(xu, t / 60, rtol=1e-15)   # minutes on both panels
+        np.testing.assert_allclose(yu, sign * 0.5 * (seed + 1) * t / t[-1], rtol=1e-14, atol=0)
     assert top["spans"] == [("±0.5 deg", -H.HEADING_SPEC_DEG, H.HEADING_SPEC_DEG)]
     assert bottom["spans"] == [("thesis §7.1: ±5 deg", -5.0, 5.0)]
     assert (top["ylabel"], bottom["ylabel"], bottom["xlabel"]) == (
