@@ -200,3 +200,28 @@ def test_each_error_kind_exits_with_its_own_code(monkeypatch, capsys, error, cod
     monkeypatch.setattr(cli_commands, "run_codegen", fail)
     assert cli.main(["codegen"]) == code
     _one_error_line(capsys, "codegen", str(error).splitlines()[0])
+
+
+@pytest.mark.parametrize("error, line", [
+    (PermissionError(13, "Permission denied", "/data/out/run.npz"),
+     "ballbot codegen: error: /data/out/run.npz Permission denied"),
+    (OSError(28, "No space left on device"), "ballbot codegen: error: No space left on device"),
+    (OSError("the disk went away"), "ballbot codegen: error: the disk went away"),
+])
+def test_an_os_error_the_checks_could_not_foresee_is_one_line_exit_2(monkeypatch, capsys, error, line):
+    def fail(*_a, **_k):
+        raise error
+
+    monkeypatch.setattr(cli_commands, "run_codegen", fail)
+    assert cli.main(["codegen"]) == 2
+    assert _one_error_line(capsys, "codegen") == line
+
+
+def test_debug_prints_the_traceback_of_an_os_error(monkeypatch, capsys):
+    def fail(*_a, **_k):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(cli_commands, "run_codegen", fail)
+    assert cli.main(["--debug", "codegen"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" in err and err.rstrip().endswith("ballbot codegen: error: No space left on device")
