@@ -64,3 +64,46 @@ def test_the_report_marks_the_errored_run_and_the_fall_not_their_specs(written):
     assert "**the robot fell" in rows[3]
     assert rows[0].split("|")[3].strip() == "none"
     assert "1 run(s) raised an error" in text
+
+
+def test_no_file_nothing_to_resume(tmp_path):
+    assert mr._resumable(tmp_path / "empty", [], []) == {}
+
+
+@pytest.mark.parametrize("text, kind", [
+    ("not json", "JSONDecodeError"),
+    ('{"runs": []}', "KeyError"),                             # neither n_planned nor n
+    ('{"n": 4, "runs": [{"seed": 1}]}', "KeyError"),          # a run without its index
+    ('{"n": 4, "runs": [{"index": "two"}]}', "ValueError"),
+    ('{"n": 4, "runs": 7}', "TypeError"),
+])
+def test_a_file_that_is_not_a_result_is_refused(written, text, kind):
+    out, runs, specs, *_ = written
+    (out / "montecarlo.json").write_text(text)
+    with pytest.raises(mr.ArgumentError, match=rf"^--resume: {out / 'montecarlo.json'} is not a Monte "
+                                              rf"Carlo result \({kind}\)$"):
+        mr._resumable(out, runs, specs)
+
+
+@pytest.mark.parametrize("change", ["fewer", "more", "planned", "seed", "values"])
+def test_a_result_of_another_set_is_refused(written, change):
+    out, runs, specs, *_ = written
+    runs = [dict(r) for r in runs]
+    if change == "fewer":
+        runs = runs[:3]
+    elif change == "more":
+        runs = runs + [dict(runs[0])]
+    elif change == "planned":   # the file planned one run more than this set has
+        f = out / "montecarlo.json"
+        f.write_text(json.dumps({**json.loads(f.read_text()), "n_planned": len(runs) + 1}))
+    elif change == "seed":
+        runs[3]["seed"] = runs[3]["seed"] + 1          # run 3 is in the file
+    else:
+        runs[0]["values"] = {**runs[0]["values"], "extra": 1.0}
+    with pytest.raises(mr.ArgumentError, match=r"^--resume: .* holds another Monte Carlo set \(other "
+                                              r"scenario, --n, --seed or --set\); give another --out"):
+        mr._resumable(out, runs, specs)
+    # a run missing from the file (run 2) may differ: it has not run yet
+    same = [dict(r) for r in written[1]]
+    same[2]["seed"] = same[2]["seed"] + 1
+    assert sorted(mr._resumable(out, same, specs)) == [0, 1, 3]
