@@ -48,6 +48,17 @@ def test_spec_usage_is_the_fraction_of_the_allowance(value, op, threshold, usage
     assert spec_usage(value, op, threshold) == pytest.approx(usage, rel=1e-15)
 
 
+@pytest.mark.parametrize("value, op, threshold", [
+    (True, "<", 2.0), (False, ">=", 1.0), (None, "<=", 1.0), ("0.5", "<", 1.0), ([0.5], "<", 1.0),
+    (0.5, "<", True), (0.5, "<", "1"), (0.5, "<", 0), (0.5, "<", 0.0), (math.nan, "<", 1.0),
+    (math.inf, "<=", 1.0), (1.0, "==", 1.0),
+])
+def test_spec_usage_has_no_fraction_for_what_is_not_a_number(value, op, threshold):
+    """Booleans, missing and non-numeric values or thresholds, a zero threshold, a
+    non-finite value and equality specs have no fraction of an allowance."""
+    assert spec_usage(value, op, threshold) is None
+
+
 def test_the_fall_rule_at_its_boundary():
     assert run_failure({"finite": True, "peak_tilt_deg": FALL_TILT_DEG}) is not None
     assert run_failure({"finite": True, "peak_tilt_deg": math.nextafter(FALL_TILT_DEG, 0.0)}) is None
