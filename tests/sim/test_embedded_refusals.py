@@ -11,15 +11,23 @@ import pytest
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.firmware.sources import firmware_function, scenario_values
 from ballbot_casadi.model.dynamics import make_ode, make_wheel_speeds
-from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS, estimator_blocks, software_blocks
+from ballbot_casadi.sim.embedded import (
+    ESTIMATOR_FILTERS,
+    estimator_blocks,
+    estimator_layout,
+    readings_layout,
+    software_blocks,
+)
 from ballbot_casadi.sim.scenario import Scenario
 
 ALLOWED = ", ".join(ESTIMATOR_FILTERS)
 
 
-def test_estimator_blocks_refuse_an_unknown_estimator():
+@pytest.mark.parametrize("call", [lambda: estimator_blocks("true", make_ode(), make_wheel_speeds()),
+                                  lambda: readings_layout("true"), lambda: estimator_layout("true")])
+def test_the_estimators_parts_refuse_an_unknown_estimator(call):
     with pytest.raises(ScenarioError, match=rf"^unknown estimator 'true'; allowed: {re.escape(ALLOWED)}$"):
-        estimator_blocks("true", make_ode(), make_wheel_speeds())
+        call()
 
 
 def test_software_blocks_refuse_an_unknown_estimator():
