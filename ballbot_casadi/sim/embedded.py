@@ -244,12 +244,18 @@ class EstimatorBlocks:
         return MEAS if self.heading is None else MEAS_HEADING
 
 
+def _filters_of(estimator: str) -> tuple[str, str]:
+    """The (attitude, velocity) filters of ``estimator``; an unknown one is refused with
+    the allowed ones (:data:`ESTIMATOR_FILTERS`)."""
+    if estimator not in ESTIMATOR_FILTERS:
+        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
+    return ESTIMATOR_FILTERS[estimator]
+
+
 def readings_layout(estimator: str) -> Layout:
     """The readings the embedded software of ``estimator`` gets: :data:`MEAS_HEADING` for
     an estimator with the heading sensor, :data:`MEAS` otherwise."""
-    if estimator not in ESTIMATOR_FILTERS:
-        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
-    return MEAS_HEADING if ESTIMATOR_FILTERS[estimator][0] in _HEADING_FILTERS else MEAS
+    return MEAS_HEADING if _filters_of(estimator)[0] in _HEADING_FILTERS else MEAS
 
 
 def embedded_readings(embedded: ca.Function) -> Layout:
@@ -275,9 +281,7 @@ def _attitude_state(att: str) -> Layout:
 
 def estimator_blocks(estimator: str, ode: ca.Function, wheel_speeds: ca.Function) -> EstimatorBlocks:
     """The sensing and estimation Functions of an estimator choice (:data:`ESTIMATOR_FILTERS`)."""
-    if estimator not in ESTIMATOR_FILTERS:
-        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
-    att, vel = ESTIMATOR_FILTERS[estimator]
+    att, vel = _filters_of(estimator)
     if att in _HEADING_FILTERS:  # they compensate the acceleration (input a) always; no gate
         attitude = make_qukf_heading() if att == "qukf_heading" else make_qekf_heading()
     else:
@@ -295,9 +299,7 @@ def estimator_layout(estimator: str) -> Layout:
     """Layout of the filters' part of the controller state (an estimator of
     :data:`ESTIMATOR_FILTERS`; the heading-aided attitude filter's state ends with the z
     gyro bias, :data:`~ballbot_casadi.estimation.heading.HEADING_FILTER_STATE`)."""
-    if estimator not in ESTIMATOR_FILTERS:
-        raise ScenarioError(f"unknown estimator {estimator!r}; allowed: {', '.join(ESTIMATOR_FILTERS)}")
-    XA = _attitude_state(ESTIMATOR_FILTERS[estimator][0])
+    XA = _attitude_state(_filters_of(estimator)[0])
     att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[estimator])
     if (att.x0.size, vel.x0.size) != (XA.size, VELOCITY_FILTER_STATE.size):
         raise BuildError(f"estimator {estimator!r}: filter states of {att.x0.size} and "
