@@ -89,11 +89,7 @@ def make_sensors(ode: ca.Function, imu_position: Any = (0.0, 0.0, 0.0)) -> ca.Fu
     ShapeError
         ``imu_position`` does not have 3 finite entries.
     """
-    if not isinstance(ode, ca.Function) or ode.n_in() != 3 or ode.n_out() != 1:
-        raise BallbotTypeError("ode must be a CasADi Function (x, tau, p) -> xdot")
-    nx, nu, np_ = ode.size1_in(0), ode.size1_in(1), ode.size1_in(2)
-    if (nx, nu) != (12, 3):
-        raise BallbotTypeError(f"ode must take x (12) and tau (3), got sizes {nx}, {nu}")
+    nx, nu, np_ = _check_ode(ode)
     r_imu = np.asarray(imu_position, dtype=float).reshape(-1)
     if r_imu.shape != (3,) or not np.all(np.isfinite(r_imu)):
         raise ShapeError(f"imu_position must be 3 finite numbers, got {imu_position!r}")
