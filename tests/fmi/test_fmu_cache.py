@@ -12,14 +12,16 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import os
+import re
 import shutil
 import zipfile
 from pathlib import Path
 
 import pytest
 
-from ballbot_casadi.fmi import build as fb
 from ballbot_casadi.errors import BuildError
+from ballbot_casadi.fmi import build as fb
+from ballbot_casadi.fmi.package import binary_member
 
 pytestmark = pytest.mark.needs_cc
 
@@ -160,3 +162,36 @@ def test_validate_fmu_archive_checks_crc_members_and_binary_hash(fmu_out, tmp_pa
         zf.writestr("modelDescription.xml", "<fmiModelDescription/>")
     with pytest.raises(BuildError, match="names no modelIdentifier"):
         fb.validate_fmu_archive(noid)
+
+
+def _archive(path, members):
+    with zipfile.ZipFile(path, "w") as zf:
+        for name, text in members.items():
+            zf.writestr(name, text)
+    return path
+
+
+def test_validate_fmu_archive_reads_the_identifier_where_the_standard_puts_it(tmp_path):
+    """The binary is looked up under the model description's own identifier: the
+    co-simulation one, else the model-exchange one, in the platform folder of the FMI
+    version the description declares; an archive without a description or with one that
+    is not XML is refused naming the file."""
+    bare = _archive(tmp_path / "bare.fmu", {"resources/x.txt": "x"})
+    with pytest.raises(BuildError, match=rf"^{re.escape(str(bare))} lacks modelDescription\.xml$"):
+        fb.validate_fmu_archive(bare, require_binary=False)
+    broken = _archive(tmp_path / "broken.fmu", {"modelDescription.xml": "<fmiModelDescription"})
+    with pytest.raises(BuildError, match=rf"^{re.escape(str(broken))}: modelDescription\.xml is not valid XML"):
+        fb.validate_fmu_archive(broken)
+    me = _archive(tmp_path / "me.fmu", {"modelDescription.xml":
+                  '<fmiModelDescription fmiVersion="2.0"><CoSimulation modelIdentifier=""/>'
+                  '<ModelExchange modelIdentifier="MeOnly"/></fmiModelDescription>'})
+    with pytest.raises(BuildError, match=rf"lacks {re.escape(binary_member('MeOnly', 2))}$"):
+        fb.validate_fmu_archive(me)
+    three = _archive(tmp_path / "three.fmu", {
+        "modelDescription.xml": '<fmiModelDescription fmiVersion="3.0"><CoSimulation '
+                                'modelIdentifier="Three"/></fmiModelDescription>',
+        binary_member("Three", 3): b"\x7fELF"})
+    fb.validate_fmu_archive(three)                       # the FMI 3.0 platform folder
+    assert binary_member("Three", 3) != binary_member("Three", 2)
+    with pytest.raises(BuildError, match=r"differs from the built binary"):
+        fb.validate_fmu_archive(three, "0" * 64)
