@@ -8,6 +8,7 @@ index or a flipped test in the table or in either description changes one of the
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import xml.etree.ElementTree as ET
 
@@ -291,3 +292,22 @@ def test_start_and_range_attribute_helpers():
     assert range_attributes(out) == ""
     assert range_attributes(BY["u"]) == ' start="0.0"'
     assert range_attributes(BY["y"]) == ""
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"prefix": "Tiny"}, r"^FmuSpec\.prefix 'Tiny' must be a lower-case C identifier$"),
+    ({"prefix": "9tiny"}, r"^FmuSpec\.prefix '9tiny' must be a lower-case C identifier$"),
+    ({"prefix": "tiny-x"}, r"^FmuSpec\.prefix 'tiny-x' must be a lower-case C identifier$"),
+    ({"interfaces": ()}, r"^FmuSpec\.interfaces \(\): 'me' and/or 'cs'$"),
+    ({"interfaces": ("cs", "se")}, r"^FmuSpec\.interfaces \('cs', 'se'\): 'me' and/or 'cs'$"),
+    ({"variables": ROWS[1:]}, r"^variables must be ordered by value reference 0, 1, \.\.\.$"),
+])
+def test_a_spec_it_cannot_generate_is_refused(change, message):
+    with pytest.raises(BuildError, match=message):
+        dataclasses.replace(_spec(), **change)
+
+
+def test_the_model_name_defaults_to_the_identifier():
+    assert _spec().model_name == "Tiny"
+    assert dataclasses.replace(_spec(), model_name="A tiny model").model_name == "A tiny model"
+    assert dataclasses.replace(_spec(), prefix="t_2", interfaces=("me",)).prefix == "t_2"
