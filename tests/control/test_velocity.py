@@ -165,3 +165,20 @@ def test_bad_inputs(model_functions, default_params, kv):
         design_velocity_lqr(model_functions["jac"], default_params.to_vector(), -1.0)
     with pytest.raises(BallbotTypeError, match="jac"):
         design_velocity_lqr(model_functions["affine"], default_params.to_vector(), TS)
+
+
+def test_lqr_weights_of_the_wrong_size_are_refused_and_given_ones_are_used(model_functions, default_params):
+    from ballbot_casadi.control.velocity import _NX_LQR, _Q_DEFAULT, _R_DEFAULT
+
+    p = default_params.to_vector()
+    for Qw, Rw in ((np.ones(_NX_LQR - 1), None), (np.ones(_NX_LQR + 1), None), (None, np.ones(3)),
+                   (None, np.ones(1))):
+        with pytest.raises(ShapeError, match=rf"^Qw must have {_NX_LQR} and Rw 2 diagonal entries$"):
+            design_velocity_lqr(model_functions["jac"], p, TS, Qw=Qw, Rw=Rw)
+    K = design_velocity_lqr(model_functions["jac"], p, TS)
+    # the defaults given explicitly (as a column) are the same design; other weights are not
+    same = design_velocity_lqr(model_functions["jac"], p, TS, Qw=_Q_DEFAULT.reshape(-1, 1),
+                               Rw=list(_R_DEFAULT))
+    np.testing.assert_array_equal(same, K)
+    heavier = design_velocity_lqr(model_functions["jac"], p, TS, Rw=4.0 * _R_DEFAULT)
+    assert np.abs(heavier).sum() < np.abs(K).sum()   # dearer inputs, smaller gains
