@@ -415,6 +415,9 @@ def test_c_host_runs_the_controller_without_python():
     out = json.loads(res.stdout)
     assert out["t"] == pytest.approx(400 * TS, rel=1e-12)
     assert all(np.isfinite(out["tau"])) and max(abs(t) for t in out["tau"]) > 0.0
+    usage = subprocess.run([str(host), str(b.binary), b.guid, "400"], capture_output=True, text=True)
+    assert usage.returncode == 2 and usage.stdout == ""
+    assert usage.stderr == f"usage: {host} lib guid n_steps bench_reps\n"   # names the program
 
 
 @pytest.mark.parametrize("ctrl,est", [("flc", "ukf"), ("smc", "ekf")])
