@@ -182,3 +182,15 @@ def test_lqr_weights_of_the_wrong_size_are_refused_and_given_ones_are_used(model
     np.testing.assert_array_equal(same, K)
     heavier = design_velocity_lqr(model_functions["jac"], p, TS, Rw=4.0 * _R_DEFAULT)
     assert np.abs(heavier).sum() < np.abs(K).sum()   # dearer inputs, smaller gains
+
+
+def test_default_lqr_weights_are_brysons_rule_on_the_documented_excursions():
+    """1/max^2 of: 0.04 m/s velocity error, 1 rad and 1 rad/s on the plant's tilt and
+    rate, the thesis §7.1 limits 5 deg / 20 deg/s on the tilt reference and its rate,
+    0.1 m position error (x and y alike); 1 rad/s^2 on the inputs."""
+    from ballbot_casadi.control.velocity import _Q_DEFAULT, _R_DEFAULT
+
+    per_axis = [0.04, 1.0, 1.0, math.radians(5.0), math.radians(20.0), 0.1]
+    want = 1.0 / np.repeat(per_axis, 2) ** 2
+    np.testing.assert_allclose(_Q_DEFAULT, want, rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(_R_DEFAULT, [1.0, 1.0])

@@ -70,3 +70,22 @@ def test_what_is_provided_reads_the_instance(stepped):
     assert stepped.raw("fmi2GetBooleanStatus", KINDS["fmi2Terminated"], byref(term)) == OK
     assert (status.value, term.value) == (OK, 0)
     assert t.value == pytest.approx(0.03, abs=1e-12)
+
+
+def test_without_setup_experiment_and_after_reset_time_starts_at_zero():
+    """fmi2SetupExperiment is optional here: the experiment then starts at t = 0 (the
+    first step's communication point), and fmi2Reset returns to it."""
+    p = Plant("cs", name="no-setup")
+    try:
+        t = c_double(-1.0)
+        assert p.raw("fmi2EnterInitializationMode") == OK and p.raw("fmi2ExitInitializationMode") == OK
+        assert p.raw("fmi2DoStep", c_double(0.0), c_double(0.01), 1) == OK, p.errors()
+        assert p.raw("fmi2GetRealStatus", KINDS["fmi2LastSuccessfulTime"], byref(t)) == OK
+        assert t.value == 0.01
+        assert p.raw("fmi2Reset") == OK
+        assert p.raw("fmi2EnterInitializationMode") == OK and p.raw("fmi2ExitInitializationMode") == OK
+        assert p.raw("fmi2DoStep", c_double(0.0), c_double(0.02), 1) == OK, p.errors()
+        assert p.raw("fmi2GetRealStatus", KINDS["fmi2LastSuccessfulTime"], byref(t)) == OK
+        assert t.value == 0.02
+    finally:
+        p.free()
