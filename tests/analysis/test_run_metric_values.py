@@ -132,3 +132,18 @@ def test_standing_metrics_mean_roll_and_pitch_over_the_last_window():
         pytest.approx((roll_a, pitch_a), rel=1e-12)
     assert m["equilibrium_error_deg"] == pytest.approx(max(abs(-3.5 - roll_a), abs(2.25 - pitch_a)), rel=1e-9)
     assert m["final_position_drift_m"] == pytest.approx(0.5, rel=1e-12)
+
+
+def test_the_torque_fit_keeps_five_harmonics_and_drops_the_sixth():
+    """The smooth reference of torque_tv_ratio is the least-squares fit by the mean and
+    harmonics 1..5 of the sine: over whole periods it keeps those exactly and drops the
+    sixth (chattering-like content) entirely."""
+    from ballbot_casadi.analysis.metrics import _smooth_fit
+
+    f = 0.5
+    t = np.arange(0.0, 4.0, 0.001)       # two whole periods
+    kept = 0.3 + np.sin(2 * np.pi * f * t) + 0.2 * np.cos(2 * np.pi * 5 * f * t)
+    u = np.column_stack([kept + 0.7 * np.sin(2 * np.pi * 6 * f * t), -kept])
+    fit = _smooth_fit(t, u, f)
+    np.testing.assert_allclose(fit[:, 0], kept, atol=1e-9)
+    np.testing.assert_allclose(fit[:, 1], -kept, atol=1e-9)
