@@ -61,3 +61,29 @@ def test_upright_at_rest_stays_there_and_the_repetitions_restart_from_it():
         assert out["t"] == pytest.approx(0.015, rel=0, abs=1e-15)
         assert out["x"] == rest
         assert 0.0 < out["step_us"] < 1e300  # measured: not the initial "none yet" value
+
+
+def test_the_outputs_it_prints_are_the_fmus_outputs_in_order():
+    """From roll0 = 0.05 rad, three steps without torque: the 15 continuous outputs the
+    host prints (roll, pitch, yaw, wheel rates, IMU, encoders: value references from
+    roll on) equal the same FMU's outputs read through fmpy after the same steps."""
+    import math
+
+    import numpy as np
+    from _fmu_support import Plant, vr_table
+
+    res = _host("{lib}", "{guid}", "3", "0.005", "0", "0", "0", "0.05")
+    assert res.returncode == 0, res.stderr
+    y = json.loads(res.stdout)["y"]
+    table = vr_table()
+    names = [n for n, v in sorted(table.items(), key=lambda kv: kv[1])
+             if table["roll"] <= v < table["roll"] + 15]
+    assert len(y) == len(names) == 15 and names[0] == "roll" and names[-1] == "enc2"
+    p = Plant("cs", name="same")
+    try:
+        p.init(x0_q0=math.cos(0.025), x0_q1=math.sin(0.025), x0_q2=0.0, x0_q3=0.0)
+        p.step(0.005, 3)
+        np.testing.assert_allclose(y, p.get(*names), rtol=1e-14, atol=1e-300)
+    finally:
+        p.free()
+    assert y[0] == pytest.approx(0.05, abs=1e-3)   # the roll it started from, barely moved
