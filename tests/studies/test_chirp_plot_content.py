@@ -105,3 +105,20 @@ def test_a_yaw_chirp_shows_roll_as_the_other_tilt(saved, tmp_path):
     np.testing.assert_allclose(line(main_ax, "yaw (none feed-forward)")[1], 0.5 * s, rtol=0, atol=1e-9)
     np.testing.assert_allclose(line(other_ax, "roll (none)")[1], 2 * s, rtol=0, atol=1e-9)
     assert main_ax["ylabel"] == "yaw (deg)"
+
+
+def test_a_run_is_labelled_with_its_limit_when_it_differs_from_the_main_runs(saved, tmp_path):
+    """The main run (last) sets the torque-limit mode left unsaid; any other run with
+    another mode, first or not, names it."""
+    logs = [_log("none", 1.0, limit="per-wheel"), _log("none", 1.5), _log("exact", 0.5)]
+    metrics = {"chirp_axis": "pitch", "by_feedforward": {
+        "none": {"response": _response(1.0), "bandwidth_hz": 0.8, "first_saturation_s": 0.12},
+        "exact": {"response": _response(2.0), "bandwidth_hz": None, "first_saturation_s": 0.2}}}
+    w = np.array([1.0, 2.0, 4.0])
+    linear = {k: {"omega": w, "mag": np.ones(3), "phase_deg": np.zeros(3)} for k in ("none", "analyze")}
+    plot_chirp(logs, metrics, linear, tmp_path)
+    main_ax = saved["chirp_time.png"][0]
+    labels = [lab for lab, *_ in main_ax["lines"]]
+    assert "pitch (none, per-wheel limit feed-forward)" in labels
+    assert "pitch (none feed-forward)" in labels and "pitch (exact feed-forward)" in labels
+    assert not [lab for lab in labels if "direction limit" in lab]
