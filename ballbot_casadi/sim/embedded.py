@@ -299,8 +299,9 @@ def estimator_layout(estimator: str) -> Layout:
     """Layout of the filters' part of the controller state (an estimator of
     :data:`ESTIMATOR_FILTERS`; the heading-aided attitude filter's state ends with the z
     gyro bias, :data:`~ballbot_casadi.estimation.heading.HEADING_FILTER_STATE`)."""
-    XA = _attitude_state(_filters_of(estimator)[0])
-    att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[estimator])
+    filters = _filters_of(estimator)
+    XA = _attitude_state(filters[0])
+    att, vel = (DEFAULT_TUNING[f] for f in filters)
     if (att.x0.size, vel.x0.size) != (XA.size, VELOCITY_FILTER_STATE.size):
         raise BuildError(f"estimator {estimator!r}: filter states of {att.x0.size} and "
                          f"{vel.x0.size} entries do not match the layouts {XA} "
@@ -583,8 +584,8 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     ScenarioError
         Unknown estimator.
     """
-    estimator_layout(estimator)  # refuses an unknown estimator (ScenarioError)
-    att, vel = (DEFAULT_TUNING[f] for f in ESTIMATOR_FILTERS[estimator])
+    filters = _filters_of(estimator)  # refuses an unknown estimator (ScenarioError)
+    att, vel = (DEFAULT_TUNING[f] for f in filters)
     x0 = ca.SX.sym("x0", STATE.size)
     p = ca.SX.sym("p_ctrl", len(PARAM_NAMES))
     q = x0[STATE["q"]] / ca.norm_2(x0[STATE["q"]])
@@ -599,7 +600,7 @@ def make_initial_controller_state(estimator: str, observer: bool = True,
     # filters
     omega = 2 * Q.vee(Q.mul(Q.conj(q), dq))
     Pa = ca.DM(att.P0)
-    if ESTIMATOR_FILTERS[estimator][0] in _ADDITIVE_FILTERS:  # around the initial attitude
+    if filters[0] in _ADDITIVE_FILTERS:  # around the initial attitude
         P7 = ca.mtimes([tangent_map(q), ca.DM(QUKF_P0), tangent_map(q).T])
         P7[:4, :4] += QEKF_P0_RADIAL * ca.mtimes(q, q.T)
         Pa = ca.diagcat(P7, ca.DM(att.P0[7:, 7:])) if att.P0.shape[0] > 7 else P7
