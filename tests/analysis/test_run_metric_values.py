@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from ballbot_casadi.analysis.metrics import (
+    _smooth_fit,
     overshoot_deg,
     robustness_metrics,
     standing_metrics,
@@ -138,8 +139,6 @@ def test_the_torque_fit_keeps_five_harmonics_and_drops_the_sixth():
     """The smooth reference of torque_tv_ratio is the least-squares fit by the mean and
     harmonics 1..5 of the sine: over whole periods it keeps those exactly and drops the
     sixth (chattering-like content) entirely."""
-    from ballbot_casadi.analysis.metrics import _smooth_fit
-
     f = 0.5
     t = np.arange(0.0, 4.0, 0.001)       # two whole periods
     kept = 0.3 + np.sin(2 * np.pi * f * t) + 0.2 * np.cos(2 * np.pi * 5 * f * t)

@@ -19,7 +19,7 @@ from ballbot_casadi.control import (
     saturate_torques,
     velocity_initial_state,
 )
-from ballbot_casadi.control.velocity import design_model, measured_tilt
+from ballbot_casadi.control.velocity import _NX_LQR, _Q_DEFAULT, _R_DEFAULT, design_model, measured_tilt
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.errors import ArgumentError, BallbotTypeError, ShapeError
 from ballbot_casadi.model.integrators import make_rk4_n
@@ -168,8 +168,6 @@ def test_bad_inputs(model_functions, default_params, kv):
 
 
 def test_lqr_weights_of_the_wrong_size_are_refused_and_given_ones_are_used(model_functions, default_params):
-    from ballbot_casadi.control.velocity import _NX_LQR, _Q_DEFAULT, _R_DEFAULT
-
     p = default_params.to_vector()
     for Qw, Rw in ((np.ones(_NX_LQR - 1), None), (np.ones(_NX_LQR + 1), None), (None, np.ones(3)),
                    (None, np.ones(1))):
@@ -188,8 +186,6 @@ def test_default_lqr_weights_are_brysons_rule_on_the_documented_excursions():
     """1/max^2 of: 0.04 m/s velocity error, 1 rad and 1 rad/s on the plant's tilt and
     rate, the thesis §7.1 limits 5 deg / 20 deg/s on the tilt reference and its rate,
     0.1 m position error (x and y alike); 1 rad/s^2 on the inputs."""
-    from ballbot_casadi.control.velocity import _Q_DEFAULT, _R_DEFAULT
-
     per_axis = [0.04, 1.0, 1.0, math.radians(5.0), math.radians(20.0), 0.1]
     want = 1.0 / np.repeat(per_axis, 2) ** 2
     np.testing.assert_allclose(_Q_DEFAULT, want, rtol=1e-15, atol=0)

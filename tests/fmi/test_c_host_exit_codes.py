@@ -7,10 +7,12 @@ initialisation refused, 6 a step refused."""
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 
+import numpy as np
 import pytest
-from _fmu_support import plant_build
+from _fmu_support import Plant, plant_build, vr_table
 
 from ballbot_casadi.fmi.build import build_tool
 
@@ -67,11 +69,6 @@ def test_the_outputs_it_prints_are_the_fmus_outputs_in_order():
     """From roll0 = 0.05 rad, three steps without torque: the 15 continuous outputs the
     host prints (roll, pitch, yaw, wheel rates, IMU, encoders: value references from
     roll on) equal the same FMU's outputs read through fmpy after the same steps."""
-    import math
-
-    import numpy as np
-    from _fmu_support import Plant, vr_table
-
     res = _host("{lib}", "{guid}", "3", "0.005", "0", "0", "0", "0.05")
     assert res.returncode == 0, res.stderr
     y = json.loads(res.stdout)["y"]
