@@ -11,6 +11,7 @@ from concurrent.futures import CancelledError
 
 import distributed
 import pytest
+from _dask_standins import Client, Future
 
 import ballbot_casadi.studies.dask_cluster as DC
 from ballbot_casadi.errors import ClusterError
@@ -18,30 +19,6 @@ from ballbot_casadi.errors import ClusterError
 
 class KilledWorker(Exception):  # matched by name, as distributed's own
     pass
-
-
-class Fut:
-    count = 0
-
-    def __init__(self, value=None, exc=None, status=None):
-        Fut.count += 1
-        self.key = f"k{Fut.count}"
-        self.value, self.exc = value, exc
-        self.status = status or ("error" if exc is not None else "finished")
-
-    def result(self):
-        return self.value
-
-    def exception(self):
-        return self.exc
-
-
-class Client:
-    def __init__(self, workers=({"w": 1},)):
-        self.workers = list(workers)
-
-    def scheduler_info(self):
-        return {"workers": self.workers.pop(0) if len(self.workers) > 1 else self.workers[0]}
 
 
 @pytest.fixture
@@ -66,7 +43,7 @@ def waits(monkeypatch):
 
 
 def test_results_in_submission_order_with_progress(waits):
-    a, b, c = Fut(1), Fut(2), Fut(3)
+    a, b, c = Future(value=1), Future(value=2), Future(value=3)
     waits += [c, a, None, b]             # finish out of order, one empty poll between
     done = []
     assert DC.wait_all([a, b, c], Client(), on_done=done.append) == [1, 2, 3]
@@ -74,8 +51,8 @@ def test_results_in_submission_order_with_progress(waits):
 
 
 def test_a_lost_task_is_resubmitted_then_the_run_stops_with_the_finished(waits):
-    a, b = Fut("a"), Fut(exc=KilledWorker())
-    again = [Fut(exc=KilledWorker()) for _ in range(DC.MAX_TASK_RESUBMITS)]
+    a, b = Future(value="a"), Future(exc=KilledWorker())
+    again = [Future(exc=KilledWorker()) for _ in range(DC.MAX_TASK_RESUBMITS)]
     waits += [a, b, *again]
     asked = []
 
@@ -90,13 +67,13 @@ def test_a_lost_task_is_resubmitted_then_the_run_stops_with_the_finished(waits):
 
 
 def test_a_resubmitted_task_that_finishes_counts(waits):
-    a, b, b2 = Fut(exc=KilledWorker()), Fut(7), Fut(5)
+    a, b, b2 = Future(exc=KilledWorker()), Future(value=7), Future(value=5)
     waits += [a, b, b2]
     assert DC.wait_all([a, b], Client(), resubmit=lambda i: b2) == [5, 7]
 
 
 def test_without_resubmit_a_lost_task_stops_the_run(waits):
-    a = Fut(exc=KilledWorker())
+    a = Future(exc=KilledWorker())
     waits += [a]
     with pytest.raises(ClusterError, match=r"^Dask workers died running task 0 \(1 submissions\); "
                                            r"0 of 1 tasks had finished$"):
@@ -105,11 +82,11 @@ def test_without_resubmit_a_lost_task_stops_the_run(waits):
 
 @pytest.mark.parametrize("error", [ZeroDivisionError("in the task"), RuntimeError("in the task")])
 def test_a_tasks_own_error_is_raised_as_is(waits, error):
-    a = Fut(exc=error)
+    a = Future(exc=error)
     waits += [a]
     asked = []
     with pytest.raises(type(error), match="in the task"):
-        DC.wait_all([a], Client(), resubmit=lambda i: asked.append(i) or Fut(0))
+        DC.wait_all([a], Client(), resubmit=lambda i: asked.append(i) or Future(value=0))
     assert asked == []   # not resubmitted: only a task lost with its workers is
 
 
@@ -120,7 +97,7 @@ def test_a_tasks_own_error_is_raised_as_is(waits, error):
                        r"tasks had finished$"),
 ])
 def test_a_lost_scheduler_stops_the_run_with_the_finished(waits, step, message):
-    a, b = Fut(1), Fut(2, status="cancelled" if step == "cancel" else None)
+    a, b = Future(value=1), Future(value=2, status="cancelled" if step == "cancel" else None)
     waits += [a, b if step == "cancel" else step]
     with pytest.raises(ClusterError, match=message) as exc:
         DC.wait_all([a, b], Client())
@@ -130,7 +107,7 @@ def test_a_lost_scheduler_stops_the_run_with_the_finished(waits, step, message):
 def test_no_worker_for_longer_than_the_timeout(waits, monkeypatch):
     clock = iter([0.0, 5.0, 10.0, 10.5, 20.0, 30.0, 30.5, 100.0])
     monkeypatch.setattr(DC.time, "monotonic", lambda: next(clock))
-    a = Fut(1)
+    a = Future(value=1)
     # a worker is back at 10 s, so the count restarts at 10.5 s: exactly 20 s at 30.5 s is
     # not yet more than 20 s, 89.5 s at 100 s is
     client = Client([{}, {}, {"w": 1}, {}, {}, {}])
