@@ -22,6 +22,10 @@ from studies.registry import shipped_scenarios
 HEAVY = load_params().replace(Mb=21.5, l=0.6)   # another robot: body mass and COM height
 
 
+def _upright_metrics(log):
+    return {"peak_tilt_deg": 1.0, "finite": True}
+
+
 @pytest.fixture
 def runs(monkeypatch):
     seen = []
@@ -36,7 +40,7 @@ def runs(monkeypatch):
 
     monkeypatch.setattr(ST, "run_scenario", fake)
     monkeypatch.setattr(ST, "run_path_scenario", fake_path)
-    monkeypatch.setattr(ST, "run_metrics", lambda log: {"peak_tilt_deg": 1.0, "finite": True})
+    monkeypatch.setattr(ST, "run_metrics", _upright_metrics)
     monkeypatch.setattr(ST, "save_log", lambda log, path: None)
     return seen
 
@@ -76,7 +80,7 @@ def test_a_chirp_file_adds_the_bandwidth_metrics(runs, tmp_path, monkeypatch):
 
 def test_a_study_on_another_robot_rebases_every_run(runs, tmp_path, monkeypatch):
     real = ST.get_study
-    monkeypatch.setattr(REG, "run_metrics", lambda log: {"peak_tilt_deg": 1.0, "finite": True})
+    monkeypatch.setattr(REG, "run_metrics", _upright_metrics)
     monkeypatch.setattr(ST, "get_study", lambda n: dataclasses.replace(
         real(n), metrics=lambda logs: {"runs": len(logs)}, report=None, plot=None))
     res = ST.run_study("robustness", "flc", tmp_path / "o", plot=False, params=HEAVY)
