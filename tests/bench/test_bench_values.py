@@ -17,6 +17,7 @@ from ballbot_casadi.bench import control as bench_control_mod
 from ballbot_casadi.bench import firmware as bf
 from ballbot_casadi.bench import guidance as bg
 from ballbot_casadi.bench import montecarlo as bm
+from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import BallbotError
 
 
@@ -160,6 +161,41 @@ def test_firmware_split_group_by_hand(monkeypatch, tau_d, v_d, want):
         "firmware_split_lateral_rms_settled_m_target": 0.02,
         "firmware_split_ipc_assumed": 1.0}
     assert (bf.LAP_S, bf.SETTLE_S) == (27.0, 2.0)
+
+
+def test_lap_lateral_rms_by_hand(monkeypatch):
+    """The lap's lateral RMS over the sub-sampled true positions from SETTLE_S on, the
+    sample at exactly 2.0 s included, with the latency and duration handed through."""
+    seen = {}
+
+    class _Sc:
+        def replace(self, **kw):
+            seen["replace"] = kw
+            return "scenario"
+
+    monkeypatch.setattr(bf, "default_guidance_path", lambda: "path")
+    monkeypatch.setattr(bf, "path_scenario", lambda path, d: seen.update(ps=(path, d)) or _Sc())
+    monkeypatch.setattr(bf, "scenario_law", lambda sc, lat: seen.update(law=(sc, lat)) or "law")
+    n = 30 * bf.SAMPLE_EVERY + 1                     # 31 sub-samples, t = 0, 0.1, ..., 3.0 s
+    state = np.zeros((n, STATE.size))
+    state[:, bf.STATE_XY] = np.arange(n)[:, None] * [1.0, -1.0]
+    monkeypatch.setattr(bf, "run_guided", lambda path, law, d, scenario: seen.update(
+        run=(path, law, d, scenario)) or {"state": state})
+
+    def errors(path, xy):
+        seen["xy"] = xy.copy()
+        lat = np.zeros(xy.shape[0])
+        lat[20] = 3.0                                # t = 2.0 s exactly: counted
+        lat[30] = 4.0
+        lat[19] = 100.0                              # t = 1.9 s: before the window
+        return None, lat
+    monkeypatch.setattr(bf, "path_errors", errors)
+    rms = bf.lap_lateral_rms(latency=3, duration=5.5)
+    assert rms == pytest.approx(np.sqrt((9.0 + 16.0) / 11), rel=1e-14)
+    assert seen["ps"] == ("path", 5.5) and seen["replace"] == {"guidance": "mpc"}
+    assert seen["law"] == ("scenario", 3) and seen["run"] == ("path", "law", 5.5, "scenario")
+    np.testing.assert_array_equal(seen["xy"], state[::bf.SAMPLE_EVERY, bf.STATE_XY])
+    assert seen["xy"].shape == (31, 2)
 
 
 class _Clock:

@@ -11,6 +11,7 @@ import pytest
 
 from ballbot_casadi.analysis import closed_loop as cla
 from ballbot_casadi.analysis import linear as an
+from ballbot_casadi.core.layout import STATE_DXY
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.studies import analysis_report as AR
 
@@ -75,3 +76,33 @@ def test_the_limitation_line_reads_the_largest_pole_and_smallest_rhp_zero(result
     assert AR._sensitivity_bound(2.0, 3.0) == pytest.approx(5.0, rel=1e-15)
     assert AR._sensitivity_bound(3.0, 2.0) == pytest.approx(5.0, rel=1e-15)
     assert AR._sensitivity_bound(1.0, 5.0) == pytest.approx(1.5, rel=1e-15)
+
+
+_EXACT_KEYS = ("com_x", "com_y", "Bvk", "Bvm", "Bvb")
+_APPROX = "The planar reduction is exact only at rest with a centred COM and no friction"
+
+
+def _with(result, params=None, velocity=(0.0, 0.0)):
+    res = dict(result)
+    res["parameters"] = params if params is not None else dict(result["parameters"], **dict.fromkeys(_EXACT_KEYS, 0.0))
+    op = dict(result["operating_point"])
+    state = np.array(op["state"], float)
+    state[STATE_DXY] = velocity
+    res["operating_point"] = dict(op, state=state)
+    return res
+
+
+def test_the_planar_reduction_remark_exactly_off_the_exact_case(result, tmp_path):
+    """The hand check is called an approximation exactly when the COM is off-centre, a
+    friction coefficient is non-zero or the ball moves; a parameter the result does not carry
+    counts as zero (nothing to make the reduction inexact)."""
+    def remark(res):
+        return _APPROX in AR.write_markdown(res, tmp_path, "src", []).read_text(encoding="utf-8")
+
+    assert not remark(_with(result))
+    assert not remark(_with(result, params={}))
+    for key in _EXACT_KEYS:
+        assert remark(_with(result, params={key: 0.01})), key
+        assert remark(_with(result, params={key: -0.01})), key
+    assert remark(_with(result, velocity=(0.0, 0.2)))
+    assert remark(_with(result, velocity=(-0.2, 0.0)))

@@ -102,6 +102,8 @@ def test_com_plot_draws_distance_com_error_and_inclination_with_the_spec_limits(
         log = _log(name, rpy * (k + 1), ref, scale=k + 1.0, com_observer=name == "com_observer_true")
         log.params = log.params.replace(com_x=-0.02, com_y=-0.03)
         log.arrays["com_hat"] = np.column_stack([np.full(N, -0.021 + 0.001 * k), np.linspace(-0.03, -0.02, N)])
+        # the first samples exactly on the observable part: drawn at the log scale's floor
+        log.arrays["com_hat"][:3] = log.ctrl_params.l / log.params.l * np.array([-0.02, -0.03])
         runs.append(log)
     COM.plot_com(runs, {}, tmp_path)
     dist, com_ax, inc_ax = saved["com_observer.png"]
@@ -115,6 +117,7 @@ def test_com_plot_draws_distance_com_error_and_inclination_with_the_spec_limits(
         obs = runs[k].ctrl_params.l / p.l * np.array([p.com_x, p.com_y])
         mm = np.hypot(*(runs[k].arrays["com_hat"] - obs).T) * 1e3
         np.testing.assert_allclose(line(com_ax, label)[1], np.maximum(mm, 1e-6), rtol=1e-12, atol=0)
+        np.testing.assert_array_equal(line(com_ax, label)[1][:3], 1e-6)
         thin = [y for lab, _, y in inc_ax["lines"] if lab.startswith("_") and y.size == N]
         np.testing.assert_allclose(thin[0 if k == 0 else 1], np.maximum(np.abs((k + 1) * rpy[:N, 0] - ref[:, 0]),
                                                                        1e-9), rtol=1e-9, atol=1e-12)
