@@ -56,12 +56,15 @@ typedef struct {
 
 #define ME FMU_ME
 #define CS FMU_CS
+/* A table entry is 0 or 1; anything else does not compile (negative array size). */
+#define RULE_BIT(flag, bit) \
+    (((flag) ? (bit) : 0u) * (unsigned)sizeof(char[((flag) == 0 || (flag) == 1) ? 1 : -1]))
 #define RULE(fn, iface, inst, init, evnt, cont, step, fail, term, err)                         \
     {fn, iface,                                                                             \
-     (inst ? FMU_ST_INSTANTIATED : 0u) | (init ? FMU_ST_INIT : 0u) |                        \
-         (evnt ? FMU_ST_EVENT : 0u) | (cont ? FMU_ST_CONT : 0u) |                           \
-         (step ? FMU_ST_STEP_COMPLETE : 0u) | (fail ? FMU_ST_STEP_FAILED : 0u) |            \
-         (term ? FMU_ST_TERMINATED : 0u) | (err ? FMU_ST_ERROR : 0u)}
+     RULE_BIT(inst, FMU_ST_INSTANTIATED) | RULE_BIT(init, FMU_ST_INIT) |                    \
+         RULE_BIT(evnt, FMU_ST_EVENT) | RULE_BIT(cont, FMU_ST_CONT) |                       \
+         RULE_BIT(step, FMU_ST_STEP_COMPLETE) | RULE_BIT(fail, FMU_ST_STEP_FAILED) |        \
+         RULE_BIT(term, FMU_ST_TERMINATED) | RULE_BIT(err, FMU_ST_ERROR)}
 
 /* Which call is allowed in which state (1) for which instance type: the only place the
  * call sequence is checked.  Columns: instantiated, initializationMode, eventMode,
