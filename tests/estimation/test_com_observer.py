@@ -154,6 +154,27 @@ def test_estimates_freeze_while_a_motion_is_commanded(observer):
         np.testing.assert_array_equal(com_hat, o[O["com"]])
 
 
+@pytest.mark.parametrize("v_ref, still", [
+    ([0.6e-9, 0.0, 0.7e-9], True),       # |v_ref| = 0.92e-9: still a standstill command
+    ([0.0, -0.6e-9, 0.0], True),
+    ([0.7e-9, 0.0, 0.8e-9], False),      # |v_ref| = 1.06e-9: a motion command
+    ([0.0, 0.0, -1.05e-9], False),
+])
+def test_the_standstill_command_is_one_below_1e_9_in_norm(observer, v_ref, still):
+    """Speeds below 1e-9 (m/s, rad/s, the norm of the command) count as standing still:
+    the filters update; above it they freeze."""
+    model = load_params().to_vector()
+    x = balance_point(TRUE)
+    o = com_observer_initial_state(x, model)
+    o_next, _, com_hat, _ = _run(observer, x, o, model, v_ref=np.array(v_ref))
+    moved = np.abs(o_next[O["com_bal"]] - o[O["com_bal"]])
+    if still:
+        assert np.all(moved > 1e-6), moved
+    else:
+        np.testing.assert_array_equal(o_next[O["com_bal"]], o[O["com_bal"]])
+        np.testing.assert_array_equal(com_hat, o[O["com"]])
+
+
 def test_initial_state_is_bumpless_for_a_robot_at_rest(observer):
     p = TRUE.to_vector()
     x = balance_point(TRUE, yaw=-2.0)

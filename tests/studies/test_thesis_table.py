@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import os
@@ -138,3 +139,16 @@ def test_a_study_report_shows_only_rows_it_can_judge():
     rows = TH.study_rows("sine_asym", "flc", {"pitch_error_max_deg": 0.3})
     keys = {r["key"] for r in rows}
     assert "sine_pitch" in keys and "smc_pitch" not in keys  # the ratio needs the smc run too
+
+
+def test_the_table_is_immutable():
+    """The thesis table is module-level data: its rows and their cells cannot be changed in
+    place (a study that edited a row would change every later report)."""
+    assert isinstance(TH.THESIS_RESULTS, tuple)
+    cells = [c for r in TH.THESIS_RESULTS for c in (r.thesis_setup, r.ours) if c is not None]
+    ratios = [c for c in cells if isinstance(c, TH.Ratio)]
+    assert ratios, "the table has ratios"
+    for obj in [*TH.THESIS_RESULTS, *cells, *(x for r in ratios for x in (r.num, r.den))]:
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(obj, dataclasses.fields(obj)[0].name, None)
+        hash(obj)
