@@ -152,3 +152,14 @@ def test_the_table_is_immutable():
         with pytest.raises(dataclasses.FrozenInstanceError):
             setattr(obj, dataclasses.fields(obj)[0].name, None)
         hash(obj)
+
+
+def test_a_target_is_the_number_the_thesis_states():
+    """A row judged by its distance to the thesis's number carries that number as its
+    ``target``: the last number of the thesis column (after "≈", with its sign)."""
+    targets = {r.key: r.target for r in TH.THESIS_RESULTS if r.target is not None}
+    assert set(targets) >= {"bandwidth", "saturation", "pitch_degrades", "com_roll", "com_pitch"}
+    for r in TH.THESIS_RESULTS:
+        if r.target is not None:
+            stated = re.findall(r"-?\d+(?:\.\d+)?", r.thesis.replace("−", "-"))
+            assert float(stated[-1]) == r.target, (r.key, r.thesis, r.target)
