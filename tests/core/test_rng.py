@@ -81,6 +81,22 @@ def test_c_words_equal_numpy_for_many_random_keys():
             rng.reference_bits(int(seed), int(stream), 20, 3, int(start)))
 
 
+@pytest.mark.needs_cc
+def test_defaults_are_row_zero_and_the_normal_kind(noise):
+    """Without ``start`` and ``kind``: rows from 0, the words of the normal variates, in the
+    C library and its numpy reference alike."""
+    seed = noise.seed
+    explicit = rng.reference_bits(seed, 3, 4, 2, 0, rng.KIND_NORMAL)
+    np.testing.assert_array_equal(noise.bits(3, 4, 2), explicit)
+    np.testing.assert_array_equal(rng.reference_bits(seed, 3, 4, 2), explicit)
+    assert not np.array_equal(explicit, rng.reference_bits(seed, 3, 4, 2, 1, rng.KIND_NORMAL))
+    assert not np.array_equal(explicit, rng.reference_bits(seed, 3, 4, 2, 0, rng.KIND_UNIFORM))
+    np.testing.assert_array_equal(noise.uniform(3, 4, 2), rng.reference_uniform(seed, 3, 4, 2, 0))
+    np.testing.assert_array_equal(rng.reference_uniform(seed, 3, 4, 2), rng.reference_uniform(seed, 3, 4, 2, 0))
+    np.testing.assert_allclose(noise.normal(3, 4, 2), rng.reference_normal(seed, 3, 4, 2, 0), rtol=1e-14, atol=1e-15)
+    np.testing.assert_array_equal(rng.reference_normal(seed, 3, 4, 2), rng.reference_normal(seed, 3, 4, 2, 0))
+
+
 def test_counter_layout_of_reference():
     """Element (row, col) is philox(ctr=(row lo, row hi, col, kind), key=(seed, stream))."""
     seed, stream, row, col = 99, 4, (5 << 32) + 17, 2
