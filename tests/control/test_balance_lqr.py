@@ -56,7 +56,8 @@ def test_design_closed_loop_is_stable_and_optimal(design):
     Qw = np.diag(1 / np.array([np.sin(np.radians(2.5))] * 2 + [np.sin(np.radians(5))]
                               + [np.radians(10)] * 2 + [np.radians(30)]) ** 2)
     K2, _, E2 = control.dlqr(Ad, Bd, Qw, np.eye(3) / lm.tau_max**2)
-    np.testing.assert_allclose(K, K2, rtol=1e-6, atol=1e-9)
+    # entries that are zero by symmetry come out at round-off of the solver: 1e-9 of the gain scale
+    np.testing.assert_allclose(K, K2, rtol=1e-6, atol=1e-9 * np.abs(K2).max())
     np.testing.assert_allclose(sorted_eig(Ad - Bd @ K), sorted_eig(np.diag(E2)), rtol=1e-8, atol=1e-10)
 
 
