@@ -100,7 +100,7 @@ def final_walk(log: Any, estimator: str) -> list[float]:
     """The adapted acceleration random walk (x, y) at the end of a run of ``estimator``
     (the ``walk`` field of the final controller state ``c_final``)."""
     L = controller_layout(estimator, VELOCITY_NZ)
-    return [float(v) for v in np.asarray(log["c_final"], float).reshape(-1)[L["walk"]][:2]]
+    return [float(v) for v in np.asarray(log["c_final"], float).ravel()[L["walk"]][:2]]
 
 
 def _rows(nis: np.ndarray, skip: int) -> dict[str, dict[str, Any]]:

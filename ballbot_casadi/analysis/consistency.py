@@ -96,7 +96,7 @@ def nis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
 
 def time_average(eps: np.ndarray, skip: int = 0) -> float:
     """Mean of one run's statistic over time, after ``skip`` initial samples (transient)."""
-    e = np.asarray(eps, dtype=float).reshape(-1)[int(skip):]
+    e = np.asarray(eps, dtype=float).ravel()[int(skip):]
     e = e[np.isfinite(e)]
     if e.size == 0:
         raise ShapeError("time_average: no finite samples after the skipped transient")
@@ -140,7 +140,7 @@ def check_consistency(eps: np.ndarray, dim: int, confidence: float = 0.95,
     ``skip`` drops the initial transient; the band uses the number of samples averaged
     (valid when the samples are independent, as the innovations of a matched filter).
     """
-    e = np.asarray(eps, dtype=float).reshape(-1)[int(skip):]
+    e = np.asarray(eps, dtype=float).ravel()[int(skip):]
     e = e[np.isfinite(e)]
     mean = time_average(e)
     lo, hi = chi2_band(dim, e.size, confidence)

@@ -108,7 +108,7 @@ def time_samples(f: ca.Function, log: Mapping[str, np.ndarray], p_ctrl: np.ndarr
         out = f(x, v, g, z, p, kg, Ts)
         wall.append(time.perf_counter() - t0)
         cpu.append(time.thread_time() - c0)
-        g_next.append(np.asarray(out[1], float).reshape(-1))
+        g_next.append(np.asarray(out[1], float).ravel())
     return SampleTiming(periods, np.array(wall), np.array(cpu),
                         np.array(g_next).reshape(len(periods), -1))
 
@@ -116,7 +116,7 @@ def time_samples(f: ca.Function, log: Mapping[str, np.ndarray], p_ctrl: np.ndarr
 def timing_summary(seconds: np.ndarray) -> dict[str, float]:
     """Median, 99th percentile (numpy's linear interpolation) and maximum of per-sample
     times given in s, as ``median_us``, ``p99_us``, ``max_us``."""
-    us = 1e6 * np.asarray(seconds, float).reshape(-1)
+    us = 1e6 * np.asarray(seconds, float).ravel()
     if us.size == 0:
         raise ScenarioError("timing_summary: no samples")
     return {"median_us": float(np.median(us)), "p99_us": float(np.percentile(us, 99)),

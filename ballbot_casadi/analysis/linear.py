@@ -362,7 +362,7 @@ def _check_model_finite(params: Params, x0: Any | None,
         x = np.zeros(NX)
         x[2] = 1.0
     else:
-        x = np.asarray(x0, dtype=float).reshape(-1)
+        x = np.asarray(x0, dtype=float).ravel()
     p = params.to_vector()
     with np.errstate(all="ignore"):
         f = np.asarray(funcs["ode"](x, np.zeros(NU), p), dtype=float)

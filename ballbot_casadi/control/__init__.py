@@ -156,7 +156,7 @@ def default_balance_gains(name: str, linear: object = None, Ts: float = TS_CONTR
         if linear is None:
             raise ArgumentError(f"the default {name} gain is designed on the linearised model; "
                                 "pass linear=linearize(params)")
-        return design_balance_lqr(linear, Ts).reshape(-1)  # row-major, LQR_GAIN_NAMES
+        return design_balance_lqr(linear, Ts).ravel()  # row-major, LQR_GAIN_NAMES
     k = _DEFAULT_GAINS[name].copy()
     if name in _STEP_GAIN:
         k[_STEP_GAIN[name]] = Ts
@@ -179,7 +179,7 @@ def check_gains(name: str, k: object) -> np.ndarray:
     """
     names = BALANCE_GAIN_NAMES[_check_name(name)]
     try:
-        arr = np.asarray(k, dtype=float).reshape(-1)
+        arr = np.asarray(k, dtype=float).ravel()
     except (TypeError, ValueError):
         raise ArgumentError(f"{name} gains must be numbers, got {k!r}") from None
     if arr.size != len(names):

@@ -109,8 +109,8 @@ def design_balance_lqr(linear: Any, Ts: float = TS_CONTROL, Qw: Any = None,
     if not (isinstance(Ts, (int, float)) and math.isfinite(Ts) and Ts > 0):
         raise ScenarioError(f"Ts must be a finite number > 0, got {Ts!r}")
     exc_ = np.array([_TILT, _TILT, _YAW, _TILT_RATE, _TILT_RATE, _YAW_RATE])
-    Qw = 1 / exc_**2 if Qw is None else np.asarray(Qw, dtype=float).reshape(-1)
-    Rw = np.full(3, 1 / float(linear.tau_max) ** 2) if Rw is None else np.asarray(Rw, dtype=float).reshape(-1)
+    Qw = 1 / exc_**2 if Qw is None else np.asarray(Qw, dtype=float).ravel()
+    Rw = np.full(3, 1 / float(linear.tau_max) ** 2) if Rw is None else np.asarray(Rw, dtype=float).ravel()
     if Qw.shape != (6,) or Rw.shape != (3,):
         raise ScenarioError(f"Qw needs 6 and Rw 3 diagonal entries, got {Qw.size} and {Rw.size}")
     _, _, Ad, Bd = balance_design_model(linear, Ts)

@@ -105,7 +105,7 @@ def levant_gains(L: object) -> tuple[np.ndarray, np.ndarray]:
 
     ``L`` is the bound on ``|d delta / dt|`` per axis (must be > 0).
     """
-    L = np.asarray(L, dtype=float).reshape(-1)
+    L = np.asarray(L, dtype=float).ravel()
     if not np.all(np.isfinite(L) & (L > 0)):
         raise ScenarioError(f"perturbation-derivative bound L must be finite and > 0, got {L}")
     return 1.5 * np.sqrt(L), 1.1 * L

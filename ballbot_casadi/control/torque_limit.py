@@ -21,6 +21,6 @@ def saturate_torques(tau: object, tau_max: object) -> object:
     if isinstance(tau, (ca.SX, ca.MX)) or isinstance(tau_max, (ca.SX, ca.MX)):
         m = ca.mmax(ca.fabs(tau))
         return tau * ca.fmin(1, tau_max / ca.fmax(m, 1e-300))
-    t = np.asarray(tau, dtype=float).reshape(-1)
+    t = np.asarray(tau, dtype=float).ravel()
     m = float(np.max(np.abs(t))) if t.size else 0.0
     return t * (float(tau_max) / m) if m > float(tau_max) else t.copy()

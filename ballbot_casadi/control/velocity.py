@@ -143,7 +143,7 @@ def design_model(
     (2).  ``inner = (K_p, K_d)`` are the balance controller's tilt gains.
     """
     _check_jac(jac)
-    p = np.asarray(p, dtype=float).reshape(-1)
+    p = np.asarray(p, dtype=float).ravel()
     x0 = np.zeros(12)
     x0[2] = 1.0
     A, B = (np.asarray(M) for M in jac(x0, np.zeros(3), p))
@@ -230,8 +230,8 @@ def design_velocity_lqr(
 
     if not (isinstance(Ts, (int, float)) and math.isfinite(Ts) and Ts > 0):
         raise ArgumentError(f"Ts must be a finite number > 0, got {Ts!r}")
-    Qw = _Q_DEFAULT if Qw is None else np.asarray(Qw, dtype=float).reshape(-1)
-    Rw = _R_DEFAULT if Rw is None else np.asarray(Rw, dtype=float).reshape(-1)
+    Qw = _Q_DEFAULT if Qw is None else np.asarray(Qw, dtype=float).ravel()
+    Rw = _R_DEFAULT if Rw is None else np.asarray(Rw, dtype=float).ravel()
     if Qw.shape != (_NX_LQR,) or Rw.shape != (2,):
         raise ShapeError(f"Qw must have {_NX_LQR} and Rw 2 diagonal entries")
     none = "no stabilising velocity gain exists for these parameters"
@@ -261,7 +261,7 @@ def check_velocity_gains(k: Any) -> np.ndarray:
         Wrong length, non-finite entries or non-positive limits.
     """
     try:
-        arr = np.asarray(k, dtype=float).reshape(-1)
+        arr = np.asarray(k, dtype=float).ravel()
     except (TypeError, ValueError):
         raise ArgumentError(f"velocity gains must be numbers, got {k!r}") from None
     if arr.size != VELOCITY_NKV:
@@ -330,7 +330,7 @@ def velocity_initial_state(x0: Any) -> np.ndarray:
 
     Tilt rates and the position error start at zero, so starting the loop is bumpless.
     """
-    x0 = np.asarray(x0, dtype=float).reshape(-1)
+    x0 = np.asarray(x0, dtype=float).ravel()
     if x0.shape != (STATE.size,) or not np.all(np.isfinite(x0)):
         raise ShapeError(f"x0 must be a finite 12-state, got shape {x0.shape}")
     q = x0[STATE["q"]] / np.linalg.norm(x0[STATE["q"]])

@@ -145,7 +145,7 @@ class Layout:
         out = np.full(self.size, np.nan)
         given = np.zeros(self.size, dtype=int)
         for field, value in parts.items():
-            v = np.asarray(value, float).reshape(-1)
+            v = np.asarray(value, float).ravel()
             if v.size != self.size_of(field):
                 raise ValueError(f"{self.name}: field {field!r} has {v.size} entries, "
                                  f"expected {self.size_of(field)}")

@@ -255,7 +255,7 @@ class Params:
     @classmethod
     def from_vector(cls, p: Any) -> "Params":
         """Build from a parameter vector in :data:`PARAM_NAMES` order."""
-        arr = np.asarray(p, dtype=float).reshape(-1)
+        arr = np.asarray(p, dtype=float).ravel()
         if arr.size != len(PARAM_NAMES):
             raise ParameterError(
                 f"parameter vector has {arr.size} entries, expected {len(PARAM_NAMES)}"

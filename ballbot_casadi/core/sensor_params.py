@@ -205,7 +205,7 @@ class SensorParams:
     @classmethod
     def from_vector(cls, s: Any) -> "SensorParams":
         """Build from a sensor vector in :data:`SENSOR_VECTOR_NAMES` order."""
-        arr = np.asarray(s, dtype=float).reshape(-1)
+        arr = np.asarray(s, dtype=float).ravel()
         if arr.size != NS:
             raise ParameterError(f"sensor parameter vector has {arr.size} entries, expected {NS}")
         return cls(**{n: arr[SENSOR_SLICES[n]].tolist() for n in SENSOR_PARAM_NAMES})

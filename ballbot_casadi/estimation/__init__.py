@@ -177,7 +177,7 @@ def initial_state(name: str, x0: Any = None) -> tuple[np.ndarray, np.ndarray]:
     """
     _check_name(name)
     tun = DEFAULT_TUNING[name]
-    x = np.array(tun.x0 if x0 is None else x0, dtype=float).reshape(-1)
+    x = np.array(tun.x0 if x0 is None else x0, dtype=float).ravel()
     if x.shape != tun.x0.shape:
         raise ShapeError(f"x0 of {name!r} must have {tun.x0.size} entries, got {x.size}")
     if not np.all(np.isfinite(x)):

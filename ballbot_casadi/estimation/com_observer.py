@@ -244,7 +244,7 @@ def check_com_observer_gains(k: Any) -> np.ndarray:
         Wrong length, non-finite or out-of-range entries (the message names them).
     """
     try:
-        arr = np.asarray(k, dtype=float).reshape(-1)
+        arr = np.asarray(k, dtype=float).ravel()
     except (TypeError, ValueError):
         raise ArgumentError(f"COM observer gains must be numbers, got {k!r}") from None
     if arr.size != NKO:
@@ -264,10 +264,10 @@ def com_observer_initial_state(x0: Any, p: Any) -> np.ndarray:
     """Observer state at the start of a run: the model's COM offset as both estimates,
     the measurement filters at the initial attitude's static measurement, ball velocity
     and body rate (a bumpless start)."""
-    x0 = np.asarray(x0, dtype=float).reshape(-1)
+    x0 = np.asarray(x0, dtype=float).ravel()
     if x0.shape != (STATE.size,) or not np.all(np.isfinite(x0)):
         raise ShapeError(f"x0 must be a finite 12-state, got shape {x0.shape}")
-    pv = ParamView(p.to_vector() if isinstance(p, Params) else np.asarray(p, float).reshape(-1))
+    pv = ParamView(p.to_vector() if isinstance(p, Params) else np.asarray(p, float).ravel())
     q = x0[STATE["q"]] / np.linalg.norm(x0[STATE["q"]])
     R = Q.rotation_matrix(q)
     O = COM_OBSERVER_STATE

@@ -77,7 +77,7 @@ class Condensed:
         """Blocked inputs from per-step inputs ``(N, 3)``: each block's first step."""
         u_steps = np.asarray(u_steps, float)
         starts = np.concatenate([[0], np.cumsum(self.blocks)[:-1]])
-        return u_steps[starts].reshape(-1)
+        return u_steps[starts].ravel()
 
 
 def condense(model: LoopModel, blocks: tuple[int, ...]) -> Condensed:

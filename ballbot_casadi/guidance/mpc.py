@@ -209,7 +209,7 @@ class MpcLayout:
             arr = np.asarray(blocks[name], float)
             if arr.shape != shape:
                 raise ShapeError(f"MPC parameter {name} must have shape {shape}, got {arr.shape}")
-            out.append(arr.reshape(-1))
+            out.append(arr.ravel())
         return np.concatenate(out)
 
     def unpack(self, p: Any) -> dict[str, Any]:
@@ -643,16 +643,16 @@ class PathMPC:
             out = self.function(x0, p, guess, z0, y0)
             self.solve_s.append(time.perf_counter() - t0)
             self.solve_cpu_s.append(time.thread_time() - c0)
-            u = np.asarray(out[1], float).reshape(-1)
+            u = np.asarray(out[1], float).ravel()
             ok = bool(np.all(np.isfinite(u)))
             if ok:
-                guess, y0 = u, np.asarray(out[3], float).reshape(-1)
+                guess, y0 = u, np.asarray(out[3], float).ravel()
         r_prim = float(out[4])
         self.residuals.append(r_prim)
         if not ok or not r_prim <= self.residual_tol:
             self.failures += 1
         if ok:
-            self.u, self.z, self.y = u, np.asarray(out[2], float).reshape(-1), y0
+            self.u, self.z, self.y = u, np.asarray(out[2], float).ravel(), y0
         else:  # keep the shifted plan, cold multipliers
             self.u, self.z, self.y = guess, z0, np.zeros(self.layout.n_rows)
         self.x0 = x0

@@ -235,7 +235,7 @@ class NonlinearPathMPC:
 
     def shift(self, ub: np.ndarray) -> np.ndarray:
         steps = self.inputs(ub)
-        return np.vstack([steps[1:], steps[-1:]])[self.starts].reshape(-1)
+        return np.vstack([steps[1:], steps[-1:]])[self.starts].ravel()
 
     def states(self, ub: np.ndarray) -> np.ndarray:
         """Predicted states (N+1, 16) of the last QP's condensed model at ``ub``."""

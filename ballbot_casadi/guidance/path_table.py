@@ -68,8 +68,8 @@ def pack_path(path: Path, n_obstacles: int, n_samples: int = PATH_SAMPLES,
     for j, ob in enumerate(kept):
         obs[j] = (*ob.center, ob.radius)
     return L.pack({"length": path.length, "closed": 1.0 if path.closed else 0.0,
-                   "speed": path.speed, "points": path.spline(s).reshape(-1),
-                   "tangents": path.tangent(s).reshape(-1), "obstacles": obs.reshape(-1)})
+                   "speed": path.speed, "points": path.spline(s).ravel(),
+                   "tangents": path.tangent(s).ravel(), "obstacles": obs.ravel()})
 
 
 class PathSymbols:

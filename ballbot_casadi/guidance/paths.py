@@ -157,7 +157,7 @@ class Path:
 
     def window(self, s: Any) -> tuple[np.ndarray, np.ndarray]:
         """Solver parameters at the guessed progress ``s`` (N+1): points and unit tangents."""
-        s = np.asarray(s, float).reshape(-1)
+        s = np.asarray(s, float).ravel()
         return self.point(s), self.tangent(s)
 
     def clearance(self, p: Any) -> np.ndarray:

@@ -119,7 +119,7 @@ def admm_iterate(A_c: tuple[np.ndarray, np.ndarray], G: np.ndarray, N_sp: ca.Spa
     Dn, Yn = (np.asarray(M, float) for M in A_c)
     G = np.asarray(G, float)
     m_c, m_o, n = Dn.shape[0], N_sp.size1(), Yn.shape[1]
-    penalty = np.asarray(penalty, float).reshape(-1)
+    penalty = np.asarray(penalty, float).ravel()
     if Dn.shape[1] != Yn.shape[0] or G.shape[1] != n or N_sp.size2() != G.shape[0] or \
             penalty.size != m_c + m_o:
         raise ShapeError(f"ADMM: D {Dn.shape}, Y {Yn.shape}, G {G.shape}, N {N_sp.shape}, "

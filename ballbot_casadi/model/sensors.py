@@ -90,7 +90,7 @@ def make_sensors(ode: ca.Function, imu_position: Any = (0.0, 0.0, 0.0)) -> ca.Fu
         ``imu_position`` does not have 3 finite entries.
     """
     nx, nu, np_ = _check_ode(ode)
-    r_imu = np.asarray(imu_position, dtype=float).reshape(-1)
+    r_imu = np.asarray(imu_position, dtype=float).ravel()
     if r_imu.shape != (3,) or not np.all(np.isfinite(r_imu)):
         raise ShapeError(f"imu_position must be 3 finite numbers, got {imu_position!r}")
 

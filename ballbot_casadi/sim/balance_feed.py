@@ -85,7 +85,7 @@ def shape_gains(p: np.ndarray) -> ShapeGains:
     put into the ball's acceleration rows gives ``v' = K_v v + K_th theta + K_dth dtheta
     + K_u u``.
     """
-    p = np.asarray(p, float).reshape(-1)
+    p = np.asarray(p, float).ravel()
     if p.size != NP or not np.all(np.isfinite(p)):
         raise ScenarioError(f"p must be a finite parameter vector of {NP} entries, got {p.size}")
     x0 = np.zeros(12)
@@ -190,7 +190,7 @@ def run_balance_path(path: Path, mpc: PathMPC, duration: float, sim: ClosedLoop 
     parts: dict[str, list[np.ndarray]] = {}
     t_g, a_log, prog, preds = [], [], [], []
     for i in range(int(round(duration / (every * Ts)))):
-        X = np.asarray(loop_state(x, z), float).reshape(-1)
+        X = np.asarray(loop_state(x, z), float).ravel()
         Xs = np.concatenate([X[0:2], th_r - th_eq, dth_r, np.zeros(6), X[12:14]])
         a = np.asarray(mpc.step(Xs), float).reshape(2)
         t_g.append(i * every * Ts)
@@ -200,7 +200,7 @@ def run_balance_path(path: Path, mpc: PathMPC, duration: float, sim: ClosedLoop 
         seq = {key: inp[key][:every] for key in PERIOD_SEQUENCES}
         qs = []
         for _ in range(every):
-            qs.append([np.asarray(v, float).reshape(-1) for v in
+            qs.append([np.asarray(v, float).ravel() for v in
                        ref(np.r_[th_r, psi], np.r_[dth_r, r], np.r_[a, 0.0])])
             th_r, dth_r = th_r + Ts * dth_r + 0.5 * Ts ** 2 * a, dth_r + Ts * a
         fed = [key for key in REFERENCE_SEQUENCES if key != "v_ref"]  # q_ref, dq_ref, ddq_ref

@@ -292,7 +292,7 @@ class ClosedLoop:
                 raise ShapeError(f"{key} has {arr.shape[0]} rows, the other sequences {n}")
             seqs[key] = arr
         x0 = np.asarray(x0, float).reshape(NX)
-        z0 = np.asarray(z0, float).reshape(-1)
+        z0 = np.asarray(z0, float).ravel()
         with_obs = OBSERVER_CONSTANTS[1] in step.name_in()
         if com_observer and not with_obs:
             raise ScenarioError("com_observer = true needs steps with the COM observer "
@@ -301,7 +301,7 @@ class ClosedLoop:
         if with_obs:
             k_obs = check_com_observer_gains(COM_OBSERVER_DEFAULT_GAINS if k_obs is None else k_obs)
             if o0 is not None:
-                parts["c.obs"] = np.asarray(o0, float).reshape(-1)
+                parts["c.obs"] = np.asarray(o0, float).ravel()
             elif est:  # the embedded software's power-on state, as the controller FMU's
                 c0 = initial_controller_state(estimator, x0, p_ctrl, observer=True)
                 parts["c.obs"] = c0[controller_layout(estimator, VELOCITY_NZ,
@@ -315,7 +315,7 @@ class ClosedLoop:
                                 "initial state g0")
         n_guide = np.size(g0) if with_guide else 0
         if with_guide:
-            parts["c.guide"] = np.asarray(g0, float).reshape(-1)
+            parts["c.guide"] = np.asarray(g0, float).ravel()
         n_bal = 0 if self._custom else balance_state_size(controller)
         if n_bal:
             parts["c.bal"] = np.zeros(n_bal)  # the balance controller's own state starts at rest
@@ -323,7 +323,7 @@ class ClosedLoop:
             X = mission_state(controller_layout(estimator, z0.size, n_obs, n_guide, n_bal=n_bal),
                               SENSOR_STATE, actuation_delay)
             E = estimator_layout(estimator)
-            e0 = np.asarray(extra["e0"], float).reshape(-1)
+            e0 = np.asarray(extra["e0"], float).ravel()
             if e0.size != E.size:
                 raise ShapeError(f"e0 has {e0.size} entries, expected {E.size}")
             parts.update({"phi": np.zeros(N_WHEEL), "s": extra["s0"],
@@ -342,7 +342,7 @@ class ClosedLoop:
                 xz0 = X.pack(parts)
             except ValueError as e:
                 raise ShapeError(f"initial state: {e}") from None
-        xz0 = np.asarray(xz0, float).reshape(-1)
+        xz0 = np.asarray(xz0, float).ravel()
         const = {"p_plant": p_plant, "p_ctrl": p_ctrl, "k_bal": k_bal, "k_vel": k_vel, "Ts": Ts,
                  "cascade": 1.0 if cascade else 0.0, "feedforward": 1.0 if feedforward else 0.0,
                  **{k: extra[k] for k in ((*SENSOR_CONSTANTS, *FILTER_CONSTANTS) if est else ())},

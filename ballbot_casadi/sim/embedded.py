@@ -653,14 +653,14 @@ def initial_controller_state(estimator: str, x0: Any, p_ctrl: Any,
     ShapeError
         ``x0`` not a finite 12-state or ``p_ctrl`` of the wrong size.
     """
-    x = np.asarray(x0, float).reshape(-1)
-    p = np.asarray(p_ctrl, float).reshape(-1)
+    x = np.asarray(x0, float).ravel()
+    p = np.asarray(p_ctrl, float).ravel()
     if x.shape != (STATE.size,) or not np.all(np.isfinite(x)):
         raise ShapeError(f"x0 must be a finite 12-state, got shape {x.shape}")
     if p.shape != (len(PARAM_NAMES),):
         raise ShapeError(f"p_ctrl must have {len(PARAM_NAMES)} entries, got {p.size}")
     f = initial_controller_state_function(estimator, observer, n_bal)
-    return np.asarray(f(x, p), float).reshape(-1)
+    return np.asarray(f(x, p), float).ravel()
 
 
 def initial_estimator_state(estimator: str, x0: np.ndarray) -> np.ndarray:

@@ -227,7 +227,7 @@ class GuidanceLaw:
         (:meth:`initial_function` at the projection of the position onto ``path``)."""
         X0 = np.asarray(make_loop_state()(x0, z0), float).reshape(NXL)
         s0 = path.project(X0[12:14])
-        g0 = np.asarray(self.initial_function()(x0, z0, s0), float).reshape(-1)
+        g0 = np.asarray(self.initial_function()(x0, z0, s0), float).ravel()
         if g0.size != self.state.size + 1:
             raise BuildError(f"{self.name} guidance: initial state of {g0.size} entries, the "
                              f"sample's state has {self.state.size} + 1")

@@ -161,7 +161,7 @@ def run_path(path: Path, guidance: Guidance, duration: float, guidance_period: f
     parts: dict[str, list[np.ndarray]] = {}
     t_g, v_log, solve, prog, preds = [], [], [], [], []
     for i in range(n_seg):
-        X = np.asarray(loop_state(x, z), float).reshape(-1)
+        X = np.asarray(loop_state(x, z), float).ravel()
         t0 = time.perf_counter()
         v = np.asarray(guidance.step(X), float).reshape(2)
         solve.append(time.perf_counter() - t0)

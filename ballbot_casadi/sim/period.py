@@ -75,7 +75,7 @@ def _symbolic(*args: Any) -> bool:
 
 def _value(v: Any) -> Any:
     """Numeric results of a Function call as flat numpy arrays (symbols unchanged)."""
-    return v if isinstance(v, _SYMBOLIC) else np.asarray(v, dtype=float).reshape(-1)
+    return v if isinstance(v, _SYMBOLIC) else np.asarray(v, dtype=float).ravel()
 
 
 def _select(on: Any, a: Any, b: Any) -> Any:

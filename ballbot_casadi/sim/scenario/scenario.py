@@ -382,9 +382,9 @@ class Scenario:
             "x0": x0,
             "p_plant": p_plant,
             "p_ctrl": p_ctrl,
-            "k_bal": np.asarray(k_bal, float).reshape(-1),
-            "k_vel": np.asarray(k_vel, float).reshape(-1),
-            "z0": np.asarray(velocity_initial_state(x0), float).reshape(-1),
+            "k_bal": np.asarray(k_bal, float).ravel(),
+            "k_vel": np.asarray(k_vel, float).ravel(),
+            "z0": np.asarray(velocity_initial_state(x0), float).ravel(),
             "q_ref": q,
             "dq_ref": dq,
             "ddq_ref": ddq,
@@ -466,7 +466,7 @@ class Scenario:
             if not k0 <= k < k1:
                 continue
             a = GLITCH_AXES.index(axis)
-            var = float(np.asarray(getattr(sp, f"{sensor}_noise_var"), float).reshape(-1)[a])
+            var = float(np.asarray(getattr(sp, f"{sensor}_noise_var"), float).ravel()[a])
             if not var > 0.0:
                 raise ScenarioError(f"scenario {self.name!r}: a {sensor} glitch enters through the "
                                     f"noise input, but {sensor}_noise_var of axis {axis} is "
