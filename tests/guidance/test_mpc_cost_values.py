@@ -12,7 +12,7 @@ import pytest
 from _random_loop import random_velocity_loop
 
 from ballbot_casadi.guidance.condensed import NU_MPC
-from ballbot_casadi.guidance.mpc import MpcConfig, make_mpc_parts
+from ballbot_casadi.guidance.mpc import MpcConfig, make_mpc_parts, polygon
 from ballbot_casadi.guidance.prediction import NXL
 
 CFG = MpcConfig(N=4, blocks=(1, 1, 2), nodes=(1, 2, 4), iterations=2, n_obstacles=1,
@@ -127,3 +127,44 @@ def test_step_rows_read_speed_progress_rate_and_progress_of_each_node(parts):
         np.testing.assert_allclose(hi[r + 5], 10.0 - Pk[NXL] @ x0, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(hi[r:r + 4], 1.0 - d8 @ Pk[0:2] @ x0 / (vmax * f8), rtol=1e-9,
                                    atol=1e-12)
+
+
+def test_node_rows_read_tilt_rate_acceleration_and_tilt_acceleration_at_each_node(parts):
+    """Per constraint node k, after the 6 N step rows: four tilt-octagon rows
+    ``D8 theta_k / (tilt_max margin cos(pi/8))``, four tilt-rate rows (``tilt_rate_max``,
+    ``margin``), four acceleration rows of the step before the node ``D8 (C_a x_{k-1} +
+    D_a v_{k-1}) / (a_max acc_margin cos(pi/8))`` and two tilt-acceleration rows
+    ``/ (tilt_acc_max margin)``; the initial state's part moved to the bounds +-1."""
+    L, extra = parts
+    model = random_velocity_loop(8, CFG.dt)
+    cond, A_c = extra["cond"], np.asarray(extra["A_c"])
+    d8, f8 = polygon(8)
+    lim, mg = CFG.limits, CFG.margin
+    rng = np.random.default_rng(5)
+    x0, _, blocks = _inputs(rng, L)
+    _, _, lo, hi, _ = (np.asarray(v, float).ravel() for v in extra["qp_data"](x0, L.pack(**blocks)))
+    steps = np.stack([cond.inputs(e) for e in np.eye(L.n_u)])        # (n_u, N, 3): linear in ub
+    scale = {"tilt": lim["tilt_max"] * mg * f8, "tilt_rate": lim["tilt_rate_max"] * mg * f8,
+             "acc": lim["a_max"] * CFG.acc_margin * f8}
+    assert scale["acc"] != lim["a_max"] * mg * f8 and CFG.margin != 1.0
+    for i, k in enumerate(CFG.nodes):
+        r = 6 * L.N + 14 * i
+        Gk, Gp, Pk, Pp = cond.Gamma[k][:NXL], cond.Gamma[k - 1][:NXL], cond.Phi[k][:NXL], cond.Phi[k - 1][:NXL]
+        S = steps[:, k - 1, 0:2].T                                      # d v_{k-1} / d ub
+        want = {
+            "tilt": (d8 @ model.C["tilt"] @ Gk / scale["tilt"], d8 @ model.C["tilt"] @ Pk @ x0 / scale["tilt"]),
+            "tilt_rate": (d8 @ model.C["tilt_rate"] @ Gk / scale["tilt_rate"],
+                          d8 @ model.C["tilt_rate"] @ Pk @ x0 / scale["tilt_rate"]),
+            "acc": (d8 @ (model.C["acc"] @ Gp + model.D["acc"] @ S) / scale["acc"],
+                    d8 @ model.C["acc"] @ Pp @ x0 / scale["acc"]),
+            "tilt_acc": ((model.C["tilt_acc"] @ Gp + model.D["tilt_acc"] @ S) / (CFG.tilt_acc_max * mg),
+                         model.C["tilt_acc"] @ Pp @ x0 / (CFG.tilt_acc_max * mg)),
+        }
+        for name, n in (("tilt", 4), ("tilt_rate", 4), ("acc", 4), ("tilt_acc", 2)):
+            rows, part = want[name]
+            np.testing.assert_allclose(A_c[r:r + n], rows, rtol=1e-9, atol=1e-12, err_msg=f"{name} {k}")
+            np.testing.assert_allclose(hi[r:r + n], 1.0 - part, rtol=1e-9, atol=1e-12, err_msg=f"{name} {k}")
+            np.testing.assert_allclose(lo[r:r + n], -1.0 - part, rtol=1e-9, atol=1e-12, err_msg=f"{name} {k}")
+            r += n
+        assert np.abs(A_c[r - 14:r]).max() > 0      # the rows read something
+    assert A_c.shape[0] == 6 * L.N + 14 * len(CFG.nodes)
