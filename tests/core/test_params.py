@@ -130,6 +130,21 @@ def test_angle_given_as_plain_degrees_number_explains_radians():
             load_params(alpha=bad)
 
 
+@pytest.mark.parametrize("given", ["100 deg", "-1 rad", "1.6 radians"])
+def test_an_angle_given_with_its_unit_gets_no_plain_number_hint(given):
+    """The radians hint is for plain numbers only: a string with a unit meant what it said."""
+    with pytest.raises(ParameterError) as exc:
+        load_params(alpha=given)
+    msg = str(exc.value)
+    assert msg.endswith("must be an angle strictly between 0 and 90 deg"), msg
+    assert "plain numbers" not in msg and "did you mean" not in msg
+
+
+def test_a_numpy_number_gets_the_plain_number_hint():
+    with pytest.raises(ParameterError, match='plain numbers are radians: did you mean "60 deg"'):
+        load_params(alpha=np.float32(60.0))
+
+
 # Expected rule of every parameter, written out independently of PARAM_INFO.
 _EXPECTED_RULE = {
     **dict.fromkeys(["Mb", "Mk"], "mass"),
