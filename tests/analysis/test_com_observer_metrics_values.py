@@ -94,3 +94,14 @@ def test_an_estimate_that_never_settles_and_a_short_run(log):
         short[key] = log.arrays[key][:100]
     m = com_observer_metrics(SimpleNamespace(**{**vars(log), "arrays": short}))
     assert math.isnan(m["com_estimate_error_max_mm"])  # the run ends before 13 s
+
+
+def test_the_hold_window_includes_the_final_state(log):
+    """The hold mean is over the states of the last 2 s and the final state (the one after
+    the last period): moving only the final state moves the mean by 1/21 of it."""
+    state = log.arrays["state"].copy()
+    state[-1, 0] += 0.21                             # final: (0.24, -0.04) off; window mean (0.04, -0.04)
+    moved = SimpleNamespace(**{**vars(log), "arrays": {**log.arrays, "state": state}})
+    m = com_observer_metrics(moved)
+    assert m["final_position_error_m"] == pytest.approx(math.hypot(0.24, 0.04), rel=1e-9)
+    assert m["hold_position_error_m"] == pytest.approx(0.04 * math.sqrt(2.0), rel=1e-9)
