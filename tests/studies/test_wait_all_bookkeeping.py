@@ -115,3 +115,21 @@ def test_no_worker_for_longer_than_the_timeout(waits, monkeypatch):
                                            r"had finished$"):
         DC.wait_all([a], client, lost_timeout_s=20.0)
     assert list(clock) == []   # it stopped at the last poll, not before
+
+
+def test_worker_replacements_share_one_budget_per_run(waits, monkeypatch):
+    """With a LocalCluster each poll replaces closed workers from what is left of
+    MAX_WORKER_REPLACEMENTS: 8 at first, then 8 minus those replaced so far; a cluster
+    that stays without workers names the count in its message."""
+    budgets = []
+    replaced = iter([3, 0, 5, 0, 0, 0])
+    monkeypatch.setattr(DC, "replace_closed_workers", lambda cluster, budget: budgets.append(budget)
+                        or next(replaced))
+    clock = iter([0.0, 1.0, 2.0, 3.0, 50.0])
+    monkeypatch.setattr(DC.time, "monotonic", lambda: next(clock))
+    a = Future(value=1)
+    with pytest.raises(ClusterError, match=r"^the Dask cluster has had no worker for 20 s "
+                                           r"\(8 replaced, at most 8\); 0 of 1 tasks had finished$"):
+        DC.wait_all([a], Client([{}]), cluster=object(), lost_timeout_s=20.0)
+    assert DC.MAX_WORKER_REPLACEMENTS == 8
+    assert budgets == [8, 5, 5, 0, 0]
