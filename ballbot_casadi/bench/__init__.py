@@ -23,7 +23,8 @@ from ballbot_casadi.bench.firmware import bench_firmware, bench_firmware_mpc, be
 from ballbot_casadi.bench.fmu import bench_fmu
 from ballbot_casadi.bench.guidance import bench_mpc
 from ballbot_casadi.bench.montecarlo import bench_montecarlo
-from ballbot_casadi.codegen.libraries import model_library
+from ballbot_casadi.bench.verify import check_c_outputs
+from ballbot_casadi.codegen.libraries import model_functions_list, model_library
 from ballbot_casadi.core.files import atomic_write_text
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, run_tool
@@ -37,12 +38,17 @@ class BenchmarkError(BallbotError, ValueError):
     """An unknown benchmark group was requested."""
 
 
+#: The model benchmark's operating point: the default robot slightly tilted, moving and
+#: turning, with torques on every wheel (C and Python calls alike).
+BENCH_STATE = (0.1, -0.2, 0.99904822, 0.0348995, 0.0261769, 0.0, 0.1, 0.05, 0.0, 0.01, -0.02, 0.03)
+BENCH_TAU = (0.2, -0.1, 0.3)
+
+
 def _python_call_ns(n: int = 20000) -> float:
     """ns per call of the symbolic ODE Function called from Python with numpy arrays."""
 
     ode = make_ode()
-    x = np.array([0.1, -0.2, 0.99904822, 0.0348995, 0.0261769, 0, 0.1, 0.05, 0, 0.01, -0.02, 0.03])
-    tau, p = np.array([0.2, -0.1, 0.3]), load_params().to_vector()
+    x, tau, p = np.array(BENCH_STATE), np.array(BENCH_TAU), load_params().to_vector()
     best = float("inf")
     for _ in range(3):
         t0 = time.perf_counter_ns()
@@ -67,10 +73,16 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
     run_tool([*compiler_command(), *CFLAGS, "-I", str(lib.header.parent), "-o", str(tmp),
               str(src), str(lib.static), "-lm"], "compiling the model benchmark")
     os.replace(tmp, exe)  # a concurrent run keeps the executable it started
-    p = [repr(float(v)) for v in load_params().to_vector()]
-    run = subprocess.run([str(exe), str(n_calls), *p], capture_output=True, text=True, check=True)
+    p = load_params().to_vector()
+    args = [repr(float(v)) for v in (*BENCH_STATE, *BENCH_TAU, *p)]
+    run = subprocess.run([str(exe), str(n_calls), *args], capture_output=True, text=True, check=True)
     data = json.loads(run.stdout)
     data.pop("sink", None)
+    fns = {f.name(): f for f in model_functions_list()}
+    for key, name in (("check_ode", "ballbot_ode"), ("check_jac", "ballbot_jac")):
+        got = data.pop(key)
+        want = [np.asarray(o.nonzeros()) for o in fns[name].call([BENCH_STATE, BENCH_TAU, p])]
+        check_c_outputs(f"model benchmark ({name})", got if key == "check_jac" else [got], want)
     data["python_call_ns"] = _python_call_ns()
     data["python_over_c_ratio"] = data["python_call_ns"] / data["ode_ns"]
     data["ode_target_ns"] = 500.0

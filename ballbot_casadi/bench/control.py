@@ -7,7 +7,9 @@ Keys
     ``ballbot_flc`` (C micro-benchmark ``csrc/bench_control.c`` linked against the static
     closed-loop library).  Target <= 5 us.  Also ``control_step_smc_us`` (velocity +
     SMC) and ``cl_period_us`` (a whole closed-loop period: controllers, saturation and
-    the RK4 sub-steps of the plant).
+    the RK4 sub-steps of the plant).  The program prints the outputs of one call of each
+    (velocity command :data:`BENCH_V_REF`), checked against the Functions
+    (:mod:`~ballbot_casadi.bench.verify`): a time is only reported for what it claims.
 ``mission_100s_s``
     Wall time of a 100 s cascade mission (20000 control periods at 200 Hz, 1 ms RK4,
     true-state feedback) run from Python as one call of the compiled closed loop (the
@@ -30,7 +32,9 @@ import subprocess
 import time
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
+import casadi as ca
 import numpy as np
 
 from ballbot_casadi.control import (
@@ -41,7 +45,8 @@ from ballbot_casadi.control import (
 from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, run_tool
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.model.dynamics import make_affine, make_ode
-from ballbot_casadi.bench.exports import control_bench_library
+from ballbot_casadi.bench.exports import control_bench_functions, control_bench_library
+from ballbot_casadi.bench.verify import check_c_outputs
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.period import control_period, rk4_plant
@@ -59,6 +64,40 @@ def mission_inputs(duration: float = 100.0) -> tuple[object, dict]:
     return sc, sc.inputs()
 
 
+#: The velocity command the C benchmark's controllers and closed loop run with.
+BENCH_V_REF = (0.1, -0.05, 0.1)
+
+
+def _call(f: ca.Function, *args: Any) -> list[np.ndarray]:
+    """``f`` on ``args`` (positional, the rest zero as the benchmark's NULL arguments), the
+    outputs' nonzeros."""
+    full = [ca.DM(np.asarray(a, float)) for a in args]
+    full += [ca.DM.zeros(f.sparsity_in(i)) for i in range(len(args), f.n_in())]
+    return [np.asarray(o.nonzeros()) for o in f.call(full)]
+
+
+def _expected(fns: dict[str, ca.Function], inputs: dict, kf: np.ndarray, ks: np.ndarray
+              ) -> dict[str, np.ndarray]:
+    """What ``csrc/bench_control.c`` prints for its check calls, by the Functions."""
+    x, z, p, kv, Ts = inputs["x0"], inputs["z0"], inputs["p_ctrl"], inputs["k_vel"], inputs["Ts"]
+    vel, step, chunk = fns["ballbot_velocity"], fns["ballbot_cl_step_flc"], fns["ballbot_cl_chunk_flc"]
+    v_ref = np.array(BENCH_V_REF)
+    refs = _call(vel, x, v_ref, z[:vel.size_in(2)[0]], p, kv, Ts)[:3]
+    xz = np.zeros(step.size_in(0)[0])   # plant and velocity-controller states, the rest
+    xz[:x.size + z.size] = np.concatenate([x, z])  # (the COM observer's, unused) zero as in C
+    n = chunk.size_in(1)[1]
+    q_ref = np.tile([[1.0], [0.0], [0.0], [0.0]], (1, n))
+    return {
+        "check_tau_flc": _call(fns["ballbot_flc"], x, *refs, p, kf)[0],
+        "check_tau_smc": _call(fns["ballbot_smc"], x, *refs, p, ks)[0],
+        "check_cl_step": _call(step, xz, np.zeros(4), np.zeros(4), np.zeros(4), v_ref, np.zeros(6),
+                               p, p, kf, kv, Ts, 1.0, 1.0)[0],
+        "check_chunk": _call(chunk, xz, q_ref, np.zeros((4, n)), np.zeros((4, n)),
+                             np.tile(v_ref[:, None], (1, n)), np.zeros((6, n)), p, p, kf, kv, Ts,
+                             1.0, 1.0)[0],
+    }
+
+
 def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
     out = build_root() / "bench"
     out.mkdir(parents=True, exist_ok=True)
@@ -68,7 +107,7 @@ def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
               str(lib.static), "-lm"], "compiling the control benchmark")
     x = inputs["x0"]
     kf, ks = default_balance_gains("flc"), default_balance_gains("smc")
-    vals = [inputs["p_ctrl"], kf, ks, inputs["k_vel"], x, inputs["z0"], [inputs["Ts"]]]
+    vals = [inputs["p_ctrl"], kf, ks, inputs["k_vel"], x, inputs["z0"], [inputs["Ts"]], BENCH_V_REF]
     header = [len(inputs["p_ctrl"]), kf.size, ks.size, inputs["k_vel"].size, inputs["z0"].size]
     text = " ".join(str(int(v)) for v in header) + "\n" + "\n".join(
         " ".join(repr(float(v)) for v in np.ravel(arr)) for arr in vals) + "\n"
@@ -77,6 +116,8 @@ def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
     run = subprocess.run([str(exe), str(n_calls), str(data_file)], capture_output=True, text=True, check=True)
     data = json.loads(run.stdout)
     data.pop("sink", None)
+    want = _expected({f.name(): f for f in control_bench_functions()}, inputs, kf, ks)
+    check_c_outputs("control benchmark", [data.pop(k) for k in want], list(want.values()))
     return data
 
 

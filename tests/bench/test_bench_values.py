@@ -17,8 +17,9 @@ from ballbot_casadi.bench import control as bench_control_mod
 from ballbot_casadi.bench import firmware as bf
 from ballbot_casadi.bench import guidance as bg
 from ballbot_casadi.bench import montecarlo as bm
+from ballbot_casadi.codegen.libraries import model_functions_list
 from ballbot_casadi.core.layout import STATE
-from ballbot_casadi.errors import BallbotError
+from ballbot_casadi.errors import BallbotError, BuildError
 
 
 def _fake_toolchain(monkeypatch, missing=()):
@@ -369,16 +370,34 @@ def test_model_group_by_hand(monkeypatch, tmp_path):
     monkeypatch.setattr(bench, "run_tool", lambda cmd, what: open(cmd[cmd.index("-o") + 1], "w").close())
     seen = {}
 
+    p = bench.load_params().to_vector()
+    fns = {f.name(): f for f in model_functions_list()}
+    x = np.array([0.1, -0.2, 0.99904822, 0.0348995, 0.0261769, 0.0, 0.1, 0.05, 0.0, 0.01, -0.02, 0.03])
+    tau = np.array([0.2, -0.1, 0.3])
+    A, B = (np.asarray(o.nonzeros()) for o in fns["ballbot_jac"](x, tau, p))
+    good = {"ode_ns": 250.0, "jac_ns": 1200.0, "sink": 3.0,
+            "check_ode": np.asarray(fns["ballbot_ode"](x, tau, p)).ravel().tolist(),
+            "check_jac": [A.tolist(), B.tolist()]}
+    printed = [good]
+
     def run(cmd, **kw):
         seen["cmd"] = cmd
-        return SimpleNamespace(stdout=json.dumps({"ode_ns": 250.0, "jac_ns": 1200.0, "sink": 3.0}))
+        return SimpleNamespace(stdout=json.dumps(printed[0]))
     monkeypatch.setattr(bench.subprocess, "run", run)
     monkeypatch.setattr(bench, "_python_call_ns", lambda: 10000.0)
     out = bench.bench_model(n_calls=77)
     assert seen["cmd"][0] == str(tmp_path / "bench" / "bench_model") and seen["cmd"][1] == "77"
-    assert len(seen["cmd"]) == 2 + bench.load_params().to_vector().size
+    # the operating point, then the parameters, all as the C program reads them
+    assert [float(v) for v in seen["cmd"][2:]] == [*x, *tau, *p]
     assert out == {"ode_ns": 250.0, "jac_ns": 1200.0, "python_call_ns": 10000.0,
                    "python_over_c_ratio": 40.0, "ode_target_ns": 500.0, "jac_target_ns": 3000.0}
+    # outputs that are not the Functions' at that point: the benchmark timed something else
+    for key, bad in (("check_ode", good["check_ode"][:-1] + [good["check_ode"][-1] + 1e-3]),
+                     ("check_jac", [A.tolist(), (B * 1.001).tolist()]),
+                     ("check_jac", [A.tolist()])):
+        printed[0] = {**good, key: bad}
+        with pytest.raises(BuildError, match="model benchmark"):
+            bench.bench_model(n_calls=77)
 
 
 def test_run_benchmarks_merges_and_refuses_unknown_groups(monkeypatch, tmp_path):

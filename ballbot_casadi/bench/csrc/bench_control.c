@@ -2,17 +2,22 @@
  * Usage: bench_control N_CALLS INPUT_FILE
  * INPUT_FILE holds whitespace-separated numbers:
  *   np nk_flc nk_smc nkv nz  p[np]  k_flc[nk_flc]  k_smc[nk_smc]  k_vel[nkv]  x[12]  z[nz]  Ts
+ *   v_ref[3]
  * Timed: ballbot_velocity followed by ballbot_flc (one control period of the cascade),
  * the same with ballbot_smc, and the whole closed-loop period ballbot_cl_step_flc
  * (controllers + saturation + RK4 sub-steps), and the compiled chunk of CHUNK periods
  * ballbot_cl_chunk_flc from the given state (reported per period).  Work vectors are
- * allocated before timing; the best of 5 repetitions is reported. */
+ * allocated before timing; the best of 5 repetitions is reported.  The inputs do not
+ * change between calls; the outputs of one call of each (the FLC's and the SMC's torque
+ * after the velocity controller, the closed-loop step's and the chunk's first output) are
+ * printed for the caller to verify against the Functions. */
 #define _POSIX_C_SOURCE 199309L
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 #include "ballbot_bench_control.h"
+#include "bench_json.h"
 
 #define MAXN 128
 #define CHUNK 200
@@ -55,6 +60,12 @@ static void free_work(work_t wk) {
   free(wk.w);
 }
 
+/* ", key: [v...]" of the printed JSON object. */
+static void print_key(const char *key, const casadi_real *v, casadi_int n) {
+  printf(", \"%s\": ", key);
+  bench_print_array(v, n);
+}
+
 static int read_vec(FILE *fh, casadi_real *v, long n) {
   long i;
   for (i = 0; i < n; ++i)
@@ -86,12 +97,11 @@ int main(int argc, char **argv) {
   if (fscanf(fh, "%ld %ld %ld %ld %ld", &np_, &nkf, &nks, &nkv, &nz) != 5 || np_ > MAXN ||
       nkf > MAXN || nks > MAXN || nkv > MAXN || nz + 12 > MAXN || read_vec(fh, p, np_) ||
       read_vec(fh, kf, nkf) || read_vec(fh, ks, nks) || read_vec(fh, kv, nkv) ||
-      read_vec(fh, x, 12) || read_vec(fh, z, nz) || read_vec(fh, &Ts, 1)) {
+      read_vec(fh, x, 12) || read_vec(fh, z, nz) || read_vec(fh, &Ts, 1) || read_vec(fh, vref, 3)) {
     fprintf(stderr, "bench_control: malformed input file\n");
     return 2;
   }
   fclose(fh);
-  vref[0] = 0.1; vref[1] = -0.05; vref[2] = 0.1;
   wv = alloc_work(ballbot_velocity_work);
   wf_ = alloc_work(ballbot_flc_work);
   ws = alloc_work(ballbot_smc_work);
@@ -145,8 +155,19 @@ int main(int argc, char **argv) {
     }
   }
   printf("{\"control_step_us\": %.4f, \"control_step_smc_us\": %.4f, \"cl_period_us\": %.4f, "
-         "\"cl_chunk_period_us\": %.4f, \"sink\": %g}\n", best[0], best[1], best[2], best_chunk,
+         "\"cl_chunk_period_us\": %.4f, \"sink\": %g", best[0], best[1], best[2], best_chunk,
          sink == sink ? 0.0 : 1.0);
+  /* one call of each on the same inputs, for the caller to verify */
+  ballbot_velocity(va, vr, wv.iw, wv.w, 0);
+  ballbot_flc(ba, br, wf_.iw, wf_.w, 0);
+  print_key("check_tau_flc", tau, 3);
+  ballbot_smc(bs, bsr, ws.iw, ws.w, 0);
+  print_key("check_tau_smc", tau, 3);
+  ballbot_cl_step_flc(ca_, cr, wc.iw, wc.w, 0);
+  print_key("check_cl_step", xzn, bench_nnz(ballbot_cl_step_flc_sparsity_out(0)));
+  ballbot_cl_chunk_flc(wch.arg, wch.res, wch.iw, wch.w, 0);
+  print_key("check_chunk", chunk_out[0], bench_nnz(ballbot_cl_chunk_flc_sparsity_out(0)));
+  puts("}");
   free_work(wv); free_work(wf_); free_work(ws); free_work(wc); free_work(wch);
   return 0;
 }

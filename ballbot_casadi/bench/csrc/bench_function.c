@@ -3,12 +3,14 @@
  * The function is selected at compile time: -DBENCH_FN=<name> (the name of a function of
  * the linked static library).  INPUT_FILE holds the numbers of every input in input
  * order, each input dense column-major (as many as its sparsity pattern's nonzeros).
- * Work vectors are allocated before timing; the best of 5 repetitions is reported. */
+ * Work vectors are allocated before timing; the best of 5 repetitions is reported, with
+ * the outputs of the timed call (the inputs do not change) for the caller to verify. */
 #define _POSIX_C_SOURCE 199309L
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
 #include BENCH_HEADER
+#include "bench_json.h"
 
 #define CAT2(a, b) a##b
 #define CAT(a, b) CAT2(a, b)
@@ -26,10 +28,6 @@ static double now_ns(void) {
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return (double)ts.tv_sec * 1e9 + (double)ts.tv_nsec;
 }
-
-/* CasADi sparsity: [nrow, ncol, colind[ncol + 1], row[nnz]], or [nrow, ncol, 1] when dense
- * (a compressed pattern always starts its colind with 0). */
-static casadi_int nnz(const casadi_int *sp) { return sp[2] == 1 ? sp[0] * sp[1] : sp[2 + sp[1]]; }
 
 int main(int argc, char **argv) {
   casadi_int n_arg, n_res, n_iw, n_w, i, j;
@@ -59,7 +57,7 @@ int main(int argc, char **argv) {
   out = (casadi_real **)calloc((size_t)FN_N_OUT() + 1, sizeof(casadi_real *));
   if (!arg || !res || !iw || !w || !in || !out) return 3;
   for (i = 0; i < FN_N_IN(); ++i) {
-    casadi_int m = nnz(FN_SP_IN(i));
+    casadi_int m = bench_nnz(FN_SP_IN(i));
     in[i] = (casadi_real *)calloc((size_t)m + 1, sizeof(casadi_real));
     for (j = 0; j < m; ++j) {
       if (fscanf(fh, "%lf", &in[i][j]) != 1) {
@@ -71,7 +69,7 @@ int main(int argc, char **argv) {
   }
   fclose(fh);
   for (i = 0; i < FN_N_OUT(); ++i) {
-    out[i] = (casadi_real *)calloc((size_t)nnz(FN_SP_OUT(i)) + 1, sizeof(casadi_real));
+    out[i] = (casadi_real *)calloc((size_t)bench_nnz(FN_SP_OUT(i)) + 1, sizeof(casadi_real));
     res[i] = out[i];
   }
   for (rep = 0; rep < 5; ++rep) {
@@ -83,6 +81,11 @@ int main(int argc, char **argv) {
     t = (now_ns() - t0) / (double)n / 1000.0;
     if (t < best) best = t;
   }
-  printf("{\"us_per_call\": %.4f, \"finite\": %d}\n", best, sink == sink ? 1 : 0);
+  printf("{\"us_per_call\": %.4f, \"finite\": %d, \"outputs\": [", best, sink == sink ? 1 : 0);
+  for (i = 0; i < FN_N_OUT(); ++i) {
+    if (i) fputs(", ", stdout);
+    bench_print_array(out[i], bench_nnz(FN_SP_OUT(i)));
+  }
+  puts("]}");
   return 0;
 }

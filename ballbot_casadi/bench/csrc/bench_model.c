@@ -1,12 +1,14 @@
 /* Micro-benchmark of generated CasADi functions: ns per call, printed as JSON.
- * Usage: bench_model N_CALLS
- * Each entry point is called with the default robot state slightly tilted; the work
- * vectors are allocated once, before timing (no malloc in the timed loop). */
+ * Usage: bench_model N_CALLS x[12] tau[3] p[...]
+ * Each entry point is called with the state, torques and parameters given; the work
+ * vectors are allocated once, before timing (no malloc in the timed loop).  The outputs
+ * of the timed calls (the inputs do not change) are printed for the caller to verify. */
 #define _POSIX_C_SOURCE 199309L
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
 #include "ballbot_model.h"
+#include "bench_json.h"
 
 typedef int (*entry_fn)(const casadi_real **, casadi_real **, casadi_int *, casadi_real *, int);
 typedef int (*work_fn)(casadi_int *, casadi_int *, casadi_int *, casadi_int *);
@@ -19,9 +21,11 @@ static double now_ns(void) {
 
 static volatile double sink;
 
-static double bench(entry_fn f, work_fn wf, const casadi_real **arg, long n) {
+#define OUT_STRIDE 256
+
+/* Best of 5 timings of n calls (ns per call); output i of the calls in out + OUT_STRIDE i. */
+static double bench(entry_fn f, work_fn wf, const casadi_real **arg, long n, casadi_real *out) {
   casadi_int sz_arg, sz_res, sz_iw, sz_w;
-  casadi_real out[1024];
   casadi_real *res[8];
   casadi_int *iw;
   casadi_real *w;
@@ -31,7 +35,7 @@ static double bench(entry_fn f, work_fn wf, const casadi_real **arg, long n) {
   wf(&sz_arg, &sz_res, &sz_iw, &sz_w);
   iw = (casadi_int *)malloc(sizeof(casadi_int) * (size_t)(sz_iw + 1));
   w = (casadi_real *)malloc(sizeof(casadi_real) * (size_t)(sz_w + 1));
-  for (i = 0; i < 8; ++i) res[i] = out + 256 * (i % 4);
+  for (i = 0; i < 8; ++i) res[i] = out + OUT_STRIDE * (i % 4);
   for (rep = 0; rep < 5; ++rep) {
     double t0 = now_ns(), t;
     for (i = 0; i < n; ++i) {
@@ -48,19 +52,31 @@ static double bench(entry_fn f, work_fn wf, const casadi_real **arg, long n) {
 
 int main(int argc, char **argv) {
   long n = argc > 1 ? atol(argv[1]) : 100000;
-  static const casadi_real x[12] = {0.1, -0.2, 0.99904822, 0.0348995, 0.0261769, 0.0,
-                                   0.1, 0.05, 0.0, 0.01, -0.02, 0.03};
-  static const casadi_real tau[3] = {0.2, -0.1, 0.3};
-  static casadi_real p[64];
+  static casadi_real x[12], tau[3], p[64], ode_out[4 * OUT_STRIDE], jac_out[4 * OUT_STRIDE];
   const casadi_real *arg[8];
+  casadi_int k;
   int i;
-  for (i = 1; i < argc - 1 && i - 1 < 64; ++i) p[i - 1] = atof(argv[i + 1]);
+  if (argc < 17) {
+    fprintf(stderr, "usage: bench_model N_CALLS x[12] tau[3] p[...]\n");
+    return 2;
+  }
+  for (i = 0; i < 12; ++i) x[i] = atof(argv[2 + i]);
+  for (i = 0; i < 3; ++i) tau[i] = atof(argv[14 + i]);
+  for (i = 17; i < argc && i - 17 < 64; ++i) p[i - 17] = atof(argv[i]);
   arg[0] = x; arg[1] = tau; arg[2] = p;
   arg[3] = arg[4] = arg[5] = arg[6] = arg[7] = 0;
   {
-    double ode = bench(ballbot_ode, ballbot_ode_work, arg, n);
-    double jac = bench(ballbot_jac, ballbot_jac_work, arg, n / 4 + 1);
-    printf("{\"ode_ns\": %.2f, \"jac_ns\": %.2f, \"sink\": %g}\n", ode, jac, sink == sink ? 0.0 : 1.0);
+    double ode = bench(ballbot_ode, ballbot_ode_work, arg, n, ode_out);
+    double jac = bench(ballbot_jac, ballbot_jac_work, arg, n / 4 + 1, jac_out);
+    printf("{\"ode_ns\": %.2f, \"jac_ns\": %.2f, \"sink\": %g, \"check_ode\": ", ode, jac,
+           sink == sink ? 0.0 : 1.0);
+    bench_print_array(ode_out, bench_nnz(ballbot_ode_sparsity_out(0)));
+    fputs(", \"check_jac\": [", stdout);
+    for (k = 0; k < ballbot_jac_n_out(); ++k) {
+      if (k) fputs(", ", stdout);
+      bench_print_array(jac_out + OUT_STRIDE * k, bench_nnz(ballbot_jac_sparsity_out(k)));
+    }
+    puts("]}");
   }
   return 0;
 }

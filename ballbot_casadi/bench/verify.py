@@ -1,0 +1,48 @@
+"""The C benchmarks check what they time: each prints the outputs of the call it timed
+(on inputs that do not change between calls), and :func:`check_c_outputs` compares them
+with the same Function evaluated by CasADi on the same inputs.  A benchmark that wired an
+argument to the wrong buffer, or timed the wrong configuration, stops with
+:class:`~ballbot_casadi.errors.BuildError` instead of reporting a time for it."""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+from ballbot_casadi.errors import BuildError
+
+__all__ = ["C_RTOL", "check_c_outputs"]
+
+#: Relative tolerance of generated C against CasADi's virtual machine (same operations;
+#: the compiler may reorder a few): of each output's largest magnitude (at least 1).
+C_RTOL = 1e-9
+
+
+def check_c_outputs(what: str, c_outputs: Sequence[Any], expected: Sequence[Any]) -> float:
+    """Largest difference between the outputs a C benchmark printed and ``expected`` (the
+    Function's outputs, each flattened column-major as CasADi stores them).
+
+    Raises
+    ------
+    BuildError
+        A count, size or value that differs beyond :data:`C_RTOL` (the message names the
+        benchmark, the output and the difference).
+    """
+    if len(c_outputs) != len(expected):
+        raise BuildError(f"{what}: the C benchmark printed {len(c_outputs)} outputs, "
+                         f"the Function has {len(expected)}")
+    worst = 0.0
+    for i, (c, e) in enumerate(zip(c_outputs, expected)):
+        c = np.asarray(c, float).ravel()
+        e = np.ravel(np.asarray(e, float), order="F")
+        if c.shape != e.shape:
+            raise BuildError(f"{what}: output {i} has {c.size} numbers in C, {e.size} in the Function")
+        if not np.all(np.isfinite(e)) or not np.array_equal(np.isfinite(c), np.isfinite(e)):
+            raise BuildError(f"{what}: output {i} is not finite in C or in the Function")
+        diff = float(np.max(np.abs(c - e))) if c.size else 0.0
+        if diff > C_RTOL * max(1.0, float(np.max(np.abs(e))) if e.size else 1.0):
+            raise BuildError(f"{what}: output {i} of the C benchmark differs from the Function "
+                             f"by {diff:.3g} (the benchmark does not time what it claims)")
+        worst = max(worst, diff)
+    return worst
