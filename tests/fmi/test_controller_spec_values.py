@@ -126,6 +126,23 @@ def test_default_spec_inputs_and_parameters_start_where_the_robot_rests(spec):
         assert (by[f"{owner}_tau_max"].unit, by[f"{owner}_tau_max"].rule) == ("N.m", "torque")
 
 
+def test_readings_are_inputs_named_and_united_as_the_plants_outputs(spec):
+    """One input per reading of the default filters, named as the plant FMU's output it is
+    connected to, in its unit, NaN accepted (missing) and starting at 0."""
+    by = {v.name: v for v in spec.variables}
+    names = list(reading_names(DEFAULT_ESTIMATOR))
+    assert names == [n for n in SENSOR_OUTPUT_NAMES if n in names] and len(names) == 9
+    units = {"acc": "m/s2", "gyro": "rad/s", "enc": "1/s"}
+    for n in names:
+        v = by[n]
+        assert (v.kind, v.start, v.missing) == ("discrete_input", 0.0, True), n
+        assert v.unit == units[n.removeprefix("sensor_").rstrip("xyz012_")], n
+        assert "(the plant FMU's output of that name); NaN = missing" in v.description, n
+    assert by["sensor_acc_y"].description.startswith("accelerometer reading along IMU axis y ")
+    assert by["sensor_gyro_z"].description.startswith("gyroscope reading about IMU axis z ")
+    assert by["sensor_enc1"].description.startswith("wheel 1 encoder reading in ticks per second ")
+
+
 def test_controller_values_follow_the_scenario():
     sc = parse_scenario({"name": "v", "duration_s": 1.0, "estimator": "ukf", "cascade": True,
                          "controller_model": {"tau_max": 3.5, "Mb": 11.0},
