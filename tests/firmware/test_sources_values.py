@@ -176,3 +176,29 @@ def test_guidance_every_is_the_law_period_in_control_periods():
     assert TS_CONTROL == pytest.approx(0.005, rel=0, abs=1e-15) and GUIDANCE_EVERY == 20
     assert guidance_every(SimpleNamespace(config=SimpleNamespace(dt=0.035))) == 7  # 35 ms / 5 ms
     assert guidance_every(SimpleNamespace(config=None)) == 20
+
+
+def test_write_replay_input_lays_out_header_parameters_state_guidance_and_rows(tmp_path, monkeypatch):
+    """Little-endian doubles: [N, n_params, n_c0, balance_only, CALIB_LOOPS, n_guidance,
+    bg_delay], the parameters, the power-on state, the guidance data (with a guidance block
+    only), then per period the 9 readings and 15 references; bg_delay 0 by default."""
+    from types import SimpleNamespace
+
+    seen = []
+    monkeypatch.setattr(R, "firmware_function", lambda *a: seen.append(a) or "f")
+    monkeypatch.setattr(R, "embedded_readings", lambda f: np.zeros(9))
+    values = SimpleNamespace(flat_params=lambda f: np.array([1.0, 2.0, 3.0]), c0=np.array([4.0, 5.0]),
+                             guidance=np.array([6.0, 7.0, 8.0, 9.0]))
+    meas = np.arange(18.0).reshape(2, 9) + 100
+    refs = np.arange(30.0).reshape(2, 15) + 200
+    rec = R.RecordedLog(meas, refs, True, values, np.zeros((2, 3)))
+    plain = SimpleNamespace(controller="flc", estimator="ukf", guidance=None, latency=0)
+    data = np.frombuffer(R.write_replay_input(tmp_path / "a.bin", rec, plain).read_bytes(), "<f8")
+    rows = np.hstack([meas, refs]).ravel()
+    np.testing.assert_array_equal(data, [2, 3, 2, 1.0, R.CALIB_LOOPS, 0, 0, 1, 2, 3, 4, 5, *rows])
+    assert seen == [("flc", "ukf", None, 0)]
+    guided = SimpleNamespace(controller="flc", estimator="ukf", guidance="mpc", latency=4)
+    rec_v = R.RecordedLog(meas, refs, False, values, np.zeros((2, 3)))
+    data = np.frombuffer(R.write_replay_input(tmp_path / "b.bin", rec_v, guided, 3).read_bytes(), "<f8")
+    np.testing.assert_array_equal(data, [2, 3, 2, 0.0, R.CALIB_LOOPS, 4, 3, 1, 2, 3, 4, 5, 6, 7, 8, 9, *rows])
+    assert seen[-1] == ("flc", "ukf", "mpc", 4)
