@@ -15,6 +15,7 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
+from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.fmi.controller.controller import (
     HEADING_READING_NAME,
     READING_NAMES,
@@ -385,9 +386,10 @@ def test_parameters_are_checked_and_the_initial_estimate_is_readable_in_initiali
     q0 = [vals[f"x0_q{i}"] for i in range(4)]
     np.testing.assert_array_equal(fmu.get("q_hat0", "q_hat1", "q_hat2", "q_hat3"), q0)
     # a non-unit initial attitude is refused at the end of initialisation
-    fmu.set(x0_q0=2.0)
+    fmu.set(x0_q0=0.9, x0_q1=0.2, x0_q2=-0.3, x0_q3=0.5)   # norm 1.1: each component named
     assert fmu.raw("fmi2ExitInitializationMode") == 3
-    assert "unit quaternion" in fmu.logs[-1][1]
+    assert fmu.logs[-1][1].endswith("the initial attitude [0.9, 0.2, -0.3, 0.5] (x0_q0..3) must be a "
+                                     f"unit quaternion (norm 1 within {QUAT_TOL:g})"), fmu.logs[-1][1]
     fmu.free()
 
 
