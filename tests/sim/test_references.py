@@ -11,6 +11,7 @@ from ballbot_casadi.sim.references import (
     FIG93_ACCEL,
     FIG93_KEYFRAMES,
     SPEC,
+    _qmul,
     chirp,
     rpy_reference,
     sine,
@@ -138,3 +139,14 @@ def test_chirp_refuses_each_bad_argument_alone(f0, f1, duration, refused):
             chirp(t, 1.0, f0, f1, duration)
     else:
         assert np.all(np.isfinite(chirp(t, 1.0, f0, f1, duration).value))
+
+
+def test_the_row_wise_product_is_the_hamilton_product():
+    """``_qmul`` (rows of quaternions) against :func:`ballbot_casadi.core.quaternion.mul` on
+    general quaternions, every component non-zero (rpy_reference only multiplies
+    elementary rotations, whose zeros hide some terms)."""
+    rng = np.random.default_rng(23)
+    a, b = rng.normal(size=(6, 4)), rng.normal(size=(6, 4))
+    want = np.array([np.asarray(Q.mul(x, y), float).ravel() for x, y in zip(a, b)])
+    np.testing.assert_allclose(_qmul(a, b), want, rtol=1e-13, atol=1e-14)
+    assert not np.allclose(_qmul(a, b), _qmul(b, a))      # not commutative
