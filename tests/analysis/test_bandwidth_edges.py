@@ -70,3 +70,20 @@ def test_a_log_without_a_chirp_is_refused():
         chirp_metrics(log)
     with pytest.raises(ScenarioError, match=r"^scenario 'still' has no chirp on axis 'roll'$"):
         chirp_metrics(log, axis="roll")
+
+
+def test_a_window_holds_the_samples_on_both_of_its_edges():
+    """Windows [tc - 1.5 s, tc + 1.5 s] (3 cycles at 1 Hz) on a grid of 1/8 s: the samples
+    at exactly the first window's start (t = 0) and the last window's end (t = 8 s) count,
+    so a one-sample outlier there moves those windows' gains and no other."""
+    t = np.arange(65) * 0.125
+    phi, f = 2 * np.pi * t, np.ones_like(t)
+    r = np.sin(phi)
+    y = 0.5 * r
+    y[0] += 1.0
+    y[-1] += 1.0
+    res = sliding_response(t, y, r, phi, f)
+    np.testing.assert_allclose(res["t"], np.arange(1.5, 6.5 + 1e-9, 0.25), rtol=0, atol=1e-12)
+    edge = np.isin(np.round(res["t"], 9), [1.5, 6.5])
+    np.testing.assert_allclose(res["gain"][~edge], 0.5, rtol=1e-12)
+    assert np.all(np.abs(res["gain"][edge] - 0.5) > 1e-3)
