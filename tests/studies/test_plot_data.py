@@ -46,6 +46,10 @@ def test_pole_zero_and_singular_value_plots_draw_the_analysis(saved, tmp_path):
     x, y = line(pz, "constraint poles (12-state only)")
     np.testing.assert_allclose(x + 1j * y, cons, rtol=0, atol=0)
     assert pz["xlabel"].startswith("Re") and pz["ylabel"].startswith("Im")
+    # the imaginary axis shown from -2 to 2 rad/s, the real and imaginary axes drawn at 0
+    assert pz["ylim"] == (-2.0, 2.0)
+    assert hlines(pz) == [0.0] and vlines(pz) == [0.0]
+    assert pz["title"] == "Pole-zero map at the operating point (shaded: right half-plane)"
 
     sv_axes = saved["singular_values.png"]
     assert len(sv_axes) == 3
