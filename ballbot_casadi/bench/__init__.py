@@ -23,7 +23,7 @@ from ballbot_casadi.bench.firmware import bench_firmware, bench_firmware_mpc, be
 from ballbot_casadi.bench.fmu import bench_fmu
 from ballbot_casadi.bench.guidance import bench_mpc
 from ballbot_casadi.bench.montecarlo import bench_montecarlo
-from ballbot_casadi.bench.verify import check_c_outputs
+from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros
 from ballbot_casadi.codegen.libraries import model_functions_list, model_library
 from ballbot_casadi.core.files import atomic_write_text
 from ballbot_casadi.core.params import load_params
@@ -81,8 +81,8 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
     fns = {f.name(): f for f in model_functions_list()}
     for key, name in (("check_ode", "ballbot_ode"), ("check_jac", "ballbot_jac")):
         got = data.pop(key)
-        want = [np.asarray(o.nonzeros()) for o in fns[name].call([BENCH_STATE, BENCH_TAU, p])]
-        check_c_outputs(f"model benchmark ({name})", got if key == "check_jac" else [got], want)
+        check_c_outputs(f"model benchmark ({name})", got if key == "check_jac" else [got],
+                        function_nonzeros(fns[name], BENCH_STATE, BENCH_TAU, p))
     data["python_call_ns"] = _python_call_ns()
     data["python_over_c_ratio"] = data["python_call_ns"] / data["ode_ns"]
     data["ode_target_ns"] = 500.0

@@ -32,8 +32,6 @@ import subprocess
 import time
 from importlib import resources
 from pathlib import Path
-from typing import Any
-
 import casadi as ca
 import numpy as np
 
@@ -46,7 +44,7 @@ from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, 
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.model.dynamics import make_affine, make_ode
 from ballbot_casadi.bench.exports import control_bench_functions, control_bench_library
-from ballbot_casadi.bench.verify import check_c_outputs
+from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.period import control_period, rk4_plant
@@ -71,31 +69,23 @@ BENCH_V_REF = (0.1, -0.05, 0.1)
 BENCH_RPY_DEG = (3.0, -2.0, 10.0)
 
 
-def _call(f: ca.Function, *args: Any) -> list[np.ndarray]:
-    """``f`` on ``args`` (positional, the rest zero as the benchmark's NULL arguments), the
-    outputs' nonzeros."""
-    full = [ca.DM(np.asarray(a, float)) for a in args]
-    full += [ca.DM.zeros(f.sparsity_in(i)) for i in range(len(args), f.n_in())]
-    return [np.asarray(o.nonzeros()) for o in f.call(full)]
-
-
 def _expected(fns: dict[str, ca.Function], inputs: dict, kf: np.ndarray, ks: np.ndarray
               ) -> dict[str, np.ndarray]:
     """What ``csrc/bench_control.c`` prints for its check calls, by the Functions."""
     x, z, p, kv, Ts = inputs["x0"], inputs["z0"], inputs["p_ctrl"], inputs["k_vel"], inputs["Ts"]
     vel, step, chunk = fns["ballbot_velocity"], fns["ballbot_cl_step_flc"], fns["ballbot_cl_chunk_flc"]
     v_ref = np.array(BENCH_V_REF)
-    refs = _call(vel, x, v_ref, z[:vel.size_in(2)[0]], p, kv, Ts)[:3]
+    refs = function_nonzeros(vel, x, v_ref, z[:vel.size_in(2)[0]], p, kv, Ts)[:3]
     xz = np.zeros(step.size_in(0)[0])   # plant and velocity-controller states, the rest
     xz[:x.size + z.size] = np.concatenate([x, z])  # (the COM observer's, unused) zero as in C
     n = chunk.size_in(1)[1]
     q_ref = np.tile([[1.0], [0.0], [0.0], [0.0]], (1, n))
     return {
-        "check_tau_flc": _call(fns["ballbot_flc"], x, *refs, p, kf)[0],
-        "check_tau_smc": _call(fns["ballbot_smc"], x, *refs, p, ks)[0],
-        "check_cl_step": _call(step, xz, np.zeros(4), np.zeros(4), np.zeros(4), v_ref, np.zeros(6),
+        "check_tau_flc": function_nonzeros(fns["ballbot_flc"], x, *refs, p, kf)[0],
+        "check_tau_smc": function_nonzeros(fns["ballbot_smc"], x, *refs, p, ks)[0],
+        "check_cl_step": function_nonzeros(step, xz, np.zeros(4), np.zeros(4), np.zeros(4), v_ref, np.zeros(6),
                                p, p, kf, kv, Ts, 1.0, 1.0)[0],
-        "check_chunk": _call(chunk, xz, q_ref, np.zeros((4, n)), np.zeros((4, n)),
+        "check_chunk": function_nonzeros(chunk, xz, q_ref, np.zeros((4, n)), np.zeros((4, n)),
                              np.tile(v_ref[:, None], (1, n)), np.zeros((6, n)), p, p, kf, kv, Ts,
                              1.0, 1.0)[0],
     }

@@ -45,7 +45,7 @@ import numpy as np
 
 from ballbot_casadi.core.toolchain import CFLAGS, Library, build_root, compiler_command, run_tool
 from ballbot_casadi.bench.exports import estimation_bench_library
-from ballbot_casadi.bench.verify import check_c_outputs
+from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
@@ -73,11 +73,9 @@ def c_function_us(lib: Library, function: ca.Function, inputs: list, n_calls: in
     run_tool([*compiler_command(), *CFLAGS, f"-DBENCH_FN={function.name()}",
               f'-DBENCH_HEADER="{lib.header.name}"', "-I", str(lib.header.parent), "-o", str(exe),
               str(src), str(lib.static), "-lm"], f"compiling the benchmark of {function.name()}")
-    values, args = [], []
-    for i, v in enumerate(inputs):
-        arr = np.asarray(v, float).reshape(function.size_in(i), order="F") if np.size(v) > 1 else np.asarray(v, float)
-        values.append(" ".join(repr(float(e)) for e in np.ravel(arr, order="F")))
-        args.append(ca.DM(arr))
+    args = [np.asarray(v, float).reshape(function.size_in(i), order="F") if np.size(v) > 1
+            else np.asarray(v, float) for i, v in enumerate(inputs)]
+    values = [" ".join(repr(float(e)) for e in np.ravel(arr, order="F")) for arr in args]
     data = out / f"bench_{function.name()}_input.txt"
     data.write_text("\n".join(values) + "\n")
     run = subprocess.run([str(exe), str(n_calls), str(data)], capture_output=True, text=True)
@@ -86,8 +84,7 @@ def c_function_us(lib: Library, function: ca.Function, inputs: list, n_calls: in
     res = json.loads(run.stdout)
     if not res["finite"]:
         raise BuildError(f"benchmark of {function.name()} produced a non-finite output")
-    want = function.call(args)
-    check_c_outputs(f"benchmark of {function.name()}", res["outputs"], [o.nonzeros() for o in want])
+    check_c_outputs(f"benchmark of {function.name()}", res["outputs"], function_nonzeros(function, *args))
     return float(res["us_per_call"])
 
 
