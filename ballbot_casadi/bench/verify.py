@@ -8,15 +8,24 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
+import casadi as ca
 import numpy as np
 
 from ballbot_casadi.errors import BuildError
 
-__all__ = ["C_RTOL", "check_c_outputs"]
+__all__ = ["C_RTOL", "check_c_outputs", "function_nonzeros"]
 
 #: Relative tolerance of generated C against CasADi's virtual machine (same operations;
 #: the compiler may reorder a few): of each output's largest magnitude (at least 1).
 C_RTOL = 1e-9
+
+
+def function_nonzeros(f: ca.Function, *args: Any) -> list[np.ndarray]:
+    """The nonzeros of every output of ``f`` on ``args`` (positional; the inputs after them
+    zero, as the NULL arguments of a C call), the numbers a C benchmark prints."""
+    full = [ca.DM(np.asarray(a, float)) for a in args]
+    full += [ca.DM.zeros(f.sparsity_in(i)) for i in range(len(args), f.n_in())]
+    return [np.asarray(o.nonzeros()) for o in f.call(full)]
 
 
 def check_c_outputs(what: str, c_outputs: Sequence[Any], expected: Sequence[Any]) -> float:
