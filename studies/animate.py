@@ -30,12 +30,12 @@ from ballbot_casadi.core.layout import STATE, STATE_XY
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.log import SimulationLog, load_log, log_path
 
-__all__ = ["animate", "animation_scene", "FORMATS", "PATH_GID", "OBSTACLE_GID"]
+__all__ = ["animate", "animation_scene", "FORMATS", "PATH_GID", "OBSTACLE_GID", "BALL_GID"]
 
 #: Output formats by suffix.
 FORMATS = (".gif", ".mp4")
 #: Matplotlib ``gid`` of the drawn path line and of each obstacle disc.
-PATH_GID, OBSTACLE_GID = "path", "obstacle"
+PATH_GID, OBSTACLE_GID, BALL_GID = "path", "obstacle", "ball"
 
 
 def _frames(n: int, time: np.ndarray, fps: float, max_frames: int) -> np.ndarray:
@@ -114,7 +114,8 @@ def animation_scene(log: SimulationLog, name: str = "log", fps: float = 15.0, ma
         px, py = x[k, STATE.index("x")], x[k, STATE.index("y")]
         ball = np.array([px, py, rk])
         Rm = np.asarray(Q.rotation_matrix(x[k, STATE["q"]] / np.linalg.norm(x[k, STATE["q"]])))
-        ax.plot_wireframe(sphere[0] + ball[0], sphere[1] + ball[1], sphere[2] + ball[2], color="0.6", lw=0.4)
+        ax.plot_wireframe(sphere[0] + ball[0], sphere[1] + ball[1], sphere[2] + ball[2], color="0.6", lw=0.4,
+                          gid=BALL_GID)
         for j, (col, length) in enumerate((("r", 0.5 * l), ("g", 0.5 * l), ("b", l))):
             e = ball + length * Rm[:, j]
             ax.plot([ball[0], e[0]], [ball[1], e[1]], [ball[2], e[2]], color=col, lw=2.5 if j == 2 else 1.5)

@@ -20,7 +20,7 @@ from ballbot_casadi.errors import ScenarioError  # noqa: E402
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario  # noqa: E402
 from ballbot_casadi.sim.log import PATH_KEY  # noqa: E402
 from ballbot_casadi.sim.scenario import Scenario  # noqa: E402
-from ballbot_casadi.studies.animate import OBSTACLE_GID, PATH_GID, animation_scene  # noqa: E402
+from ballbot_casadi.studies.animate import BALL_GID, OBSTACLE_GID, PATH_GID, animation_scene  # noqa: E402
 
 ROLL = math.radians(30.0)
 
@@ -91,6 +91,13 @@ def test_a_frame_draws_the_ball_its_axes_and_the_trace_in_a_view_following_it():
         np.testing.assert_allclose(ty, -0.5 - 0.2 * np.arange(5), rtol=0, atol=1e-12)
         np.testing.assert_allclose(tz, 0.0, atol=0)
         assert ax.get_title() == "anim  t =   0.02 s"
+        # the ball: a wire sphere of radius rk about (px, py, rk), reaching the floor and 2 rk
+        wire = next(c for c in ax.collections if c.get_gid() == BALL_GID)
+        pts = np.concatenate([np.asarray(seg, float) for seg in wire._segments3d])
+        np.testing.assert_allclose(np.linalg.norm(pts - [px, py, rk], axis=1), rk, rtol=1e-12)
+        for axis, centre in enumerate((px, py, rk)):
+            np.testing.assert_allclose((pts[:, axis].min(), pts[:, axis].max()),
+                                       (centre - rk, centre + rk), rtol=0, atol=1e-12)
     finally:
         plt.close(fig)
 
