@@ -3,10 +3,14 @@ an override reaches, which keys ``--set`` accepts (issue 23, test strength)."""
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import pytest
 
 from ballbot_casadi.errors import ScenarioFileError
-from ballbot_casadi.studies.registry import SET_EVERY_RUN, get_study, parse_overrides
+from ballbot_casadi.studies.registry import (SET_EVERY_RUN, get_study, parse_overrides,
+                                             resolve_scenario, shipped_scenarios)
 
 
 def test_set_main_only_studies_change_the_main_run_except_for_every_run_keys():
@@ -29,3 +33,24 @@ def test_overrides_parse_toml_values_and_dotted_keys():
 def test_malformed_overrides_are_refused(item):
     with pytest.raises(ScenarioFileError, match="KEY=VALUE"):
         parse_overrides([item])
+
+
+def test_a_scenario_is_a_file_when_it_looks_like_one_else_a_shipped_name(tmp_path, monkeypatch):
+    """``resolve_scenario``: a ``.toml`` name, a path with a folder or an existing file is read
+    as a file (missing: "not found", never the shipped file of that stem); a bare name is a
+    shipped scenario."""
+    monkeypatch.chdir(tmp_path)
+    shipped = shipped_scenarios()
+    assert resolve_scenario("com") == shipped["com"]
+    for ref in ("com.toml", "sub/com", str(tmp_path / "com")):
+        with pytest.raises(ScenarioFileError, match=f"^{re.escape(ref)}: scenario file not found$"):
+            resolve_scenario(ref)
+    (tmp_path / "com").write_text("")  # an existing file of a shipped name, without the suffix
+    assert resolve_scenario("com") == Path("com")
+    (tmp_path / "com").unlink()
+    (tmp_path / "com").mkdir()  # a folder of that name is not a scenario file
+    with pytest.raises(ScenarioFileError, match="^com: scenario file not found$"):
+        resolve_scenario("com")
+    with pytest.raises(ScenarioFileError, match="^nope: no such scenario file, nor a shipped "
+                                                 "scenario; shipped: .*com"):
+        resolve_scenario("nope")
