@@ -14,6 +14,7 @@ import pytest
 
 from ballbot_casadi.control.velocity import design_model
 from ballbot_casadi.core.constants import TS_CONTROL
+from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.errors import ShapeError
 from ballbot_casadi.fmi.controller.path import mpc_model_dependencies
@@ -90,6 +91,23 @@ def test_a_parameter_added_to_the_prediction_model_is_declared():
     assert "tau_max" in dep.params
     assert set(dep.params) - {"tau_max"} == set(velocity_loop_dependencies().params)
     assert not set(FLC_CANCELLED) & set(dep.params)
+
+
+@pytest.mark.parametrize("factor, declared", [
+    (lambda q: q[0] - 1.0, False),  # vanishes upright (q = 1, 0, 0, 0): not read there
+    (lambda q: q[1], False),  # a roll term: zero upright
+    (lambda q: q[0], True),
+    (lambda q: q[0] ** 2 + q[3] - 0.5, True),
+])
+def test_the_dependencies_are_read_at_the_upright_equilibrium(factor, declared):
+    """A parameter acting on the Jacobians through a state factor is declared exactly when
+    the factor is non-zero at the upright equilibrium, the design model's linearisation point."""
+    jac = make_jacobians()
+    x, tau, p = ca.SX.sym("x", 12), ca.SX.sym("tau", 3), ca.SX.sym("p", len(PARAM_NAMES))
+    A, B = jac(x, tau, p)
+    A = A + p[PARAM_NAMES.index("tau_max")] * factor(x[STATE["q"]]) * ca.DM.eye(12)
+    grown = ca.Function("ballbot_jac", [x, tau, p], [A, B], ["x", "tau", "p"], ["A", "B"])
+    assert ("tau_max" in velocity_loop_dependencies(grown).params) == declared
 
 
 @pytest.mark.parametrize("p_size, k_size, dt", [(20, 32, 0.1), (21, 24, 0.1), (21, 32, 0.0)])
