@@ -60,3 +60,32 @@ def test_section_headers_must_all_lie_inside(shoff, problem):
     struct.pack_into("<Q", data, 0x28, shoff)
     struct.pack_into("<HH", data, 0x3A, 64, 2)     # e_shentsize, e_shnum
     assert shared_object_problem(bytes(data)) == problem
+
+
+@pytest.mark.parametrize("cls, order", [(0, 1), (3, 1), (2, 0), (2, 3), (3, 3)])
+def test_an_unknown_class_or_byte_order_is_refused(cls, order):
+    """Either field alone outside {1, 2} refuses the image, before any table is read."""
+    data = _elf(64 + N_PH * PH)
+    data[4:6] = bytes((cls, order))
+    assert shared_object_problem(bytes(data)) == f"unknown ELF class {cls} or byte order {order}"
+
+
+def _elf32_big(segment_end: int) -> bytearray:
+    """32-bit big-endian header (as on some ARM and PowerPC targets), 2 program headers of 32
+    bytes at 64, each segment [0, segment_end)."""
+    data = bytearray(64 + 2 * 32)
+    data[:6] = b"\x7fELF\x01\x02"
+    struct.pack_into(">II", data, 0x1C, 64, 0)     # e_phoff, e_shoff
+    struct.pack_into(">HHHH", data, 0x2A, 32, 2, 40, 0)
+    for i in range(2):
+        struct.pack_into(">II", data, 64 + i * 32 + 4, 0, 0)
+        struct.pack_into(">I", data, 64 + i * 32 + 16, segment_end)
+    return data
+
+
+def test_a_32_bit_big_endian_image_is_read_with_its_own_layout():
+    assert shared_object_problem(bytes(_elf32_big(128))) is None
+    assert shared_object_problem(bytes(_elf32_big(129))) == ("truncated: segment 0 ends at byte "
+                                                             "129, file has 128 bytes")
+    cut = bytes(_elf32_big(100)[:120])
+    assert shared_object_problem(cut) == "truncated: program headers end at 128, file has 120 bytes"
