@@ -5,6 +5,7 @@ missing readings, FMU states, interleaved instances and a C fuzz of its API."""
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 from ctypes import c_double, c_uint
 
@@ -417,6 +418,16 @@ def test_c_host_runs_the_controller_without_python():
     out = json.loads(res.stdout)
     assert out["t"] == pytest.approx(400 * TS, rel=1e-12)
     assert all(np.isfinite(out["tau"])) and max(abs(t) for t in out["tau"]) > 0.0
+    # the same synthetic readings through the Python master: the same torques
+    fmu = Controller()
+    fmu.init()
+    for k in range(400):
+        w = math.sin(0.01 * k)
+        fmu.set_many(READING_NAMES, [0.05 * w, -0.04 * w, 9.81, 0.01 * w, -0.01 * w, 0.002,
+                                         20.0 * w, -10.0 * w, -10.0 * w])
+        fmu.step(TS)
+    np.testing.assert_allclose(out["tau"], fmu.get("tau0", "tau1", "tau2"), rtol=1e-9, atol=1e-12)
+    fmu.free()
     usage = subprocess.run([str(host), str(b.binary), b.guid, "400"], capture_output=True, text=True)
     assert usage.returncode == 2 and usage.stdout == ""
     assert usage.stderr == f"usage: {host} lib guid n_steps bench_reps\n"   # names the program
