@@ -424,7 +424,7 @@ def test_c_host_runs_the_controller_without_python():
     for k in range(400):
         w = math.sin(0.01 * k)
         fmu.set_many(READING_NAMES, [0.05 * w, -0.04 * w, 9.81, 0.01 * w, -0.01 * w, 0.002,
-                                         20.0 * w, -10.0 * w, -10.0 * w])
+                                     20.0 * w, -10.0 * w, -10.0 * w])
         fmu.step(TS)
     np.testing.assert_allclose(out["tau"], fmu.get("tau0", "tau1", "tau2"), rtol=1e-9, atol=1e-12)
     fmu.free()
