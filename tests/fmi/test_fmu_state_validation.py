@@ -150,6 +150,10 @@ def test_get_real_keeps_failing_after_an_error_until_reset():
     x = make_state().tolist() + [0.0, 0.0, 0.0]
     x[STATES.index("dq1")] = 1e200  # the derivatives overflow
     p.fmu.setContinuousStates((c_double * NXW)(*x), NXW)
+    # states and parameters are read without evaluating the model: no error yet
+    st, vals = _raw_get(p, ["dq1", "q0", "Mk"])
+    assert st == 0 and vals[:2] == [1e200, x[STATES.index("q0")]] and vals[2] > 0, vals
+    assert p.errors() == []
     st, _ = _raw_get(p, ["der(dq1)"])
     assert st == 3  # fmi2Error: the model evaluated to Inf/NaN
     assert "NaN or Inf" in p.errors()[-1]
