@@ -55,6 +55,7 @@ from ballbot_casadi.sim.embedded import (
     ADAPTIVE_VELOCITY,
     MATCHED_VELOCITY,
     THESIS_ESTIMATOR,
+    VALID,
     embedded_readings,
     software_layout,
 )
@@ -130,7 +131,8 @@ def bench_estimation(n_calls: int = 20000, repeats: int = 3) -> dict[str, float]
         sh = sc.replace(estimator=est_name, heading_sensor=True, duration=20.0)
         inp_h = sh.inputs()
         log_h = sim.simulate(sh.controller, **inp_h, n_sub=sh.n_sub)
-        k_h = int(np.flatnonzero(inp_h["estimation"]["valid"][:, -1] > 0)[-1])
+        heading = inp_h["estimation"]["valid"][:, VALID.index("heading")]
+        k_h = int(np.flatnonzero(heading > 0)[-1])
         ph = _estimator_parts(sh, inp_h, log_h, k_h, n_calls, with_rest=est_name == "ukf_heading")
         data[f"{att}_step_us"] = ph["attitude"]
         if est_name == "ukf_heading":

@@ -20,6 +20,7 @@ from ballbot_casadi.bench import montecarlo as bm
 from ballbot_casadi.codegen.libraries import model_functions_list
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.errors import BallbotError, BuildError
+from ballbot_casadi.sim.embedded import VALID
 
 
 def _fake_toolchain(monkeypatch, missing=()):
@@ -449,7 +450,19 @@ def test_estimation_group_keys_are_the_parts_of_each_estimator(monkeypatch):
     orig = be._full_scenario
     monkeypatch.setattr(be, "_full_scenario", lambda: orig().replace(duration=0.5))
     monkeypatch.setattr(be, "time", _Clock([0.25, 3.0, 2.0], []))
+    periods = {}
+    parts = be._estimator_parts
+
+    def recorded(sc, inputs, log, k, n_calls, **kw):
+        periods[sc.estimator] = (k, np.asarray(inputs["estimation"]["valid"]))
+        return parts(sc, inputs, log, k, n_calls, **kw)
+    monkeypatch.setattr(be, "_estimator_parts", recorded)
     data = be.bench_estimation(n_calls=5, repeats=2)
+    # the heading filters are timed on the last period with a heading reading
+    for est in ("ukf_heading", "ekf_heading"):
+        k, valid = periods[est]
+        heading = valid[:, VALID.index("heading")]
+        assert 0 < heading.sum() < len(heading) and k == np.flatnonzero(heading)[-1], est
     T = lambda est, name: table[est, name]  # noqa: E731
 
     def rest(est, att="qukf", vel="vukf"):
