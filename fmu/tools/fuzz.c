@@ -2,6 +2,8 @@
  * fuzz.c - random FMI 2.0 API calls against an FMU binary of the package (no Python).
  *
  * usage: fuzz <model.so> <guid> <n_calls> <seed>
+ *        fuzz --draws <n> <seed>   (prints the first n Real and n Integer argument values
+ *                                   the seed draws, one "r <value>" / "i <value>" per line)
  *
  * Generic: compiled against the FMU's generated fmu_model_info.h (numbers of Real,
  * Integer and Boolean variables, states, Real inputs), so it fuzzes any FMU built on
@@ -50,6 +52,9 @@ static uint64_t rnd(void) {
     rng_state ^= rng_state >> 7;
     rng_state ^= rng_state << 17;
     return rng_state;
+}
+static void seed_rng(const char *seed) {
+    rng_state = (uint64_t)strtoull(seed, NULL, 10) * 2654435761u + 88172645463325252ull;
 }
 static double urand(void) { return (double)(rnd() >> 11) * (1.0 / 9007199254740992.0); }
 static int irand(int n) { return (int)(rnd() % (uint64_t)n); }
@@ -120,6 +125,13 @@ int main(int argc, char **argv) {
     long n_int_ok = 0, n_bool_ok = 0, n_int_err = 0, n_bool_err = 0;
     const char *guid;
     static fmi2Byte buf[65536];
+    if (argc == 4 && strcmp(argv[1], "--draws") == 0) {
+        n = atol(argv[2]);
+        seed_rng(argv[3]);
+        for (i = 0; i < n; ++i) printf("r %.17g\n", rand_real());
+        for (i = 0; i < n; ++i) printf("i %ld\n", (long)rand_int());
+        return 0;
+    }
     if (argc < 5) {
         fprintf(stderr, "usage: %s lib guid n_calls seed\n", argv[0]);
         return 2;
@@ -131,7 +143,7 @@ int main(int argc, char **argv) {
     }
     guid = argv[2];
     n = atol(argv[3]);
-    rng_state = (uint64_t)strtoull(argv[4], NULL, 10) * 2654435761u + 88172645463325252ull;
+    seed_rng(argv[4]);
     LOAD(f, fmi2GetTypesPlatform); LOAD(f, fmi2GetVersion); LOAD(f, fmi2SetDebugLogging);
     LOAD(f, fmi2Instantiate); LOAD(f, fmi2FreeInstance); LOAD(f, fmi2SetupExperiment);
     LOAD(f, fmi2EnterInitializationMode); LOAD(f, fmi2ExitInitializationMode);

@@ -7,8 +7,10 @@ all, one iteration makes at most one; a usage mistake exits 2 and an unloadable 
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 
+import numpy as np
 import pytest
 from _fmu_support import plant_build
 
@@ -78,3 +80,50 @@ SEED5_4000 = {"calls": 3734, "ok": 1079, "error": 2633, "discard": 0, "other": 2
 def test_a_seed_replays_the_same_calls():
     assert _counts(4000, 5) == SEED5_4000
     assert _counts(4000, 6) != SEED5_4000
+
+
+def _draws(n: int, seed: int) -> tuple[list[float], list[int]]:
+    res = _fuzz("--draws", str(n), str(seed))
+    assert res.returncode == 0 and res.stderr == "", res.stderr
+    rows = [ln.split() for ln in res.stdout.splitlines()]
+    assert [r[0] for r in rows] == ["r"] * n + ["i"] * n
+    return [float(r[1]) for r in rows[:n]], [int(r[1]) for r in rows[n:]]
+
+
+def _key(v: float) -> str:
+    """A value's identity: NaN, a signed zero and each special value apart."""
+    if math.isnan(v):
+        return "nan"
+    return repr(v) if v != 0.0 else ("-0.0" if math.copysign(1, v) < 0 else "0.0")
+
+
+def test_the_drawn_argument_values_are_the_pool_with_its_weights():
+    """Reals: each of the eight special values, NaN, and +-Inf (one draw in 12 each; Inf's
+    sign at even odds), else uniform in (-1, 1) times 10^[-3, 1); Integers: each of the eight
+    special values one draw in 10, else any 32-bit value.  Counts within 6 standard
+    deviations of a binomial."""
+    n = 24000
+    reals, ints = _draws(n, 7)
+
+    def near(count, p):
+        assert abs(count - n * p) <= 6 * math.sqrt(n * p * (1 - p)), (count, n * p)
+    keys = [_key(v) for v in reals]
+    for special in ("0.0", "-0.0", "1.0", "-1.0", "1e+300", "-1e+300", "1e-300", "0.5", "nan"):
+        near(keys.count(special), 1 / 12)
+    near(keys.count("inf"), 1 / 24)
+    near(keys.count("-inf"), 1 / 24)
+    rest = [v for v, k in zip(reals, keys) if k not in {
+        "0.0", "-0.0", "1.0", "-1.0", "1e+300", "-1e+300", "1e-300", "0.5", "nan", "inf", "-inf"}]
+    near(len(rest), 2 / 12)
+    mag = np.abs(rest)
+    assert mag.max() < 10.0 and (mag < 1e-2).any() and (mag > 1.0).any()
+    near(int(np.sum(np.asarray(rest) < 0)), 1 / 12)  # either sign at even odds
+    for special in (0, 1, -1, 2, 7, 2**31 - 1, -2**31, 123456789):
+        near(ints.count(special), 1 / 10)
+    assert all(-2**31 <= i < 2**31 for i in ints)
+    wide = [i for i in ints if i not in (0, 1, -1, 2, 7, 2**31 - 1, -2**31, 123456789)]
+    near(len(wide), 2 / 10)
+    near(sum(i < 0 for i in wide), 1 / 10)
+    again, ints_again = _draws(n, 7)  # the seed replays them (NaN compared by key)
+    assert [_key(v) for v in again] == keys and ints_again == ints
+    assert [_key(v) for v in _draws(50, 8)[0]] != keys[:50]
