@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import functools
+import json
+import subprocess
 from ctypes import c_double, c_int, c_uint, c_void_p
 
 import numpy as np
 
-from ballbot_casadi.fmi.build import FmuBuild, build_fmu, plant_variables
+from ballbot_casadi.fmi.build import FmuBuild, build_fmu, build_tool, plant_variables
 
 STATES = ("x", "y", "q0", "q1", "q2", "q3", "dx", "dy", "dq0", "dq1", "dq2", "dq3")
 #: All continuous states of the FMU: the model states, then the wheel angles.
@@ -23,6 +25,22 @@ SENSORS = ("sensor_acc_x", "sensor_acc_y", "sensor_acc_z", "sensor_gyro_x", "sen
 def plant_build() -> FmuBuild:
     """The plant FMU, built once per test session (cached on disk by content hash)."""
     return build_fmu()
+
+
+def run_fuzz(build: FmuBuild, *args: str, cc: str | None = None, env: dict | None = None,
+             timeout: float = 120) -> subprocess.CompletedProcess:
+    """The C fuzzer of the FMI API (``fmu/tools/fuzz.c``) built for ``build`` and run with
+    ``args`` (``{lib}`` and ``{guid}`` in an argument are the build's binary and GUID)."""
+    exe = build_tool(build, "fuzz", cc=cc)
+    return subprocess.run([str(exe), *[a.format(lib=build.binary, guid=build.guid) for a in args]],
+                          capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def fuzz_counts(build: FmuBuild, n_calls: int, seed: int, timeout: float = 120) -> dict[str, int]:
+    """The fuzzer's tallies of ``n_calls`` iterations from ``seed``; it must exit 0."""
+    res = run_fuzz(build, "{lib}", "{guid}", str(n_calls), str(seed), timeout=timeout)
+    assert res.returncode == 0, res.stderr[-2000:]
+    return json.loads(res.stdout)
 
 
 @functools.lru_cache(maxsize=None)

@@ -9,18 +9,17 @@ Boolean ``enabled`` is true; a communication step must be a whole number of peri
 
 from __future__ import annotations
 
-import json
-import subprocess
 from ctypes import c_double, c_int, c_uint, c_void_p
 
 import casadi as ca
 import numpy as np
 import pytest
+from _fmu_support import fuzz_counts
 from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
 from ballbot_casadi.errors import BuildError
-from ballbot_casadi.fmi.package import build_fmu_from_spec, build_tool
+from ballbot_casadi.fmi.package import build_fmu_from_spec
 from ballbot_casadi.fmi.spec import FmuSpec, VarTable
 
 pytestmark = pytest.mark.needs_cc
@@ -242,11 +241,7 @@ def test_no_model_exchange_refused_steps_state_and_checks(counter):
 
 
 def test_generic_fuzz_runs_against_the_second_fmu(counter):
-    exe = build_tool(counter, "fuzz")
-    res = subprocess.run([str(exe), str(counter.binary), counter.guid, "60000", "5"],
-                         capture_output=True, text=True, timeout=120)
-    assert res.returncode == 0, res.stderr[-2000:]
-    s = json.loads(res.stdout)
+    s = fuzz_counts(counter, 60000, 5)
     assert s["silent"] == 0, s
     assert s["steps_ok"] > 50 and s["integer_ok"] > 100 and s["boolean_ok"] > 100, s
     assert s["integer_error"] > 100 and s["boolean_error"] > 100, s

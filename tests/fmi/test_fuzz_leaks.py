@@ -11,10 +11,9 @@ import subprocess
 
 import pytest
 from _controller_support import controller_build
-from _fmu_support import plant_build
+from _fmu_support import plant_build, run_fuzz
 
 from ballbot_casadi.errors import BuildError
-from ballbot_casadi.fmi.build import build_tool
 
 pytestmark = pytest.mark.needs_cc
 
@@ -23,12 +22,10 @@ ASAN = "gcc -fsanitize=address -fno-omit-frame-pointer"
 
 def _asan_fuzz(build, seed: int) -> subprocess.CompletedProcess:
     try:
-        exe = build_tool(build, "fuzz", cc=ASAN)
+        res = run_fuzz(build, "{lib}", "{guid}", "4000", str(seed), cc=ASAN, timeout=300,
+                       env={"ASAN_OPTIONS": "detect_leaks=1:exitcode=23", "PATH": "/usr/bin:/bin"})
     except BuildError as exc:  # a compiler without the sanitizer's run-time library
         pytest.skip(f"AddressSanitizer is not available: {str(exc)[:200]}")
-    res = subprocess.run([str(exe), str(build.binary), build.guid, "4000", str(seed)],
-                         capture_output=True, text=True, timeout=300,
-                         env={"ASAN_OPTIONS": "detect_leaks=1:exitcode=23", "PATH": "/usr/bin:/bin"})
     for cannot in ("LeakSanitizer has encountered a fatal error", "does not work under ptrace",
                    "Shadow memory range interleaves"):
         if cannot in res.stderr:  # a sandbox where the sanitizer cannot run at all

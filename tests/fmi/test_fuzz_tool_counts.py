@@ -6,13 +6,12 @@ all, one iteration makes at most one; a usage mistake exits 2 and an unloadable 
 
 from __future__ import annotations
 
-import json
 import math
 import subprocess
 
 import numpy as np
 import pytest
-from _fmu_support import plant_build
+from _fmu_support import fuzz_counts, plant_build, run_fuzz
 
 from ballbot_casadi.fmi.build import build_tool
 
@@ -24,16 +23,11 @@ COUNTS = ("calls", "ok", "error", "discard", "other", "silent", "null_instance",
 
 
 def _fuzz(*args: str) -> subprocess.CompletedProcess:
-    b = plant_build()
-    exe = build_tool(b, "fuzz")
-    return subprocess.run([str(exe), *[a.format(lib=b.binary, guid=b.guid) for a in args]],
-                          capture_output=True, text=True, timeout=120)
+    return run_fuzz(plant_build(), *args)
 
 
 def _counts(n: int, seed: int) -> dict[str, int]:
-    res = _fuzz("{lib}", "{guid}", str(n), str(seed))
-    assert res.returncode == 0, res.stderr[-2000:]
-    out = json.loads(res.stdout)
+    out = fuzz_counts(plant_build(), n, seed)
     assert tuple(out) == COUNTS
     return out
 
