@@ -40,10 +40,10 @@ from ballbot_casadi.control import (
     make_balance_controller,
     make_velocity_controller,
 )
-from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, run_tool
+from ballbot_casadi.core.toolchain import CFLAGS, Library, build_root, compiler_command, run_tool
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.model.dynamics import make_affine, make_ode
-from ballbot_casadi.bench.exports import control_bench_functions, control_bench_library
+from ballbot_casadi.bench.exports import control_bench_library
 from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.closed_loop import ClosedLoop
@@ -91,7 +91,12 @@ def _expected(fns: dict[str, ca.Function], inputs: dict, kf: np.ndarray, ks: np.
     }
 
 
-def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
+def _c_bench(library: tuple[Library, dict[str, ca.Function]], inputs: dict, n_calls: int
+             ) -> dict[str, float]:
+    """Time the C program on ``library``
+    (:func:`~ballbot_casadi.bench.exports.control_bench_library`); its printed outputs are
+    checked against the library's Functions."""
+    lib, functions = library
     out = build_root() / "bench"
     out.mkdir(parents=True, exist_ok=True)
     src = Path(str(resources.files("ballbot_casadi.bench") / "csrc" / "bench_control.c"))
@@ -110,7 +115,7 @@ def _c_bench(lib, inputs: dict, n_calls: int) -> dict[str, float]:
     run = subprocess.run([str(exe), str(n_calls), str(data_file)], capture_output=True, text=True, check=True)
     data = json.loads(run.stdout)
     data.pop("sink", None)
-    want = _expected({f.name(): f for f in control_bench_functions()}, inputs, kf, ks)
+    want = _expected(functions, inputs, kf, ks)
     check_c_outputs("control benchmark", [data.pop(k) for k in want], list(want.values()))
     return data
 

@@ -39,9 +39,10 @@ def control_bench_functions() -> list[ca.Function]:
             make_velocity_controller()]
 
 
-def control_bench_library(root: Path | None = None) -> Library:
-    """The compiled ``ballbot_bench_control`` library."""
-    return build_library("ballbot_bench_control", control_bench_functions(), root)
+def control_bench_library(root: Path | None = None) -> tuple[Library, dict[str, ca.Function]]:
+    """The compiled ``ballbot_bench_control`` library and its Functions by name."""
+    fs = control_bench_functions()
+    return build_library("ballbot_bench_control", fs, root), {f.name(): f for f in fs}
 
 
 def estimation_bench_functions(controller: str, estimator: str) -> dict[str, ca.Function]:
