@@ -81,7 +81,7 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
     fns = {f.name(): f for f in model_functions_list()}
     for key, name in (("check_ode", "ballbot_ode"), ("check_jac", "ballbot_jac")):
         got = data.pop(key)
-        check_c_outputs(f"model benchmark ({name})", got if key == "check_jac" else [got],
+        check_c_outputs(f"model benchmark ({name})", got,
                         function_nonzeros(fns[name], BENCH_STATE, BENCH_TAU, p))
     data["python_call_ns"] = _python_call_ns()
     data["python_over_c_ratio"] = data["python_call_ns"] / data["ode_ns"]

@@ -23,6 +23,18 @@ static volatile double sink;
 
 #define OUT_STRIDE 256
 
+/* `"key": [output 0, output 1, ...]`, output i's nonzeros at out + OUT_STRIDE i. */
+static void print_outputs(const char *key, casadi_int n_out, const casadi_int *(*sp)(casadi_int),
+                          const casadi_real *out) {
+  casadi_int k;
+  printf(", \"%s\": [", key);
+  for (k = 0; k < n_out; ++k) {
+    if (k) fputs(", ", stdout);
+    bench_print_array(out + OUT_STRIDE * k, bench_nnz(sp(k)));
+  }
+  putchar(']');
+}
+
 /* Best of 5 timings of n calls (ns per call); output i of the calls in out + OUT_STRIDE i. */
 static double bench(entry_fn f, work_fn wf, const casadi_real **arg, long n, casadi_real *out) {
   casadi_int sz_arg, sz_res, sz_iw, sz_w;
@@ -54,7 +66,6 @@ int main(int argc, char **argv) {
   long n = argc > 1 ? atol(argv[1]) : 100000;
   static casadi_real x[12], tau[3], p[64], ode_out[4 * OUT_STRIDE], jac_out[4 * OUT_STRIDE];
   const casadi_real *arg[8];
-  casadi_int k;
   int i;
   if (argc < 17) {
     fprintf(stderr, "usage: bench_model N_CALLS x[12] tau[3] p[...]\n");
@@ -68,15 +79,10 @@ int main(int argc, char **argv) {
   {
     double ode = bench(ballbot_ode, ballbot_ode_work, arg, n, ode_out);
     double jac = bench(ballbot_jac, ballbot_jac_work, arg, n / 4 + 1, jac_out);
-    printf("{\"ode_ns\": %.2f, \"jac_ns\": %.2f, \"sink\": %g, \"check_ode\": ", ode, jac,
-           sink == sink ? 0.0 : 1.0);
-    bench_print_array(ode_out, bench_nnz(ballbot_ode_sparsity_out(0)));
-    fputs(", \"check_jac\": [", stdout);
-    for (k = 0; k < ballbot_jac_n_out(); ++k) {
-      if (k) fputs(", ", stdout);
-      bench_print_array(jac_out + OUT_STRIDE * k, bench_nnz(ballbot_jac_sparsity_out(k)));
-    }
-    puts("]}");
+    printf("{\"ode_ns\": %.2f, \"jac_ns\": %.2f, \"sink\": %g", ode, jac, sink == sink ? 0.0 : 1.0);
+    print_outputs("check_ode", ballbot_ode_n_out(), ballbot_ode_sparsity_out, ode_out);
+    print_outputs("check_jac", ballbot_jac_n_out(), ballbot_jac_sparsity_out, jac_out);
+    puts("}");
   }
   return 0;
 }
