@@ -60,8 +60,17 @@ def test_spec_usage_has_no_fraction_for_what_is_not_a_number(value, op, threshol
 
 
 def test_the_fall_rule_at_its_boundary():
-    assert run_failure({"finite": True, "peak_tilt_deg": FALL_TILT_DEG}) is not None
-    assert run_failure({"finite": True, "peak_tilt_deg": math.nextafter(FALL_TILT_DEG, 0.0)}) is None
-    assert run_failure({"finite": False, "peak_tilt_deg": 1.0}) is not None
-    assert run_failure({"peak_tilt_deg": math.inf}) is not None
+    """A fall is a body at or beyond horizontal: 90 deg of tilt."""
+    assert FALL_TILT_DEG == 90.0
+    assert run_failure({"finite": True, "peak_tilt_deg": 90.0}) == (
+        "the robot fell: peak tilt 90 deg >= 90 deg")
+    assert run_failure({"finite": True, "peak_tilt_deg": 123.456}) == (
+        "the robot fell: peak tilt 123.5 deg >= 90 deg")
+    assert run_failure({"finite": True, "peak_tilt_deg": math.nextafter(90.0, 0.0)}) is None
+    assert run_failure({"finite": False, "peak_tilt_deg": 1.0}) == (
+        "the state or the torques became NaN or Inf")
+    assert run_failure({"peak_tilt_deg": math.inf}) == "peak tilt is inf"
+    assert run_failure({"peak_tilt_deg": math.nan}) == "peak tilt is nan"
+    assert run_failure({"peak_tilt_deg": True}) is None  # not a number: the specs judge it
+    assert run_failure({"finite": True, "peak_tilt_deg": 100}) is not None  # an int
     assert run_failure({}) is None
