@@ -106,3 +106,12 @@ def test_the_planar_reduction_remark_exactly_off_the_exact_case(result, tmp_path
         assert remark(_with(result, params={key: -0.01})), key
     assert remark(_with(result, velocity=(0.0, 0.2)))
     assert remark(_with(result, velocity=(-0.2, 0.0)))
+
+
+def test_an_eigenvalue_is_printed_real_when_its_imaginary_part_is_round_off(result, tmp_path):
+    """Below 1e-9 the imaginary part is the solver's round-off: printed as a real number."""
+    res = {**result, "eigenvalues_full": [[1.0, 9.9e-10], [-1.0, -9.9e-10], [1.0, 1e-9],
+                                          [-2.0, -0.5], [0.0, 0.0]]}
+    text = AR.write_markdown(res, tmp_path, "thesis App. A defaults", []).read_text()
+    row = next(ln for ln in text.splitlines() if ln.startswith("| 12-state |"))
+    assert row == "| 12-state | +1.0000, -1.0000, +1.0000 +0.0000j, -2.0000 -0.5000j, +0.0000 |"
