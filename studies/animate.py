@@ -30,12 +30,12 @@ from ballbot_casadi.core.layout import STATE, STATE_XY
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.sim.log import SimulationLog, load_log, log_path
 
-__all__ = ["animate", "animation_scene", "FORMATS", "PATH_GID", "OBSTACLE_GID", "BALL_GID"]
+__all__ = ["animate", "animation_scene", "FORMATS", "PATH_GID", "OBSTACLE_GID", "BALL_GID", "HEADING_GID"]
 
 #: Output formats by suffix.
 FORMATS = (".gif", ".mp4")
 #: Matplotlib ``gid`` of the drawn path line and of each obstacle disc.
-PATH_GID, OBSTACLE_GID, BALL_GID = "path", "obstacle", "ball"
+PATH_GID, OBSTACLE_GID, BALL_GID, HEADING_GID = "path", "obstacle", "ball", "heading"
 
 
 def _frames(n: int, time: np.ndarray, fps: float, max_frames: int) -> np.ndarray:
@@ -123,7 +123,8 @@ def animation_scene(log: SimulationLog, name: str = "log", fps: float = 15.0, ma
         head[2] = 0.0
         if np.linalg.norm(head) > 1e-9:
             head = 0.3 * span * head / np.linalg.norm(head)
-            ax.quiver(px, py, 0.0, head[0], head[1], 0.0, color="k", arrow_length_ratio=0.3, lw=1)
+            ax.quiver(px, py, 0.0, head[0], head[1], 0.0, color="k", arrow_length_ratio=0.3, lw=1,
+                      gid=HEADING_GID)
         ax.plot(x[: k + 1, STATE.index("x")], x[: k + 1, STATE.index("y")], np.zeros(k + 1), "m-", lw=1)
         if course is None:
             ax.set_xlim(px - span, px + span)

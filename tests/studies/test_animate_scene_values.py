@@ -20,7 +20,8 @@ from ballbot_casadi.errors import ScenarioError  # noqa: E402
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario  # noqa: E402
 from ballbot_casadi.sim.log import PATH_KEY  # noqa: E402
 from ballbot_casadi.sim.scenario import Scenario  # noqa: E402
-from ballbot_casadi.studies.animate import BALL_GID, OBSTACLE_GID, PATH_GID, animation_scene  # noqa: E402
+from ballbot_casadi.studies.animate import (BALL_GID, HEADING_GID, OBSTACLE_GID, PATH_GID,
+                                            animation_scene)  # noqa: E402
 
 ROLL = math.radians(30.0)
 
@@ -98,6 +99,31 @@ def test_a_frame_draws_the_ball_its_axes_and_the_trace_in_a_view_following_it():
         for axis, centre in enumerate((px, py, rk)):
             np.testing.assert_allclose((pts[:, axis].min(), pts[:, axis].max()),
                                        (centre - rk, centre + rk), rtol=0, atol=1e-12)
+    finally:
+        plt.close(fig)
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 90.0, -135.0])
+def test_the_heading_arrow_points_along_the_body_x_axis_on_the_floor(yaw_deg):
+    """From the ball's floor point, 0.3 of the view's half-width long, along the body x
+    axis projected on the floor (yaw after the 30 deg roll: the roll does not turn it)."""
+    log = _log()
+    yaw = math.radians(yaw_deg)
+    qz = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+    qx = np.array([math.cos(ROLL / 2), math.sin(ROLL / 2), 0.0, 0.0])
+    w1, v1, w2, v2 = qz[0], qz[1:], qx[0], qx[1:]  # Hamilton product qz * qx
+    q = np.r_[w1 * w2 - v1 @ v2, w1 * v2 + w2 * v1 + np.cross(v1, v2)]
+    log.arrays["state"][:, STATE["q"]] = q
+    p = log.params
+    span = max(0.6, float(p.l) + 2 * float(p.rk))
+    fig, draw, _ = animation_scene(log)
+    try:
+        draw(4)
+        arrow = next(c for c in fig.axes[0].collections if c.get_gid() == HEADING_GID)
+        tip, tail = np.asarray(arrow._segments3d[0], float)  # the shaft, drawn tip to tail
+        np.testing.assert_allclose(tail, [1.4, -1.3, 0.0], rtol=0, atol=1e-12)
+        want = 0.3 * span * np.array([math.cos(yaw), math.sin(yaw), 0.0])
+        np.testing.assert_allclose(tip - tail, want, rtol=0, atol=1e-12)
     finally:
         plt.close(fig)
 
