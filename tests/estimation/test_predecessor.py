@@ -74,6 +74,11 @@ def test_one_period_is_the_v2019_algorithm():
     np.testing.assert_allclose(Pn, Pr, rtol=0, atol=1e-9)
     assert np.linalg.norm(xn[:4]) == pytest.approx(1.0, abs=1e-15)  # forced unit norm
     assert float(out[4]) == 7
+    # P_att: the covariance of the body rotation vector dtheta = 2 vec(conj(q) * dq) of
+    # the updated quaternion (first order), each column of the map from a unit dq
+    T = np.column_stack([2 * np.asarray(Q.mul(Q.conj(xn[:4]), e), float).ravel()[1:]
+                         for e in np.eye(4)])
+    np.testing.assert_allclose(np.asarray(out[6]), T @ Pn[:4, :4] @ T.T, rtol=1e-9, atol=1e-18)
 
 
 def test_heading_reading_moves_heading_and_bias_with_the_right_signs():
