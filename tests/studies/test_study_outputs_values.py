@@ -95,14 +95,21 @@ def test_study_all_table(monkeypatch, tmp_path):
     ctrl = {"a": ("flc", "smc"), "b": ("flc",), "c": ("flc",)}
     monkeypatch.setattr(ST, "get_study", lambda n: type("S", (), {"controllers": ctrl[n]}))
 
+    plots = []
+
     def run_study(name, c, out, sim, plot):
+        plots.append(plot)
         if name == "c":
             raise ST.SolverError("no convergence")
         return res[(name, c)]
 
     monkeypatch.setattr(ST, "run_study", run_study)
     monkeypatch.setattr(ST, "ClosedLoop", lambda: None)
+    ST.run_all(tmp_path / "no_plots", plot=False)
+    assert plots == [False] * 4
+    plots.clear()
     table = ST.run_all(tmp_path)
+    assert plots == [True] * 4  # plots by default
     assert set(table) == {"a", "b"} and set(table["a"]) == {"flc", "smc"}
     md = (tmp_path / "summary.md").read_text().splitlines()
     assert md[2] == "| c | run stopped: no convergence | | | ✗ | |"
