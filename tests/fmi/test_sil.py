@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import json
 import shutil
+import time
 import zipfile
 from pathlib import Path
 
@@ -102,7 +103,10 @@ def test_the_ssp_is_valid_ssp_1_0_and_carries_the_system(work):
 def test_libcosim_runs_the_ssp_like_the_compiled_mission_with_the_jacobi_delay(work):
     for name, dur in (("full_sine", SINE_S), ("full_velocity", VELOCITY_S)):
         sc, _ = _scenario(name, dur)
-        run = run_ssp(_ssp(name, dur, work))
+        ssp = _ssp(name, dur, work)
+        t0 = time.perf_counter()
+        run = run_ssp(ssp)
+        assert 0.0 < run.wall_s <= time.perf_counter() - t0
         assert run.master == "libcosim" and run.time.size == sc.n_periods + 1
         log = sil_log(run)
         ds, dt = _max_diff(log, _jacobi(sc))
@@ -118,7 +122,11 @@ def test_libcosim_runs_the_ssp_like_the_compiled_mission_with_the_jacobi_delay(w
 def test_gauss_seidel_master_equals_the_compiled_mission(work):
     for name, dur in (("full_sine", SINE_S), ("full_velocity", VELOCITY_S)):
         sc, _ = _scenario(name, dur)
-        run = run_ssp(_ssp(name, dur, work), master="gauss-seidel")
+        ssp = _ssp(name, dur, work)
+        t0 = time.perf_counter()
+        run = run_ssp(ssp, master="gauss-seidel")
+        # the co-simulation's wall time: positive, within the call's
+        assert 0.0 < run.wall_s <= time.perf_counter() - t0
         ref = run_scenario(sc, ClosedLoop()).arrays
         log = sil_log(run)
         ds, dt = _max_diff(log, ref)
