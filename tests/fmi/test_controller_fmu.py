@@ -16,6 +16,8 @@ from _fmu_support import fuzz_counts
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
+from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, STATE
 from ballbot_casadi.core.params import PARAM_INFO, PARAM_NAMES
 from ballbot_casadi.core.validation import QUAT_TOL
 from ballbot_casadi.fmi.controller.controller import (
@@ -136,6 +138,7 @@ def test_fmu_equals_the_compiled_embedded_step(ctrl, est):
     fmu, ref = Controller(ctrl, est), _Reference(ctrl, est)
     fmu.init()
     fmu.set(v_ref_x=VREF[0], v_ref_y=VREF[1], yaw_rate_ref=VREF[2])
+    L = software_layout(ref.f, est)
     worst, rejected = 0.0, []
     for k in range(60):
         meas = _readings(rng)
@@ -153,7 +156,12 @@ def test_fmu_equals_the_compiled_embedded_step(ctrl, est):
                           (fmu.get(*XHAT_NAMES), out["x_hat"]), (c_fmu, out["c_next"]),
                           (fmu.get("nis_attitude", "nis_velocity"), out["nis"]),
                           (fmu.get("repairs"), out["repairs"]),
-                          (rejected[-1], out["rejections"])):
+                          (rejected[-1], out["rejections"]),
+                          # the decoded outputs: the estimate's attitude angles, the filter's rate
+                          (fmu.get("roll_hat", "pitch_hat", "yaw_hat"),
+                           np.asarray(Q.to_rpy(out["x_hat"][STATE["q"]]), float).ravel()),
+                          (fmu.get("omega_hat_x", "omega_hat_y", "omega_hat_z"),
+                           out["c_next"][L["xa"]][ATTITUDE_FILTER_STATE["omega"]])):
             worst = max(worst, float(np.max(np.abs(got - want))))
     assert worst <= 1e-12
     expected = np.zeros((60, len(REJECTION_NAMES)))
