@@ -253,3 +253,29 @@ def test_simulate_duration_overrides_the_file(tmp_path):
     log = load_log(tmp_path / "o" / "run.npz")
     assert log["time"][-1] == pytest.approx(0.25, abs=1e-12) and log["time"].size == 50 // 5 + 1
     assert "duration_s = 0.25" in (tmp_path / "o" / "scenario.toml").read_text()
+
+
+@pytest.mark.parametrize("delay_s, answers", [(0.0, True), (0.4, True), (30.0, False)])
+def test_connect_waits_the_timeout_plus_a_grace_for_the_client(monkeypatch, delay_s, answers):
+    """A scheduler that answers after the client's own timeout but within the 5 s grace is
+    used (its handshake may lag); one that never answers in time is one line, after the
+    timeout plus the grace and not for ever."""
+    import distributed
+
+    made = []
+
+    class SlowClient:
+        def __init__(self, address, timeout):
+            made.append((address, timeout))
+            time.sleep(delay_s)
+
+    monkeypatch.setattr(distributed, "Client", SlowClient)
+    t0 = time.perf_counter()
+    if answers:
+        assert isinstance(cluster.connect("tcp://127.0.0.1:8786", timeout_s=0.1), SlowClient)
+    else:
+        with pytest.raises(ArgumentError, match=r"^--scheduler tcp://127.0.0.1:8786: no Dask "
+                                                 r"scheduler answered within 0.1 s \(no answer\)"):
+            cluster.connect("tcp://127.0.0.1:8786", timeout_s=0.1)
+        assert 5.0 <= time.perf_counter() - t0 < 10.0
+    assert made == [("tcp://127.0.0.1:8786", "0.1s")]
