@@ -127,6 +127,18 @@ def test_uncontrolled_mode_is_flagged_by_pbh_and_rank(lin):
     assert len(flagged) == 1 and flagged[0]["eigenvalue"].real == pytest.approx(A_EIG[6], abs=1e-9)
 
 
+def test_the_rank_counts_the_singular_values_above_rtol_of_the_largest(lin):
+    """Kalman rank = number of the Krylov matrix's singular values above ``rtol sigma_max``:
+    with ``rtol`` set between two neighbours (geometric mean), exactly the ones above."""
+    model = _setup(lin)[2]
+    sv = np.asarray(an.controllability(model)["singular_values"], float)
+    assert sv[0] > 1.1  # the largest is not 1: rtol * sigma_max and rtol / sigma_max differ
+    for k in range(len(sv) - 1):
+        rtol = np.sqrt(sv[k] * sv[k + 1]) / sv[0]
+        c = an.controllability(model, rtol=rtol)
+        assert (c["rank"], c["rtol"]) == (k + 1, rtol), k
+
+
 def test_mode_groups_pair_conjugates_and_repeated_eigenvalues():
     A = np.zeros((6, 6))
     A[:2, :2] = [[1.0, 2.0], [-2.0, 1.0]]  # 1 +- 2j
