@@ -133,6 +133,11 @@ def test_the_rank_counts_the_singular_values_above_rtol_of_the_largest(lin):
     model = _setup(lin)[2]
     sv = np.asarray(an.controllability(model)["singular_values"], float)
     assert sv[0] > 1.1  # the largest is not 1: rtol * sigma_max and rtol / sigma_max differ
+    # the docstring's Krylov matrix [B, A B, ..., A^9 B] of A / |A|_2, B / |B|_2 (scaled model)
+    A, B = an.state_scaling(model)
+    As, Bs = A / np.linalg.norm(A, 2), B / np.linalg.norm(B, 2)
+    K = np.hstack([np.linalg.matrix_power(As, i) @ Bs for i in range(10)])
+    np.testing.assert_allclose(sv, np.linalg.svd(K, compute_uv=False), rtol=1e-10)
     for k in range(len(sv) - 1):
         rtol = np.sqrt(sv[k] * sv[k + 1]) / sv[0]
         c = an.controllability(model, rtol=rtol)
