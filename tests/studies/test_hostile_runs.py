@@ -149,6 +149,23 @@ def test_malformed_scheduler_strings_are_exit_2(tmp_path, capsys, address):
     assert "PROTOCOL://HOST:PORT" in _err_line(capsys, "montecarlo")
 
 
+@pytest.mark.parametrize("address, ok", [
+    ("tcp://host:1", True), ("tcp://host:65535", True), ("tcp://host:0", False),
+    ("tcp://host:65536", False), ("tls://10.0.0.2:8786", True), ("ws://a-b.c_d:8786", True),
+    ("wss://[::1]:8786", True), ("udp://host:8786", False), ("tcp://-host:8786", False),
+    ("TCP://host:8786", False), ("tcp://host:123456", False), (8786, False), (None, False),
+])
+def test_scheduler_addresses_at_the_edges(address, ok):
+    """Ports 1..65535, the four protocols, a host name, IPv4 or bracketed IPv6."""
+    if ok:
+        assert cluster.check_scheduler_address(address) == address
+    else:
+        with pytest.raises(ArgumentError, match=r"^--scheduler .*: expected PROTOCOL://HOST:PORT "
+                                                 r"with protocol tcp, tls, ws, wss and port "
+                                                 r"1\.\.65535, e\.g\. tcp://127\.0\.0\.1:8786$"):
+            cluster.check_scheduler_address(address)
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
