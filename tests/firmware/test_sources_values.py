@@ -175,6 +175,9 @@ def test_guidance_every_is_the_law_period_in_control_periods():
     from ballbot_casadi.sim.guided import GUIDANCE_EVERY
     assert TS_CONTROL == pytest.approx(0.005, rel=0, abs=1e-15) and GUIDANCE_EVERY == 20
     assert guidance_every(SimpleNamespace(config=SimpleNamespace(dt=0.035))) == 7  # 35 ms / 5 ms
+    # the nearest whole number of periods: 0.03 / 0.005 is 5.999... in floating point
+    for dt, want in ((0.03, 6), (0.015, 3), (0.1, 20), (0.0374, 7), (0.0376, 8)):
+        assert guidance_every(SimpleNamespace(config=SimpleNamespace(dt=dt))) == want, dt
     assert guidance_every(SimpleNamespace(config=None)) == 20
 
 
