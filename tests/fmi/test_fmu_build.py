@@ -195,6 +195,36 @@ def test_generation_is_deterministic(plant):
     assert again.fmu.read_bytes() == plant.fmu.read_bytes()
 
 
+def test_the_archive_is_written_deterministically(plant, tmp_path):
+    """Members sorted by name, each dated 1980-01-01 00:00:00, deflated, mode 0755 for the
+    binary and 0644 for the rest; the same tree zipped twice (its files touched in between)
+    gives the same bytes."""
+    import os
+    import zipfile
+
+    from ballbot_casadi.fmi.package import _write_zip
+
+    with zipfile.ZipFile(plant.fmu) as zf:
+        infos = zf.infolist()
+    names = [i.filename for i in infos]
+    assert names == sorted(names) and any(n.endswith(".so") for n in names)
+    for i in infos:
+        assert i.date_time == (1980, 1, 1, 0, 0, 0) and i.compress_type == zipfile.ZIP_DEFLATED, i
+        assert i.external_attr >> 16 == (0o755 if i.filename.endswith(".so") else 0o644), i
+    tree = tmp_path / "tree"
+    (tree / "b").mkdir(parents=True)
+    for rel, data in (("z.txt", b"z"), ("a.xml", b"<a/>"), ("b/m.so", b"\x7fELF")):
+        (tree / rel).write_bytes(data)
+    _write_zip(tree, tmp_path / "one.zip")
+    for rel in ("z.txt", "a.xml", "b/m.so"):
+        os.utime(tree / rel, (1.7e9, 1.7e9))
+    _write_zip(tree, tmp_path / "two.zip")
+    assert (tmp_path / "one.zip").read_bytes() == (tmp_path / "two.zip").read_bytes()
+    with zipfile.ZipFile(tmp_path / "one.zip") as zf:
+        assert zf.namelist() == ["a.xml", "b/m.so", "z.txt"]
+        assert zf.read("b/m.so") == b"\x7fELF"
+
+
 def test_cli_build_info_validate(plant, capsys):
     out = plant.fmu.parent
     assert cli_main(["fmu", "build", "--out", str(out)]) == 0
