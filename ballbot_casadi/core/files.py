@@ -23,6 +23,8 @@ never see a half-written output.  The helpers here give three guarantees:
   files matching the ``owned`` patterns; anything else raises :class:`PathError`
   instead of deleting someone's files.  :func:`check_output_dir` with the same
   ``owned`` tells that before any computation.
+* :func:`zip_bytes`: a deterministic zip archive (sorted members, fixed timestamps and
+  modes), so an FMU or SSP rebuilt from the same content has the same bytes.
 * :func:`write_manifest` / :func:`check_manifest`: the size and SHA-256 of build
   artifacts, recorded (atomically, last) when they are built and compared before they
   are used, so a truncated, emptied or deleted file is detected and rebuilt instead of
@@ -40,10 +42,12 @@ import ctypes.util
 import errno
 import fnmatch
 import hashlib
+import io
 import json
 import os
 import shutil
 import tempfile
+import zipfile
 from pathlib import Path
 from typing import Iterable, Iterator, Mapping
 
@@ -54,6 +58,7 @@ __all__ = [
     "OUTPUT_MARKER",
     "atomic_write_text",
     "atomic_write_bytes",
+    "zip_bytes",
     "staged_dir",
     "sha256_file",
     "write_manifest",
@@ -65,6 +70,8 @@ __all__ = [
 
 #: Hidden file that marks a folder written by :func:`staged_dir` (so it may be replaced).
 OUTPUT_MARKER = ".ballbot-output"
+#: Date and time of every member of a :func:`zip_bytes` archive (the zip format's epoch).
+ZIP_DATE_TIME = (1980, 1, 1, 0, 0, 0)
 #: Read block size of :func:`sha256_file`.
 _BLOCK = 1 << 20
 
@@ -118,6 +125,21 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes, mode: int = 0o644) 
         raise
     _fsync_dir(path.parent)
     return path
+
+
+def zip_bytes(members: Mapping[str, bytes], executable: Iterable[str] = ()) -> bytes:
+    """A deflated zip archive of ``members`` (name -> content) that depends on nothing else:
+    members in sorted order, each dated :data:`ZIP_DATE_TIME`, mode 0755 for the names in
+    ``executable`` and 0644 for the others."""
+    executable = set(executable)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        for name in sorted(members):
+            info = zipfile.ZipInfo(name, ZIP_DATE_TIME)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = (0o755 if name in executable else 0o644) << 16
+            zf.writestr(info, members[name])
+    return buf.getvalue()
 
 
 def atomic_write_text(path: str | os.PathLike, text: str, encoding: str = "utf-8",

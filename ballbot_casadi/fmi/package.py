@@ -35,7 +35,13 @@ from xml.etree import ElementTree
 
 import fmpy
 
-from ballbot_casadi.core.files import check_manifest, sha256_file, write_manifest
+from ballbot_casadi.core.files import (
+    atomic_write_bytes,
+    check_manifest,
+    sha256_file,
+    write_manifest,
+    zip_bytes,
+)
 from ballbot_casadi.core.toolchain import (
     MANIFEST,
     build_lock,
@@ -204,15 +210,10 @@ def validate_fmu_archive(path: str | Path, binary_sha256: str | None = None,
 
 
 def _write_zip(root: Path, target: Path) -> None:
-    """Deterministic zip of ``root`` (sorted names, fixed timestamps and modes)."""
-    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
-        for path in sorted(p for p in root.rglob("*") if p.is_file()):
-            info = zipfile.ZipInfo(path.relative_to(root).as_posix(), (1980, 1, 1, 0, 0, 0))
-            info.compress_type = zipfile.ZIP_DEFLATED
-            info.external_attr = (0o755 if path.suffix == ".so" else 0o644) << 16
-            zf.writestr(info, path.read_bytes())
-    os.replace(tmp, target)
+    """The files under ``root`` as a deterministic zip (:func:`zip_bytes`; the shared
+    objects executable), written atomically."""
+    files = {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+    atomic_write_bytes(target, zip_bytes(files, executable=[n for n in files if n.endswith(".so")]))
 
 
 def verify_cache(cache: Path, model_identifier: str, fmi_version: int = 2) -> str | None:

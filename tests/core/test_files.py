@@ -178,3 +178,23 @@ def test_check_input_file(tmp_path):
     p = tmp_path / "robot.toml"
     p.write_text("[body]\n")
     assert F.check_input_file(p) == p
+
+
+def test_zip_bytes_depends_on_the_members_only():
+    """Sorted members dated 1980-01-01, deflated, 0755 only for the executables; the same
+    members in another order give the same bytes; the content reads back."""
+    import io
+    import zipfile
+
+    members = {"z.txt": b"zz" * 100, "a/b.so": b"\x7fELF" * 50, "m.xml": b"<m/>"}
+    data = F.zip_bytes(members, executable=["a/b.so"])
+    assert F.zip_bytes(dict(reversed(list(members.items()))), executable=("a/b.so",)) == data
+    assert F.zip_bytes(members) != data  # the mode is part of the archive
+    with zipfile.ZipFile(io.BytesIO(data)) as zf:
+        infos = zf.infolist()
+        assert [i.filename for i in infos] == ["a/b.so", "m.xml", "z.txt"]
+        for i in infos:
+            assert i.date_time == F.ZIP_DATE_TIME == (1980, 1, 1, 0, 0, 0)
+            assert i.compress_type == zipfile.ZIP_DEFLATED
+            assert i.external_attr >> 16 == (0o755 if i.filename == "a/b.so" else 0o644)
+            assert zf.read(i) == members[i.filename]

@@ -202,7 +202,7 @@ def test_the_archive_is_written_deterministically(plant, tmp_path):
     import os
     import zipfile
 
-    from ballbot_casadi.fmi.package import _write_zip
+    from ballbot_casadi.fmi.package import _write_zip  # the FMU's files through zip_bytes
 
     def check(archive):
         with zipfile.ZipFile(archive) as zf:

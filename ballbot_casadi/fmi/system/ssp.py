@@ -30,7 +30,6 @@ scenario) is :func:`ballbot_casadi.fmi.system.sil.sil_system`.
 from __future__ import annotations
 
 import math
-import os
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,6 +39,7 @@ from xml.sax.saxutils import quoteattr
 
 from fmpy import read_model_description
 
+from ballbot_casadi.core.files import atomic_write_bytes, zip_bytes
 from ballbot_casadi.errors import BuildError, FileFormatError, PathError
 from ballbot_casadi.fmi.archive import check_members
 
@@ -336,19 +336,7 @@ def write_ssp(path: str | Path, components: Sequence[SspComponent],
             raise BuildError(f"resource {n!r} clashes with a file of the system")
         members[f"resources/{n}"] = data
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
-            for member in sorted(members):
-                info = zipfile.ZipInfo(member, (1980, 1, 1, 0, 0, 0))
-                info.compress_type = zipfile.ZIP_DEFLATED
-                info.external_attr = 0o644 << 16
-                zf.writestr(info, members[member])
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+    return atomic_write_bytes(path, zip_bytes(members))
 
 
 def _value(el: ElementTree.Element) -> Value:
