@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from _figures import assert_style, line
 
-import studies.heading as H
+import studies.heading as H  # noqa: I001 - the study module under test
+from ballbot_casadi.core.sensor_params import load_sensor_params
 
 DEG = np.pi / 180
 
@@ -77,6 +78,12 @@ def test_every_metric_by_hand(study):
     assert m["unaided_drift_per_hour_abs_mean_deg"] == pytest.approx(2.25 * 3600 / 199, rel=1e-12)
     assert m["unaided_drift_per_hour_abs_max_deg"] == pytest.approx(2.5 * 3600 / 199, rel=1e-12)
     assert m["seeds"] == [3, 4] and m["passed"] is True
+    # the heading sensor's noise in degrees (the shipped 0.2 deg, 1 sigma) and its rate
+    sp = load_sensor_params()
+    assert m["heading_sensor_sigma_deg"] == pytest.approx(np.degrees(np.sqrt(sp.heading_noise_var[0])),
+                                                          rel=1e-12)
+    assert m["heading_sensor_sigma_deg"] == pytest.approx(0.2, rel=1e-6)
+    assert m["heading_sensor_rate_hz"] == sp.heading_rate[0] == 10.0
     assert json.loads((out / "metrics.json").read_text()) == m
     report = (out / "report.md").read_text()
     assert "| aided heading error, max after 1 min | 0.400 deg |" in report
