@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from _figures import assert_style, line
 
-import studies.heading as H  # noqa: I001 - the study module under test
+import studies.heading as H
 from ballbot_casadi.core.sensor_params import load_sensor_params
 
 DEG = np.pi / 180
