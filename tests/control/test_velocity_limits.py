@@ -4,6 +4,7 @@ the braking envelope (tilt-reference acceleration, rate, tilt), and the envelope
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from ballbot_casadi.control import default_velocity_gains, make_velocity_controller
 from ballbot_casadi.control.velocity import (
@@ -65,3 +66,36 @@ def test_braking_bound_stops_at_the_tilt_limit():
         z = vel(x, np.array([0.5, 0.0, 0.0]), z, p, k, TS_CONTROL)[3].full().ravel()
         peak = max(peak, z[Z["theta_r"]][0])
     assert peak <= tilt_max + 1e-12
+
+
+def test_the_braking_bound_is_the_largest_rate_that_still_stops_at_the_tilt_limit():
+    """With the reference pushed outward, the next tilt-reference rate is exactly the
+    bound ``v_n`` solving ``th + Ts (dth + v_n) / 2 + v_n^2 / (2 a_max) = tilt_max``
+    (thesis §7.1 (5) with the acceleration limit (2)), or the rate limit; mirrored for a
+    backward tilt, on the x axis and on y."""
+    vel = make_velocity_controller()
+    p = load_params().to_vector()
+    k = default_velocity_gains(make_jacobians(), p, TS_CONTROL)
+    a, rate_max, tilt_max, Ts = LIM["tilt_acc_max"], LIM["tilt_rate_max"], LIM["tilt_max"], TS_CONTROL
+    n_braking = 0
+    for th_frac, frac in ((0.8, 0.99), (0.95, 0.9), (0.95, 0.999), (-0.5, 0.99)):
+        th = th_frac * tilt_max
+        dth = min(frac * np.sqrt(2 * a * (tilt_max - th)), rate_max)
+        # the quadratic's positive root: v_n = -a Ts / 2 + sqrt((a Ts / 2)^2 + 2 a room)
+        room = tilt_max - th - 0.5 * Ts * dth
+        v_n = -0.5 * a * Ts + np.sqrt((0.5 * a * Ts) ** 2 + 2 * a * room)
+        assert abs(th + Ts * (dth + v_n) / 2 + v_n ** 2 / (2 * a) - tilt_max) < 1e-15
+        want = min(v_n, rate_max)
+        n_braking += v_n < rate_max
+        for axis, sign in ((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)):
+            z = np.zeros(Z.size)
+            z[Z["theta_r"].start + axis] = sign * th
+            z[Z["dtheta_r"].start + axis] = sign * dth
+            # a velocity error that pushes the tilt outward: theta_rx (about x) leans the
+            # robot towards -y, theta_ry (about y) towards +x
+            v_ref = np.zeros(3)
+            v_ref[1 - axis] = (-2.0 if axis == 0 else 2.0) * sign
+            z_next = vel(make_state(), v_ref, z, p, k, Ts)[3].full().ravel()
+            assert z_next[Z["dtheta_r"]][axis] == pytest.approx(sign * want, rel=0, abs=1e-12), \
+                (th_frac, frac, axis, sign)
+    assert n_braking == 3  # the braking bound, not the rate limit, in three of the four
