@@ -21,7 +21,8 @@ from ballbot_casadi.model.numeric import make_state
 
 pytestmark = pytest.mark.needs_cc
 
-CS_STATES = ("instantiated", "initializationMode", "stepComplete", "terminated", "error")
+CS_STATES = ("instantiated", "initializationMode", "stepComplete", "stepFailed", "terminated",
+             "error")
 ME_STATES = ("instantiated", "initializationMode", "eventMode", "continuousTimeMode",
              "terminated", "error")
 
@@ -34,6 +35,12 @@ def _enter(kind: str, state: str) -> Plant:
     p.fmu.setupExperiment(startTime=0.0)
     p.fmu.enterInitializationMode()
     if state == "initializationMode":
+        return p
+    if state == "stepFailed":  # a diverging step is discarded (Co-Simulation)
+        x = make_state(roll=0.3, omega_body=(200.0, 0.0, 0.0))
+        p.set(**dict(zip(X0_NAMES, x.tolist())), h_internal=0.5)
+        p.fmu.exitInitializationMode()
+        assert p.raw("fmi2DoStep", c_double(0.0), c_double(500.0), 1) == 2  # fmi2Discard
         return p
     if state == "error":  # derivatives overflow: exiting initialisation fails
         x = make_state().tolist()
@@ -155,37 +162,38 @@ def _deserialize(p: Plant, s: c_void_p) -> int:
 
 # expected: 1 allowed, 0 refused; "-" not for this interface; "e" allowed by the call table
 # but answered with an error (a feature the FMU does not provide)
-CS_TABLE = {  # instantiated, initializationMode, stepComplete, terminated, error
-    "fmi2SetupExperiment": "10000",
-    "fmi2EnterInitializationMode": "10000",
-    "fmi2ExitInitializationMode": "01000",
-    "fmi2Terminate": "00100",
-    "fmi2Reset": "11111",
-    "fmi2GetReal": "01110",
-    "fmi2GetInteger": "01110",
-    "fmi2GetBoolean": "01110",
-    "fmi2SetReal": "11100",
-    "fmi2GetDirectionalDerivative": "01110",
-    "fmi2DoStep": "00100",
-    "fmi2GetStatus": "00110",
-    "fmi2GetFMUstate": "11111",
-    "fmi2SetDebugLogging": "11111",
-    "fmi2SetInteger": "11100",
-    "fmi2SetBoolean": "11100",
-    "fmi2SetString": "11100",
-    "fmi2GetString": "01110",
-    "fmi2SetFMUstate": "11111",
-    "fmi2FreeFMUstate": "11111",
-    "fmi2SerializedFMUstateSize": "11111",
-    "fmi2SerializeFMUstate": "11111",
-    "fmi2DeSerializeFMUstate": "11111",
-    "fmi2SetRealInputDerivatives": "11100",
-    "fmi2GetRealOutputDerivatives": "00110",
-    "fmi2CancelStep": "00e00",
-    "fmi2GetRealStatus": "00110",
-    "fmi2GetIntegerStatus": "00ee0",
-    "fmi2GetBooleanStatus": "00110",
-    "fmi2GetStringStatus": "00ee0",
+CS_TABLE = {  # instantiated, initializationMode, stepComplete, stepFailed, terminated, error
+    # (stepFailed, FMI 2.0: getters, status, terminate, reset, FMU states; no setter or step)
+    "fmi2SetupExperiment": "100000",
+    "fmi2EnterInitializationMode": "100000",
+    "fmi2ExitInitializationMode": "010000",
+    "fmi2Terminate": "001100",
+    "fmi2Reset": "111111",
+    "fmi2GetReal": "011110",
+    "fmi2GetInteger": "011110",
+    "fmi2GetBoolean": "011110",
+    "fmi2SetReal": "111000",
+    "fmi2GetDirectionalDerivative": "011110",
+    "fmi2DoStep": "001000",
+    "fmi2GetStatus": "001110",
+    "fmi2GetFMUstate": "111111",
+    "fmi2SetDebugLogging": "111111",
+    "fmi2SetInteger": "111000",
+    "fmi2SetBoolean": "111000",
+    "fmi2SetString": "111000",
+    "fmi2GetString": "011110",
+    "fmi2SetFMUstate": "111111",
+    "fmi2FreeFMUstate": "111111",
+    "fmi2SerializedFMUstateSize": "111111",
+    "fmi2SerializeFMUstate": "111111",
+    "fmi2DeSerializeFMUstate": "111111",
+    "fmi2SetRealInputDerivatives": "111000",
+    "fmi2GetRealOutputDerivatives": "001110",
+    "fmi2CancelStep": "00ee00",
+    "fmi2GetRealStatus": "001110",
+    "fmi2GetIntegerStatus": "00eee0",
+    "fmi2GetBooleanStatus": "001110",
+    "fmi2GetStringStatus": "00eee0",
     "fmi2GetEventIndicators": "-", "fmi2GetNominalsOfContinuousStates": "-",
     "fmi2SetContinuousStates": "-",
     "fmi2EnterEventMode": "-", "fmi2NewDiscreteStates": "-", "fmi2SetTime": "-",
