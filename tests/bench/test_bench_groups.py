@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import json
 import math
+import subprocess
 
 import pytest
 
@@ -21,10 +22,18 @@ from ballbot_casadi.bench import control as bench_control_mod
 from ballbot_casadi.bench import estimation as bench_estimation_mod
 from ballbot_casadi.bench import fmu as bench_fmu_mod
 from ballbot_casadi.bench import fmu3 as bench_fmu3_mod
+from ballbot_casadi.core.toolchain import build_root
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.firmware.toolchain import missing_tools
 
 pytestmark = pytest.mark.needs_cc
+
+
+def _usage(program: str, line: str) -> None:
+    """The C benchmark program the group just built: a call without its arguments is a
+    usage line on stderr and exit status 2 (a user error), nothing on stdout."""
+    res = subprocess.run([str(build_root() / "bench" / program)], capture_output=True, text=True)
+    assert (res.returncode, res.stdout, res.stderr) == (2, "", f"usage: {program} {line}\n")
 
 
 def _check(data: dict, keys: set[str]) -> None:
@@ -44,6 +53,7 @@ def test_model_group(monkeypatch):
     monkeypatch.setattr(bench, "_python_call_ns", functools.partial(bench._python_call_ns, 200))
     _check(bench.bench_model(n_calls=1000),
            {"ode_ns", "jac_ns", "python_call_ns", "python_over_c_ratio", "ode_target_ns", "jac_target_ns"})
+    _usage("bench_model", "N_CALLS x[12] tau[3] p[...]")
 
 
 def test_control_group(monkeypatch):
@@ -55,6 +65,7 @@ def test_control_group(monkeypatch):
             "mission_build_s", "mission_100s_casadi_call_s", "mission_driver_vs_casadi_max_abs_diff",
             "python_loop_period_us", "mission_period_us", "python_loop_ratio",
             "control_step_target_us", "mission_100s_target_s"})
+    _usage("bench_control", "N_CALLS INPUT_FILE")
 
 
 def test_estimation_inputs_are_passed_by_name(monkeypatch):
