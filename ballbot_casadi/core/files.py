@@ -1,7 +1,7 @@
-"""Atomic file and folder writing, content manifests and path checks.
+"""Atomic file and folder writing, deterministic zip archives, content manifests and path checks.
 
 A reader (another process, a Dask worker, the next run after a crash or Ctrl-C) must
-never see a half-written output.  The helpers here give three guarantees:
+never see a half-written output.  The helpers here give these guarantees:
 
 * :func:`atomic_write_text` / :func:`atomic_write_bytes`: a file is written to a
   temporary name in the *same* directory, flushed to disk (``fsync``) and renamed over
