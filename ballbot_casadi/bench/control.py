@@ -32,6 +32,7 @@ import subprocess
 import time
 from importlib import resources
 from pathlib import Path
+
 import casadi as ca
 import numpy as np
 
@@ -83,11 +84,11 @@ def _expected(fns: dict[str, ca.Function], inputs: dict, kf: np.ndarray, ks: np.
     return {
         "check_tau_flc": function_nonzeros(fns["ballbot_flc"], x, *refs, p, kf)[0],
         "check_tau_smc": function_nonzeros(fns["ballbot_smc"], x, *refs, p, ks)[0],
-        "check_cl_step": function_nonzeros(step, xz, np.zeros(4), np.zeros(4), np.zeros(4), v_ref, np.zeros(6),
-                               p, p, kf, kv, Ts, 1.0, 1.0)[0],
+        "check_cl_step": function_nonzeros(step, xz, np.zeros(4), np.zeros(4), np.zeros(4), v_ref,
+                                           np.zeros(6), p, p, kf, kv, Ts, 1.0, 1.0)[0],
         "check_chunk": function_nonzeros(chunk, xz, q_ref, np.zeros((4, n)), np.zeros((4, n)),
-                             np.tile(v_ref[:, None], (1, n)), np.zeros((6, n)), p, p, kf, kv, Ts,
-                             1.0, 1.0)[0],
+                                         np.tile(v_ref[:, None], (1, n)), np.zeros((6, n)), p, p,
+                                         kf, kv, Ts, 1.0, 1.0)[0],
     }
 
 
