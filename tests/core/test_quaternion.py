@@ -1,5 +1,7 @@
 """Quaternion operators (thesis App. E) on numpy and CasADi inputs."""
 
+import math
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -101,6 +103,21 @@ def test_exp_log_finite_at_zero_in_casadi():
     val, jac = f([0, 0, 0])
     assert np.all(np.isfinite(np.array(val))) and np.all(np.isfinite(np.array(jac)))
     np.testing.assert_allclose(np.array(jac)[1:, :], np.eye(3), atol=1e-15)
+
+
+@pytest.mark.parametrize("n", [0.0, 1e-9, 1e-7, 4e-7, 9e-7, 9.99e-7, 1.01e-6, 3e-6])
+def test_exp_small_angles_match_sin_cos_to_the_last_bits(n):
+    """Below |v| = 1e-6 exp uses the Taylor terms cos = 1 - n^2/2, sin(n)/n = 1 - n^2/6
+    (the next terms are below 1e-25); both branches, numpy and CasADi, agree with
+    math.cos and math.sin(n)/n to an ulp on either side of the switch."""
+    v = np.array([0.6 * n, -0.8 * n, 0.0])
+    sinc = math.sin(n) / n if n else 1.0
+    want = np.array([math.cos(n), sinc * v[0], sinc * v[1], 0.0])
+    s = ca.SX.sym("v", 3)
+    f = ca.Function("f", [s], [Q.exp(s)])
+    for got in (np.asarray(Q.exp(v), float).ravel(), np.array(f(v)).ravel()):
+        assert abs(got[0] - want[0]) <= 2.3e-16
+        np.testing.assert_allclose(got[1:3], want[1:3], rtol=3e-16, atol=0)
 
 
 def test_bad_shapes():

@@ -9,6 +9,8 @@ it, so an off-by-one comparison or a dropped check changes the outcome.
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from ballbot_casadi.errors import ScenarioError, ScenarioFileError
@@ -113,6 +115,13 @@ def _scenario():
     ({"torque_disturbances": ((0.5, 0.5, 1.0, 0.0, 0.0),)}, "torque_disturbance[0]"),
     ({"torque_disturbances": ((0.5, 0.6, 1.0, 0.0, 0.0),)}, None),
     ({"sensor_dropouts": ((0.5, 0.5, "acc"),)}, "sensor_dropout[0]"),
+    # each time a finite number: an endless or textual window is refused, not compared
+    ({"sensor_dropouts": ((0.5, math.inf, "acc"),)}, "sensor_dropout[0]"),
+    ({"sensor_dropouts": ((0.5, "2", "acc"),)}, "sensor_dropout[0]"),
+    ({"sensor_dropouts": ((math.nan, 1.0, "acc"),)}, "sensor_dropout[0]"),
+    ({"sensor_dropouts": (("0", 1.0, "acc"),)}, "sensor_dropout[0]"),
+    ({"sensor_dropouts": ((0.5, 1.0, "acc"), (0.5, math.inf, "gyro"))}, "sensor_dropout[1]"),
+    ({"sensor_dropouts": ((0.5, 1e300, "acc"),)}, None),
     ({"sensor_glitches": ((1.0, "gyro", "x", 1.0),), "estimator": "ukf"}, "sensor_glitch[0]"),
     ({"sensor_glitches": ((0.995, "gyro", "x", 1.0),), "estimator": "ukf"}, None),
     ({"seed": 2**32}, "seed"),

@@ -50,7 +50,8 @@ def _study(tmp_path, monkeypatch, plot):
         return _run(t, 0.5 * (seed + 1) * (t / t[-1]) * (1 if seed % 2 else -1))  # a drift ramp
 
     monkeypatch.setattr(H, "heading_run", fake)
-    m = H.run_heading_study(tmp_path, plot=plot, duration=200.0, seeds=(3, 4))
+    kwargs = {} if plot is None else {"plot": plot}   # None: the study's default
+    m = H.run_heading_study(tmp_path, duration=200.0, seeds=(3, 4), **kwargs)
     return m, calls, tmp_path, (t, aided_err, lost_err)
 
 
@@ -101,7 +102,7 @@ def test_the_verdict_at_and_past_the_bound(tmp_path, monkeypatch):
 
 
 def test_the_plot_draws_each_run_in_minutes_against_its_band(tmp_path, monkeypatch, saved):
-    _, _, _, (t, aided_err, lost_err) = _study(tmp_path, monkeypatch, plot=True)
+    _, _, _, (t, aided_err, lost_err) = _study(tmp_path, monkeypatch, plot=None)  # draws by default
     top, bottom = saved["heading.png"]
     x, y = line(top, "aided (10 Hz heading)")
     np.testing.assert_allclose(x, t / 60, rtol=1e-15)

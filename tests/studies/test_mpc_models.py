@@ -90,6 +90,23 @@ def test_decision_keeps_the_default_unless_a_variant_is_clearly_better() -> None
     assert MM.decide(_metrics({"shipped": 1.0, "full": 1.0, "nmpc": 0.5}, completed=0.0))[0] == "shipped"
 
 
+def test_a_variant_without_a_completion_number_has_not_completed() -> None:
+    """A missing ``{course}_{variant}_completed`` counts as 0 (nothing completed), so a variant
+    whose runs left no completion number cannot win against a default that completed; a missing
+    tilt counts as failing its bound the same way, a missing clearance as no obstacle."""
+    m = _metrics({"shipped": 1.0, "full": 1.0, "nmpc": 0.5})
+    assert MM.decide(m)[0] == "nmpc"
+    for key in ("completed", "peak_tilt_deg", "peak_tilt_rate_deg_s"):
+        for c in MM.COURSES:
+            short = dict(m)
+            del short[f"{c}_nmpc_{key}"]
+            assert MM.decide(short)[0] == "shipped", (key, c)
+    # with no completion number for the default either, completion no longer decides
+    none = {k: v for k, v in m.items() if not k.endswith("_completed")}
+    assert MM.decide(none)[0] == "nmpc"
+    assert MM.decide({k: v for k, v in m.items() if not k.endswith("_clearance_m")})[0] == "nmpc"
+
+
 def test_the_nonlinear_variant_predicts_by_stepping_its_model_from_each_new_state(monkeypatch) -> None:
     """The nmpc variant's predictor rolls its loop model forward one sample at a time, each
     step from the state the last one reached, and returns the 14-state's position rows
