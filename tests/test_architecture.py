@@ -175,3 +175,42 @@ def test_the_checks_catch_what_they_are_for():
     assert len(_packed_indexing(ast.parse("a = c[C['xa']] + xz[nx:] + q[0:4] + xz[-1, X['c']]"))) == 0
     assert _port_tuples(ast.parse("NAMES = ('q_ref', 'dq_ref', 'w')"), ports)
     assert not _port_tuples(ast.parse("NAMES = ('time', 'state', 'q_ref')"), ports)
+
+
+#: Dataclasses that are filled in as a run goes (result logs): the only mutable ones.
+MUTABLE_DATACLASSES = {"SilRun", "PathRun", "SimulationLog"}
+
+
+def _dataclasses(tree: ast.AST) -> dict[str, bool | None]:
+    """``{class name: frozen}`` of the ``@dataclass`` classes in ``tree`` (``frozen=`` read
+    as written; ``None`` when it is not a literal)."""
+    out: dict[str, bool | None] = {}
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.ClassDef):
+            continue
+        for d in node.decorator_list:
+            call = d if isinstance(d, ast.Call) else None
+            name = (call.func if call else d)
+            if (name.id if isinstance(name, ast.Name) else getattr(name, "attr", None)) != "dataclass":
+                continue
+            kw = {k.arg: k.value for k in call.keywords} if call else {}
+            frozen = kw.get("frozen", ast.Constant(False))
+            out[node.name] = frozen.value if isinstance(frozen, ast.Constant) else None
+    return out
+
+
+def test_value_dataclasses_are_frozen():
+    """Every dataclass in the package and the studies is frozen (values that are shared
+    between runs, caches and Dask workers cannot be changed behind a reader's back), but the
+    result logs a run fills in."""
+    found = {}
+    for _, path in _modules():
+        for name, frozen in _dataclasses(ast.parse(path.read_text())).items():
+            found[name] = (frozen, path)
+    assert len(found) > 40
+    mutable = {n for n, (f, _) in found.items() if f is not True}
+    assert mutable == MUTABLE_DATACLASSES, {n: str(found[n][1]) for n in mutable ^ MUTABLE_DATACLASSES}
+    assert _dataclasses(ast.parse("@dataclass(frozen=False)\nclass A: pass\n@dataclass\nclass B: pass\n"
+                                  "@dataclasses.dataclass(frozen=True, eq=False)\nclass C: pass")) == \
+        {"A": False, "B": False, "C": True}
+

@@ -59,8 +59,16 @@ typedef struct {
 /* A table entry is 0 or 1; anything else does not compile (negative array size). */
 #define RULE_BIT(flag, bit) \
     (((flag) ? (bit) : 0u) * (unsigned)sizeof(char[((flag) == 0 || (flag) == 1) ? 1 : -1]))
+/* A state only the other instance type reaches is 0: a Model Exchange call has no
+ * stepComplete or stepFailed entry, a Co-Simulation call no eventMode or
+ * continuousTimeMode entry (anything else does not compile). */
+#define RULE_IFACE(iface, evnt, cont, step, fail)                                           \
+    ((iface) * (unsigned)sizeof(char[(((iface) == ME && ((step) || (fail))) ||                \
+                                      ((iface) == CS && ((evnt) || (cont))))                  \
+                                         ? -1                                               \
+                                         : 1]))
 #define RULE(fn, iface, inst, init, evnt, cont, step, fail, term, err)                         \
-    {fn, iface,                                                                             \
+    {fn, RULE_IFACE(iface, evnt, cont, step, fail),                                         \
      RULE_BIT(inst, FMU_ST_INSTANTIATED) | RULE_BIT(init, FMU_ST_INIT) |                    \
          RULE_BIT(evnt, FMU_ST_EVENT) | RULE_BIT(cont, FMU_ST_CONT) |                       \
          RULE_BIT(step, FMU_ST_STEP_COMPLETE) | RULE_BIT(fail, FMU_ST_STEP_FAILED) |        \

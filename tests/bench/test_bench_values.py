@@ -306,6 +306,22 @@ class _Ctx:
         return False
 
 
+def test_montecarlo_group_runs_the_shipped_com_scenario_for_the_asked_duration():
+    """The group's source is the shipped ``com`` scenario (its dispersions drawn), only its
+    duration changed."""
+    from ballbot_casadi.sim.scenario import load_scenario_file
+    from ballbot_casadi.studies.registry import shipped_scenarios
+
+    src = bm._source(0.75)
+    shipped = load_scenario_file(shipped_scenarios()["com"])
+    assert src.scenario.duration == 0.75 and src.table["duration_s"] == 0.75
+    assert src.scenario.replace(duration=shipped.scenario.duration) == shipped.scenario
+    assert src.montecarlo == shipped.montecarlo and src.montecarlo["dispersion"]
+    assert src.specs == shipped.specs
+    assert {k: v for k, v in src.table.items() if k != "duration_s"} == \
+        {k: v for k, v in shipped.table.items() if k != "duration_s"}
+
+
 def test_montecarlo_group_by_hand(monkeypatch):
     import distributed
 

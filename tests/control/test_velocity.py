@@ -54,6 +54,40 @@ def test_reduced_design_model_is_exact_at_upright(model_functions, default_param
     assert np.abs(A[np.ix_([6, 7, 9, 10], [0, 1, 2, 5, 8, 11])]).max() < 1e-12
 
 
+def test_design_model_is_the_linearised_plant_under_the_flc(model_functions):
+    """The continuous design model's plant rows (ball velocity, tilt, tilt rate) equal the
+    Jacobian of the plant ODE closed by the FLC itself (default gains, CasADi AD), on a robot
+    with rolling friction so that every reduced coordinate acts: the columns of the reduced
+    state ``[dx, dy, th_x, th_y, dth_x, dth_y]`` (``th = 2 q_vec``), of the tilt reference and
+    its rate (``q_ref = [1, th_r / 2]``, ``dq_ref = [0, dth_r / 2]``) and of the input, the
+    tilt-reference acceleration (``ddq_ref = [0, a / 2]``)."""
+    import casadi as ca
+
+    from ballbot_casadi import load_params
+    from ballbot_casadi.control import FLC_DEFAULT_GAINS
+
+    p = load_params(Bvk=0.4, Bvm=0.01, Bvb=0.05).to_vector()
+    x, r, dr, a = (ca.MX.sym(n, k) for n, k in (("x", 12), ("r", 2), ("dr", 2), ("a", 2)))
+    q_ref = ca.vertcat(1, r / 2, 0)
+    tau = make_flc(model_functions["affine"])(x, q_ref / ca.norm_2(q_ref), ca.vertcat(0, dr / 2, 0),
+                                              ca.vertcat(0, a / 2, 0), p, FLC_DEFAULT_GAINS)[0]
+    xd = model_functions["ode"](x, tau, p)
+    J = ca.Function("J", [x, r, dr, a], [ca.jacobian(xd, v) for v in (x, r, dr, a)])
+    Jx, Jr, Jdr, Ja = (np.asarray(m) for m in J(make_state(), np.zeros(2), np.zeros(2), np.zeros(2)))
+    T = np.zeros((12, 6))  # reduced -> full state
+    T[6, 0] = T[7, 1] = 1.0
+    T[[3, 4, 9, 10], [2, 3, 4, 5]] = 0.5
+    S = np.zeros((6, 12))  # full derivative -> reduced derivative
+    S[0, 6] = S[1, 7] = 1.0
+    S[[2, 3, 4, 5], [3, 4, 9, 10]] = 2.0
+    Ac, Bc, _, _ = design_model(model_functions["jac"], p, TS)
+    scale = np.abs(Ac).max()
+    assert abs(Ac[0, 0]) > 1e-3 and abs(Ac[1, 1]) > 1e-3  # friction acts on the ball velocity
+    for got, want in ((Ac[0:6, 0:6], S @ Jx @ T), (Ac[0:6, 6:8], S @ Jr), (Ac[0:6, 8:10], S @ Jdr),
+                      (Bc[0:6], S @ Ja)):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * scale)
+
+
 def test_lqr_closed_loop_is_stable_and_slower_than_the_balance_loop(model_functions, default_params):
     p = default_params.to_vector()
     K = design_velocity_lqr(model_functions["jac"], p, TS)

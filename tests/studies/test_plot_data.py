@@ -53,6 +53,9 @@ def test_pole_zero_and_singular_value_plots_draw_the_analysis(saved, tmp_path):
 
     sv_axes = saved["singular_values.png"]
     assert len(sv_axes) == 3
+    # the shared frequency axis is labelled once, under the bottom panel
+    assert [ax["xlabel"] for ax in sv_axes] == [
+        "", "", "omega (rad/s)   [dotted: unstable poles, dash-dot: RHP zeros]"]
     for ax, channel in zip(sv_axes, ("position", "tilt", "heading")):
         w, db = line(ax, "sigma_1")
         assert w[0] == pytest.approx(1e-2, rel=1e-12) and w[-1] == pytest.approx(1e2, rel=1e-12)
