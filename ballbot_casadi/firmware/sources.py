@@ -362,6 +362,7 @@ def _split_lines(f: ca.Function, law: GuidanceLaw | None, estimator: str, c_src:
         f"#define BALLBOT_FW_GUIDANCE_FIRST_LATENCY {law.first_latency}",
         f"#define BALLBOT_FW_GUIDE_OFFSET {off}",
         f"#define BALLBOT_FW_GUIDE_NS {law.state.size}",
+        f"#define BALLBOT_FW_GUIDE_NV {branches[0].numel_out(0)}",
         f"#define BALLBOT_FW_GUIDE_DUE {tail + law.tail.offset('due')}",
         f"#define BALLBOT_FW_GUIDE_SNAP {tail + law.tail.offset('snap')}",
         f"#define BALLBOT_FW_GUIDE_NSNAP {law.tail.size_of('snap')}",

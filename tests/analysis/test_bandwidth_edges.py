@@ -17,11 +17,25 @@ T = np.arange(0.0, 40.0, 0.01)
 PHI, F = chirp_phase(T, 0.2, 2.0, 40.0)
 
 
-@pytest.mark.parametrize("args", [(0.2, 2.0, 0.0), (0.2, 2.0, -1.0), (-0.1, 2.0, 10.0), (0.2, -2.0, 10.0)])
+@pytest.mark.parametrize("args", [(0.2, 2.0, 0.0), (0.2, 2.0, -1.0), (-0.1, 2.0, 10.0), (0.2, -2.0, 10.0),
+                                  (0.2, 2.0, float("nan")), (float("nan"), 2.0, 10.0)])
 def test_a_chirp_it_cannot_mean_is_refused(args):
     f0, f1, d = args
     with pytest.raises(ScenarioError, match=rf"^chirp needs duration > 0 and f0, f1 >= 0, got {d}, {f0}, {f1}$"):
         chirp_phase(T, f0, f1, d)
+
+
+@pytest.mark.parametrize("d", [1e-3, 0.5, 1.0])
+def test_a_short_chirp_is_a_chirp(d):
+    """Any positive duration: the frequency ramps from f0 to f1 over it and stays at f1,
+    the phase is its integral (by hand: 2 pi (f0 t + (f1 - f0) t^2 / (2 d)), then f1 on)."""
+    f0, f1 = 0.5, 3.0
+    t = np.array([0.0, 0.25 * d, d, d + 0.2])
+    phi, f = chirp_phase(t, f0, f1, d)
+    np.testing.assert_allclose(f, [f0, f0 + 0.25 * (f1 - f0), f1, f1], rtol=1e-15, atol=0)
+    at_end = f0 * d + 0.5 * (f1 - f0) * d
+    want = 2 * np.pi * np.array([0.0, f0 * 0.25 * d + 0.5 * (f1 - f0) * 0.0625 * d, at_end, at_end + 0.2 * f1])
+    np.testing.assert_allclose(phi, want, rtol=1e-14, atol=0)
 
 
 def test_zero_frequencies_are_allowed():

@@ -50,6 +50,9 @@ def test_split_step_has_no_mpc_and_its_config_points_at_the_guidance_state():
     assert g0[0] == 0.0 and g0[1 + law.state.offset("first")] == 1.0  # counter 0, cold start
     assert int(cfg["BALLBOT_FW_GUIDE_DUE"]) + 1 == int(cfg["BALLBOT_FW_GUIDE_SNAP"])
     assert int(cfg["BALLBOT_FW_GUIDE_SNAP"]) + int(cfg["BALLBOT_FW_GUIDE_NSNAP"]) == law.block_size
+    # the background's result buffers: the sample's reference (v_x, v_y) and next state
+    assert [law.sample.numel_out(i) for i in range(2)] == [int(cfg["BALLBOT_FW_GUIDE_NV"]),
+                                                        int(cfg["BALLBOT_FW_GUIDE_NS"])] == [2, law.state.size]
     # the interrupt step's work vector is a fraction of the sample's, and the background's
     # is its larger branch's own (not the conditional's virtual-machine count)
     assert int(cfg["BALLBOT_FW_SZ_W"]) * 3 < int(cfg["BALLBOT_FW_BG_SZ_W"]) < law.sample.sz_w() / 3

@@ -89,7 +89,7 @@ typedef struct ballbot_fw_ctx {
     unsigned long guidance_faults;          /* samples that gave NaN/Inf (not applied) */
     ballbot_fw_real bg_X[BALLBOT_FW_GUIDE_NSNAP];   /* snapshot: the loop state */
     ballbot_fw_real bg_g[BALLBOT_FW_GUIDE_NS];      /* snapshot: the sample state */
-    ballbot_fw_real bg_v[2];                        /* result: the sample's reference */
+    ballbot_fw_real bg_v[BALLBOT_FW_GUIDE_NV];      /* result: the sample's reference */
     ballbot_fw_real bg_g_next[BALLBOT_FW_GUIDE_NS]; /* result: the next sample state */
     const ballbot_fw_real *bg_arg[BALLBOT_FW_BG_SZ_ARG];
     ballbot_fw_real *bg_res[BALLBOT_FW_BG_SZ_RES];
