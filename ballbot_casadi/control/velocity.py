@@ -66,7 +66,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from ballbot_casadi.core.layout import STATE, STATE_DXY
+from ballbot_casadi.core.layout import STATE, STATE_DXY, planar_maps
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
 from ballbot_casadi.control.dlqr import stabilising_dlqr
 from ballbot_casadi.control.flc import FLC_DEFAULT_GAINS
@@ -147,13 +147,7 @@ def design_model(
     x0 = np.zeros(12)
     x0[2] = 1.0
     A, B = (np.asarray(M) for M in jac(x0, np.zeros(3), p))
-    # reduced plant s = [dx, dy, th_x, th_y, dth_x, dth_y]; q1 = th_x/2, q2 = th_y/2
-    T = np.zeros((12, 6))
-    T[6, 0] = T[7, 1] = 1.0
-    T[3, 2] = T[4, 3] = T[9, 4] = T[10, 5] = 0.5
-    S = np.zeros((6, 12))
-    S[0, 6] = S[1, 7] = 1.0
-    S[2, 3] = S[3, 4] = S[4, 9] = S[5, 10] = 2.0
+    T, S = planar_maps()  # reduced plant s = [dx, dy, th_x, th_y, dth_x, dth_y]
     As, Bs = S @ A @ T, S @ B
     # linearised FLC: u = E^-1 (v - A_y x), y = vec q, v on the tilt outputs (8.26, 8.44)
     E = B[9:12]

@@ -216,3 +216,30 @@ VELOCITY_FILTER_STATE = Layout("velocity filter state xv", [("v", 2), ("a", 2), 
 
 __all__ += ["ATTITUDE_FILTER_STATE", "VELOCITY_FILTER_STATE"]
 __all__ += ["STATE_XY", "STATE_DXY", "REDUCED_TILT", "GENERALISED"]
+
+#: Planar state of the outer-loop designs at the upright equilibrium (thesis §7.3): ball
+#: velocity, tilt angles about {K} x and y and their rates, ``s = [dx, dy, th, dth]`` with
+#: ``q_{1,2} = th_{x,y} / 2`` and ``dq_{1,2} = dth_{x,y} / 2`` to first order.
+PLANAR_STATE = Layout("planar state s", [("dxy", 2), ("th", 2), ("dth", 2)],
+                      ("dx", "dy", "th_x", "th_y", "dth_x", "dth_y"))
+
+
+def planar_maps() -> tuple[np.ndarray, np.ndarray]:
+    """``(T, S)`` between :data:`PLANAR_STATE` ``s`` and :data:`STATE` ``x`` at upright.
+
+    ``x = x_up + T s`` (12 x 6: the velocity rows, half the tilt into ``q_{1,2}``, half the
+    tilt rate into ``dq_{1,2}``) and ``s' = S x'`` (6 x 12, ``S T = I``): the linearised
+    plant ``x' = A x + B tau`` reads ``s' = S A T s + S B tau`` on the planar state.
+    """
+    T = np.zeros((STATE.size, PLANAR_STATE.size))
+    S = np.zeros((PLANAR_STATE.size, STATE.size))
+    q12 = slice(STATE["q"].start + 1, STATE["q"].start + 3)
+    dq12 = slice(STATE["dq"].start + 1, STATE["dq"].start + 3)
+    for sl, xs, k in ((PLANAR_STATE["dxy"], STATE_DXY, 1.0), (PLANAR_STATE["th"], q12, 0.5),
+                      (PLANAR_STATE["dth"], dq12, 0.5)):
+        T[xs, sl] = k * np.eye(2)
+        S[sl, xs] = np.eye(2) / k
+    return T, S
+
+
+__all__ += ["PLANAR_STATE", "planar_maps"]

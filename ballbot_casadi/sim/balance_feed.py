@@ -46,7 +46,7 @@ import numpy as np
 from ballbot_casadi.control.velocity import equilibrium_tilt, tilt_heading_reference
 from ballbot_casadi.core.constants import TS_CONTROL
 from ballbot_casadi.core.layout import VELOCITY_CONTROLLER_STATE as Z
-from ballbot_casadi.core.layout import Layout
+from ballbot_casadi.core.layout import Layout, planar_maps
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.guidance.blocks import mpc_state_layout
 from ballbot_casadi.guidance.mpc import MpcConfig, MpcLayout, PathMPC
@@ -91,10 +91,7 @@ def shape_gains(p: np.ndarray) -> ShapeGains:
     x0 = np.zeros(12)
     x0[2] = 1.0
     A, B = (np.asarray(M, float) for M in make_jacobians()(x0, np.zeros(3), p))
-    # reduced state s = [dx, dy, th_x, th_y, dth_x, dth_y] in the 12-state (q1 = th_x/2, ...)
-    T = np.zeros((12, 6))
-    T[6, 0] = T[7, 1] = 1.0
-    T[3, 2] = T[4, 3] = T[9, 4] = T[10, 5] = 0.5
+    T, _ = planar_maps()  # reduced state s = [dx, dy, th_x, th_y, dth_x, dth_y]
     Einv = np.linalg.inv(B[9:12])
     Ks = (A[6:8] - B[6:8] @ Einv @ A[9:12]) @ T
     Ku = B[6:8] @ Einv @ np.vstack([0.5 * np.eye(2), np.zeros((1, 2))])

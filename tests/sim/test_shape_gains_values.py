@@ -10,14 +10,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ballbot_casadi.core.params import load_params
+from ballbot_casadi.core.params import PARAM_NAMES, load_params
 from ballbot_casadi.errors import ScenarioError
 from ballbot_casadi.model.dynamics import make_jacobians
 from ballbot_casadi.sim.balance_feed import shape_gains
 
 
-@pytest.fixture(scope="module")
-def p():
+@pytest.fixture(scope="module", params=["com offset", "friction"])
+def p(request):
+    """A COM offset; and rolling and motor friction, under which the tilt rate acts on the
+    ball (at the upright robot without friction its column is zero)."""
+    if request.param == "friction":
+        return load_params().replace(Bvk=0.4, Bvm=0.01, Bvb=0.05).to_vector()
     return load_params().replace(com_x=0.004, com_y=-0.003).to_vector()
 
 
@@ -51,6 +55,8 @@ def test_ball_acceleration_of_the_reduced_state_and_tilt_acceleration(p):
             xe = _state(e)
             te = np.linalg.solve(B[9:12], -A[9:12] @ xe)
             np.testing.assert_allclose(blk @ s[sl], (A @ xe + B @ te)[6:8], rtol=1e-9, atol=1e-12)
+        if p[PARAM_NAMES.index("Bvm")] > 0:
+            assert np.abs(np.fliplr(g.K_dth).diagonal()).min() > 1e-3  # tilt about x moves y
         tu = np.linalg.solve(B[9:12], np.r_[u / 2, 0.0])
         np.testing.assert_allclose(g.K_u @ u, (B @ tu)[6:8], rtol=1e-9, atol=1e-12)
 
