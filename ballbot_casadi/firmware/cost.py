@@ -45,7 +45,7 @@ from ballbot_casadi.firmware.replay import ReplayResult
 from ballbot_casadi.firmware.sources import generated_work
 
 __all__ = ["CLOCK_HZ", "CLOCK_HZ_MAX", "IPC", "PERIOD_S", "SPLIT_MARGIN", "FirmwareCost", "GuidedCost",
-           "size_text_data", "section_sizes", "max_frame", "firmware_cost", "guided_cost",
+           "size_text_data", "section_sizes", "image_memory", "max_frame", "firmware_cost", "guided_cost",
            "arm_workspace_bytes", "period_instructions", "latency_margin", "min_latency",
            "SplitCost", "split_cost"]
 
@@ -87,6 +87,16 @@ def section_sizes(path) -> dict[str, int]:
     except (OSError, subprocess.CalledProcessError) as exc:
         raise BuildError(f"arm-none-eabi-size -A {path} failed: {exc}") from None
     return {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\.\S+)\s+(\d+)", out, re.M)}
+
+
+def image_memory(path) -> tuple[int, int]:
+    """``(static RAM, flash)`` bytes of an ELF image: RAM holds its ``.data`` and ``.bss``,
+    flash its text (``arm-none-eabi-size``'s, read-only data included) and the initial
+    values of ``.data``; a section the image lacks counts 0."""
+    sec = section_sizes(path)
+    text, _ = size_text_data(path)
+    data = sec.get(".data", 0)
+    return data + sec.get(".bss", 0), text + data
 
 
 def arm_workspace_bytes(f: ca.Function, precision: str = "double") -> int:
@@ -194,13 +204,10 @@ def guided_cost(build: FirmwareBuild, replay: ReplayResult, every: int,
     insn = replay.ticks * replay.instructions_per_tick
     k = np.arange(insn.size)
     solve, hold = insn[(k % every == 0) & (k > 0)], insn[k % every != 0]
-    sec = section_sizes(build.example_elf)
-    text, _ = size_text_data(build.example_elf)
+    ram, flash = image_memory(build.example_elf)
     return GuidedCost(float(solve.max()), float(np.median(solve)), float(insn[0]),
-                      float(hold.max()), float(np.median(hold)),
-                      sec.get(".data", 0) + sec.get(".bss", 0), replay.stack_bytes,
-                      replay.ctx_bytes, text + sec.get(".data", 0),
-                      guidance_values * replay.real_bytes)
+                      float(hold.max()), float(np.median(hold)), ram, replay.stack_bytes,
+                      replay.ctx_bytes, flash, guidance_values * replay.real_bytes)
 
 
 def period_instructions(clock_hz: float = CLOCK_HZ_MAX, ipc: float = IPC) -> float:
@@ -275,9 +282,7 @@ def split_cost(build: FirmwareBuild, replay: ReplayResult, latency: int,
     if ran.size < 2:
         raise BuildError(f"the split replay ran {ran.size} background samples; need two")
     warm = bg[ran[1:]]
-    sec = section_sizes(build.example_elf)
-    text, _ = size_text_data(build.example_elf)
+    ram, flash = image_memory(build.example_elf)
     return SplitCost(float(isr.max()), float(np.median(isr)), float(warm.max()),
-                     float(np.median(warm)), float(bg[ran[0]]), latency, first_latency,
-                     sec.get(".data", 0) + sec.get(".bss", 0), replay.stack_bytes,
-                     replay.bg_stack_bytes, replay.ctx_bytes, text + sec.get(".data", 0))
+                     float(np.median(warm)), float(bg[ran[0]]), latency, first_latency, ram,
+                     replay.stack_bytes, replay.bg_stack_bytes, replay.ctx_bytes, flash)

@@ -46,6 +46,8 @@ def test_size_parsers_sum_rows_and_read_sections(monkeypatch):
     sec = cost.section_sizes("example.elf")
     assert sec[".text"] == 20000 and sec[".data"] == 512 and sec[".bss"] == 3072
     assert sec[".heap"] == 8192 and "Total" not in sec
+    # RAM: initialised and zeroed data (not the heap reserve); flash: text and data's values
+    assert cost.image_memory("example.elf") == (512 + 3072, 1500 + 512)
 
 
 def test_a_missing_size_tool_is_a_build_error(monkeypatch):

@@ -74,6 +74,12 @@ def test_split_cost_of_a_hand_made_replay(monkeypatch, tmp_path):
     assert c.ram_bytes == 1000 + 640 + 320
     assert c.margin() == pytest.approx(3 * (2.4e6 - 120) / 1040, rel=1e-12)
     assert c.first_margin(400e6) == pytest.approx(7 * (2.0e6 - 120) / 2000, rel=1e-12)
+    # an image without initialised data: its RAM is the zeroed data alone
+    monkeypatch.setattr(cost, "section_sizes", lambda p: {".bss": 900, ".text": 5})
+    bare = cost.split_cost(SimpleNamespace(example_elf="x.elf"), rep, latency=3, first_latency=7)
+    assert (bare.static_ram_bytes, bare.flash_bytes) == (900, 7000)
+    monkeypatch.setattr(cost, "section_sizes", lambda p: {".data": 100, ".text": 5})
+    assert cost.split_cost(SimpleNamespace(example_elf="x.elf"), rep, 3, 7).static_ram_bytes == 100
     one = ReplayResult(np.zeros((8, 3)), ticks, np.zeros(8, int), 640, 100.0, 400.0, 3000, 8,
                        np.zeros((8, 3)), np.where(np.arange(8) == 0, 500.0, 0.0))
     with pytest.raises(BuildError, match="ran 1 background samples"):

@@ -195,6 +195,15 @@ def test_a_row_records_both_values_the_bound_and_its_sources():
     ours_only = TH.ThesisResult("k", "§9.1", "c", "1", None, TH.Col("s", "b", "smc"), ">", 7.0, "why")
     assert TH.thesis_table({("s", "smc"): {"b": 7.0}}, [ours_only])[0]["verdict"] == "differs"  # 7 > 7 fails
     assert TH.needed_runs([r, ours_only]) == [("s", "flc"), ("s", "smc")]
+    # a claim with no bound is not reproducible for its own reason, measured or not
+    unbounded = TH.ThesisResult("k", "§9.1", "c", "1", TH.Col("s", "a"), TH.Col("s", "b", "smc"), "<=", None,
+                                "the thesis gives no number")
+    row = TH.thesis_table({("s", "flc"): {"a": 2.5}, ("s", "smc"): {"b": 7.0}}, [unbounded])[0]
+    assert (row["verdict"], row["why"], row["thesis_setup"], row["ours"]) == \
+        ("not reproducible", "the thesis gives no number", 2.5, 7.0)
+    neither = TH.ThesisResult("k", "§9.1", "c", "1", None, None, "<=", 1.0, "no study measures it")
+    assert TH.thesis_table({}, [neither])[0]["verdict"] == "not reproducible"
+    assert TH.thesis_table({}, [neither])[0]["why"] == "no study measures it"
     ratio = TH.ThesisResult("k", "§9.1", "c", "1", TH.Ratio(TH.Col("u", "a"), TH.Col("v", "b", "smc")), None,
                             "<=", 1.0, "why")
     assert TH.needed_runs([ratio]) == [("u", "flc"), ("v", "smc")]
