@@ -10,15 +10,16 @@ import studies.envelope as E
 COLS = ("push_roll", "push_pitch", "push_diagonal", "torque_step")
 
 
-def _row(base: float, open_end: str = "") -> dict:
+def _row(base: float, open_end: str = "", open_limits: str = "push_diagonal") -> dict:
     """Envelope values base + column index (+ 10 for the within-limits kind); the column
-    named in ``open_end`` not bracketed (its search's upper end recovered)."""
+    named in ``open_end`` (``open_limits`` for the within-limits kind) not bracketed (its
+    search's upper end recovered)."""
     r = {}
-    for kind, add in (("", 0.0), ("_limits", 10.0)):
+    for kind, add, open_col in (("", 0.0, open_end), ("_limits", 10.0, open_limits)):
         for i, col in enumerate(COLS):
             r[E._key(col, kind)] = base + i + add
             b = "torque" if col == "torque_step" else col
-            r[f"{b}{kind}_bracketed"] = b != open_end
+            r[f"{b}{kind}_bracketed"] = b != open_col
     return r
 
 
@@ -48,7 +49,7 @@ def test_every_cell_under_its_controller_column_and_kind():
     assert _section(lines, "## recovered, controllers on the true state") == [
         "| flc | 1.00 | 2.00 | 3.00 | 4.00 |", "| flc_dob | 2.00 | >= 3.00 | 4.00 | 5.00 |"]
     assert _section(lines, "## recovered within the §7.1 limits, controllers on the true state") == [
-        "| flc | 11.00 | 12.00 | 13.00 | 14.00 |", "| flc_dob | 12.00 | >= 13.00 | 14.00 | 15.00 |"]
+        "| flc | 11.00 | 12.00 | >= 13.00 | 14.00 |", "| flc_dob | 12.00 | 13.00 | >= 14.00 | 15.00 |"]
     assert _section(lines, "## recovered, controllers on the QUKF + VUKF") == [
         "| flc | 3.00 | 4.00 | 5.00 | >= 6.00 |", "| flc_dob | 4.00 | 5.00 | 6.00 | 7.00 |"]
     i = lines.index("## recovered, controllers on the true state")
@@ -78,6 +79,9 @@ def test_the_observer_verdict_per_estimator_and_the_sweep():
 def test_an_estimator_run_inside_its_allowance_says_so_by_omission():
     m = _metrics()
     m["dob_same_allowance"] = {"ukf": {"undisturbed_within": True}}
+    ukf = next(s for s in E.envelope_report_lines(m) if s.startswith("- QUKF + VUKF: "))
+    assert ", flc_dob judged with the FLC's undisturbed allowance; raised:" in ukf
+    m["dob_same_allowance"] = {}  # no same-allowance run recorded: no note of one outside
     ukf = next(s for s in E.envelope_report_lines(m) if s.startswith("- QUKF + VUKF: "))
     assert ", flc_dob judged with the FLC's undisturbed allowance; raised:" in ukf
     m["dob"]["ukf"] = E.dob_verdict({"flc": _row(3.0), "flc_dob": _row(3.1)}, 0.25, 0.05)
