@@ -42,6 +42,8 @@ CASES = [
     ("max periods", _table(duration_s=MAX_PERIODS * 0.001, control_period_s=0.001), None),
     ("max periods + 1", _table(duration_s=(MAX_PERIODS + 1) * 0.001, control_period_s=0.001), "duration_s"),
     ("half a period", _table(duration_s=0.002), "duration_s"),
+    ("0.6 of a period (rounds to one)", _table(duration_s=0.003), None),
+    ("1.6 periods at 0.1 s", _table(duration_s=0.16, control_period_s=0.1), None),
     ("one period", _table(duration_s=0.005), None),
     ("0 substeps", _table(rk4_substeps=0), "rk4_substeps"),
     ("100 substeps", _table(rk4_substeps=100), None),
