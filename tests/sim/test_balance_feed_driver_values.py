@@ -49,7 +49,12 @@ class FakeSim:
                 "z": np.tile(z, (n + 1, 1)), "tau": np.zeros((n, 3)), "xz_final": None}
 
 
-def test_samples_and_fed_references_by_hand():
+def test_samples_and_fed_references_by_hand(monkeypatch):
+    import ballbot_casadi.sim.balance_feed as BF
+
+    th_eq = np.array([0.01, -0.02])  # as a COM offset would give (read at the start heading)
+    asked = []
+    monkeypatch.setattr(BF, "equilibrium_tilt", lambda p, psi: asked.append(psi) or th_eq)
     sim, mpc = FakeSim(), FakeMPC()
     run = run_balance_path(line_path((0.0, 0.0), (2.0, 0.0)), mpc, 3 * EVERY * TS, sim,
                            every=EVERY)
@@ -61,10 +66,10 @@ def test_samples_and_fed_references_by_hand():
     ref = tilt_heading_reference()
     starts = [np.asarray(sim.calls[0]["x0"], float), *sim.finals[:-1]]  # where each sample starts
     for call, Xs, x0 in zip(sim.calls, mpc.samples, starts):
-        # the sample's state: ball velocity, tilt reference about the upright equilibrium (a
-        # centred COM: 0) and its rate, the tilt and velocity-controller states zero, position
+        # the sample's state: ball velocity, tilt reference about the equilibrium tilt and
+        # its rate, the tilt and velocity-controller states zero, position
         assert Xs.shape == (14,)
-        np.testing.assert_allclose(Xs, np.r_[x0[STATE_DXY], th, dth, np.zeros(6), x0[STATE_XY]],
+        np.testing.assert_allclose(Xs, np.r_[x0[STATE_DXY], th - th_eq, dth, np.zeros(6), x0[STATE_XY]],
                                    rtol=1e-12, atol=1e-15)
         assert not call["cascade"]
         for k in range(EVERY):
@@ -76,3 +81,4 @@ def test_samples_and_fed_references_by_hand():
             th, dth = th + TS * dth + 0.5 * TS ** 2 * A, dth + TS * A
         assert call["v_ref"].shape == (EVERY, 3)
     assert run.log["state"].shape[0] == 3 * EVERY + 1
+    assert asked == [psi]
