@@ -4,7 +4,8 @@ A *mutant* is one realistic single-point bug: a comparison, arithmetic or boolea
 replaced by a neighbour, a number nudged, a constant flipped. This script draws a seeded,
 blind set of them over given source paths, applies them one at a time to a checkout, runs
 the tests nearest to each (the test files naming the module), then the area's test folder
-for the survivors, and always restores the file.
+and the package-wide checks of ``tests/test_*.py`` for the survivors, and always restores the
+file.
 
 Run it on a *separate clone* (it edits files in place)::
 
@@ -262,6 +263,15 @@ def area_folder(rel: str) -> str:
     return "tests"
 
 
+def area_targets(root: Path, rel: str) -> list[str]:
+    """The second stage's tests: the area's folder and the package-wide checks at the top of
+    ``tests/`` (architecture, packaging: conventions every module is held to)."""
+    area = area_folder(rel)
+    if area == "tests":
+        return [area]
+    return [area, *sorted(str(t.relative_to(root)) for t in (root / "tests").glob("test_*.py"))]
+
+
 def _pytest(root: Path, targets: list[str], timeout: float) -> tuple[str, float, str]:
     cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-m", "not slow", "-p", "no:cacheprovider",
            "-p", "no:randomly", *targets]
@@ -297,9 +307,9 @@ def run(root: Path, muts: list[dict], out: Path, timeout: float, ids: set[int] |
             status, dt, said = _pytest(root, near, timeout) if near else ("no-tests", 0.0, "")
             rec["near_status"], rec["near_s"], rec["near_said"] = status, round(dt, 1), said
             if status in ("survived", "no-tests"):
-                area = area_folder(mut["path"])
-                status, dt, said = _pytest(root, [area], timeout)
-                rec["area"], rec["area_status"], rec["area_s"] = area, status, round(dt, 1)
+                area = area_targets(root, mut["path"])
+                status, dt, said = _pytest(root, area, timeout)
+                rec["area"], rec["area_status"], rec["area_s"] = " ".join(area), status, round(dt, 1)
                 rec["area_said"] = said
             rec["status"] = status
         finally:

@@ -90,6 +90,16 @@ def test_area_folders():
     assert M.area_folder("ballbot_casadi/errors.py") == "tests"
 
 
+def test_area_stage_adds_the_package_wide_checks(tmp_path):
+    (tmp_path / "tests" / "sim").mkdir(parents=True)
+    for name in ("test_b.py", "test_a.py", "conftest.py", "helper.py"):
+        (tmp_path / "tests" / name).write_text("")
+    (tmp_path / "tests" / "sim" / "test_c.py").write_text("")
+    assert M.area_targets(tmp_path, "ballbot_casadi/sim/guided.py") == [
+        "tests/sim", "tests/test_a.py", "tests/test_b.py"]
+    assert M.area_targets(tmp_path, "ballbot_casadi/errors.py") == ["tests"]  # already all of them
+
+
 def test_run_restores_the_file_and_records_the_verdict(tmp_path, monkeypatch):
     root, _ = _repo(tmp_path)
     (root / "tests").mkdir()
