@@ -4,6 +4,8 @@ partial file left behind; the frames chosen at the frame rate."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -49,6 +51,27 @@ def test_a_gif_into_a_new_nested_folder(tmp_path, monkeypatch):
     assert out.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
     assert seen == [("LOG", str(tmp_path / "r.npz"), 4.0, 1)]
     assert sorted(p.name for p in out.parent.iterdir()) == ["run.gif"]
+
+
+@pytest.mark.filterwarnings("ignore:Animation was deleted without rendering")
+@pytest.mark.parametrize("written", [False, True])
+def test_a_failed_render_raises_its_own_error_and_leaves_nothing(tmp_path, monkeypatch, written):
+    """The writer fails before or after it began the partial file: its error reaches the
+    caller (not the clean-up's), no partial file and no output are left, the figure is closed."""
+    fig, ax = plt.subplots(figsize=(1, 1))
+    monkeypatch.setattr(A, "load_log", lambda run: "LOG")
+    monkeypatch.setattr(A, "animation_scene", lambda *a: (fig, lambda i: (), np.array([0])))
+
+    def save(self, path, writer=None, dpi=None):
+        if written:
+            Path(path).write_bytes(b"GIF89a half")
+        raise RuntimeError("writer broke")
+
+    monkeypatch.setattr(A.FuncAnimation, "save", save)
+    with pytest.raises(RuntimeError, match="^writer broke$"):
+        A.animate(tmp_path / "r.npz", tmp_path / "o" / "run.gif")
+    assert list((tmp_path / "o").iterdir()) == []
+    assert not plt.fignum_exists(fig.number)
 
 
 def test_frames_at_the_rate():
