@@ -81,3 +81,31 @@ def test_failed_qp_in_the_sample_keeps_the_shifted_plan(path, model):
     mpc, _ = _compare(path, model, mpc_function=failing, samples=3)
     assert mpc.failures == 3
     assert not mpc.y.any() and not mpc.u.any()
+
+
+def test_the_sample_packs_the_parameters_of_path_mpc(path, model):
+    """The sample's parameter vector (guidance.blocks.mpc_parameters, the path read from its
+    table) is PathMPC.parameters at the same state, guess and previous reference: every
+    block to the table's interpolation, the inactive obstacle rows (-1: never binding) and
+    the lateral weights exactly as PathMPC writes them."""
+    from ballbot_casadi.guidance.blocks import mpc_parameters
+    from ballbot_casadi.guidance.path_table import PathSymbols
+
+    _, L, parts = make_mpc_parts(model, CONFIG)
+    mpc = PathMPC(model, path, CONFIG)
+    X = np.zeros(14)
+    X[12:14] = [0.25, 0.05]   # beside the obstacle: some rows active, some not
+    mpc.step(X)
+    x0, guess, v_prev = mpc.x0, mpc.shift(mpc.u), np.array([0.3, -0.1])
+    mpc.v_prev = v_prev
+    want = L.unpack(mpc.parameters(x0, guess))
+    P = PathSymbols(ca.DM(pack_path(path, CONFIG.n_obstacles)), CONFIG.n_obstacles)
+    got = L.unpack(np.asarray(mpc_parameters(L, CONFIG, parts["cond"], P, ca.DM(x0), ca.DM(guess),
+                                             ca.DM(v_prev)), float).ravel())
+    assert set(got) == set(want)
+    for name in want:
+        np.testing.assert_allclose(np.asarray(got[name], float), np.asarray(want[name], float),
+                                   rtol=0, atol=1e-6, err_msg=name)
+    ob = np.asarray(want["obs_b"], float)
+    assert np.any(ob == -1.0) and np.any(ob != -1.0)
+    np.testing.assert_array_equal(np.asarray(got["obs_b"], float)[ob == -1.0], -1.0)
