@@ -50,6 +50,20 @@ def test_report_has_the_sample_table_and_the_peers_row_from_the_metrics():
     assert "## MPC samples" not in "\n".join(path_report_lines({}))
 
 
+def test_the_sample_table_has_a_row_per_sampled_run_in_the_study_order():
+    tags = ("fig8_mpc", "fig8_mpc_ukf", "obstacles_mpc", "fig8_mpc_balance", "fig8_mpc_balance_ukf",
+            "obstacles_mpc_balance", "mc", "mc_ukf")
+    m = {f"{t}_samples": float(10 + i) for i, t in enumerate(tags)}
+    m.update({f"{t}_sample_us_median": float(100 * i) for i, t in enumerate(tags)})
+    m["other_samples"] = 99.0   # a run the study does not sample: not a row
+    lines = path_report_lines(m)
+    i = lines.index("| --- | --- | --- | --- | --- | --- |")
+    rows = lines[i + 1:i + 1 + len(tags)]
+    assert [r.split(" | ")[0:2] for r in rows] == [[f"| {t}", f"{10 + k}"] for k, t in enumerate(tags)]
+    assert rows[2].startswith("| obstacles_mpc | 12 | 200 / — / — | — / — / — | — / — | — |")
+    assert lines[i + 1 + len(tags)] == "" and "| other |" not in "\n".join(lines)
+
+
 def test_feed_point_table_has_a_row_per_run_and_feed_from_the_metrics():
     """Rows: each course x feed point (velocity LQR, balance controller); cells: the
     run's metrics under ``<course>_<law>[_ukf]_<metric>``; a missing metric is a dash."""
