@@ -452,6 +452,23 @@ def test_bad_step_sizes_are_errors(h):
     p.free()
 
 
+@pytest.mark.parametrize("t, off, ok", [(0.0, 0.9e-9, True), (0.0, -0.9e-9, True), (0.0, 1.1e-9, False),
+                                       (0.0, -1.1e-9, False), (1.0, 1.9e-9, True), (1.0, -1.9e-9, True),
+                                       (1.0, 2.1e-9, False), (1.0, -2.1e-9, False)])
+def test_the_communication_point_may_differ_from_the_fmu_time_by_round_off_only(t, off, ok):
+    """At most 1e-9 (1 + |t|) s either way: 1e-9 s at t = 0, 2e-9 s at t = 1 s."""
+    p = Plant("cs")
+    _start(p)
+    if t:
+        p.step(t)
+    st = p.raw("fmi2DoStep", c_double(t + off), c_double(0.005), 1)
+    if ok:
+        assert st == 0, p.errors()
+    else:
+        _expect_error(p, st, "differs from the FMU time")
+    p.free()
+
+
 def test_diverging_step_is_discarded_and_rolled_back():
     p = Plant("cs")
     _start(p, x=make_state(roll=0.3, omega_body=(200.0, 0, 0)), h_internal=0.5)

@@ -29,3 +29,13 @@ def test_path_eval_matches_the_path():
     point, tangent = _eval_function(21)(pack_path(path, 0), s)
     np.testing.assert_allclose(np.asarray(point).T, path.spline(s), rtol=0, atol=1e-4)
     np.testing.assert_allclose(np.asarray(tangent).T, path.tangent(s), rtol=0, atol=1e-3)
+
+
+def test_tangents_between_the_samples_are_unit_vectors():
+    """The tangent linearly interpolated between two unit samples is renormalised: unit to
+    round-off half-way between samples, where the chord is shortest."""
+    path = figure_eight(4.0, 2.0, speed=0.5)
+    h = path.length / (PATH_SAMPLES - 1)
+    s = (np.arange(21) * 97 + 0.5) * h   # half-way between samples along the whole path
+    _, tangent = _eval_function(21)(pack_path(path, 0), s)
+    np.testing.assert_allclose(np.linalg.norm(np.asarray(tangent), axis=0), 1.0, rtol=0, atol=1e-13)
