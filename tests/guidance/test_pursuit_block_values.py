@@ -64,3 +64,13 @@ def test_the_block_is_the_python_law(sample, which):
         # the next sample starts from the arc length this one found
         v2, _ = _run(sample, path, _x(pos[0] + 0.05, pos[1]), 0.3, 0.5, g=g_next)
         np.testing.assert_allclose(v2, pp.step(_x(pos[0] + 0.05, pos[1])), rtol=0, atol=atol_next)
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.3, float("nan"), float("inf"), -float("inf")])
+def test_a_look_ahead_that_is_not_a_positive_distance_is_refused(bad):
+    from ballbot_casadi.errors import ScenarioError
+
+    path = line_path([0.0, 0.0], [4.0, 0.0], speed=0.5)
+    with pytest.raises(ScenarioError, match=r"^lookahead must be > 0 m, got "):
+        pursuit_parameters(path, bad, 1.0)
+    assert pursuit_parameters(path, 1e-3, 1.0).size == pursuit_parameters(path, 0.3, 1.0).size
