@@ -54,3 +54,10 @@ def test_a_scenario_is_a_file_when_it_looks_like_one_else_a_shipped_name(tmp_pat
     with pytest.raises(ScenarioFileError, match="^nope: no such scenario file, nor a shipped "
                                                  "scenario; shipped: .*com"):
         resolve_scenario("nope")
+
+
+def test_the_studies_com_offset_is_the_thesis_one():
+    """Thesis §8.4.2 / §9.2: the COM moved by (-2, -3, +3) cm in the body frame."""
+    from ballbot_casadi.studies.registry import COM_CHANGES
+
+    assert dict(COM_CHANGES) == {"com_x": ("set", -0.02), "com_y": ("set", -0.03), "l": ("add", 0.03)}
