@@ -74,7 +74,7 @@ def test_estimation_inputs_are_passed_by_name(monkeypatch):
     evaluates to finite outputs at that operating point (CasADi, no C build)."""
     import numpy as np
 
-    seen = {}
+    seen, flags = {}, {}
 
     def record(lib, f, inputs, n_calls):
         assert len(inputs) == f.n_in(), f.name()
@@ -87,6 +87,8 @@ def test_estimation_inputs_are_passed_by_name(monkeypatch):
         for o in (out if isinstance(out, (list, tuple)) else [out]):
             assert np.all(np.isfinite(np.asarray(o))), f.name()
         seen[f.name()] = f.name_in()
+        flags[f.name()] = {n: float(np.asarray(v)) for n, v in zip(f.name_in(), inputs)
+                           if n in ("cascade", "feedforward", "com_observer")}
         return 1.0
 
     orig = bench_estimation_mod._full_scenario
@@ -96,6 +98,12 @@ def test_estimation_inputs_are_passed_by_name(monkeypatch):
     assert {"ballbot_qukf", "ballbot_vukf", "ballbot_qukf_heading", "ballbot_qekf_heading",
             "ballbot_tilt_correction", "ballbot_com_observer"} <= set(seen)
     assert "n_rej" in seen["ballbot_qukf"]
+    # the embedded software is timed in the scenario's own set-up (its switches as 0 / 1)
+    inp = orig().replace(duration=0.5).inputs()
+    want = {k: (1.0 if inp.get(k) else 0.0) for k in ("cascade", "feedforward", "com_observer")}
+    timed = [v for v in flags.values() if v]
+    assert timed and all(v == want for v in timed), (timed, want)
+    assert want == {"cascade": 1.0, "feedforward": 0.0, "com_observer": 0.0}  # the full study's set-up
 
 
 def test_estimation_group(monkeypatch):
