@@ -57,6 +57,14 @@ def test_line_followed_too_slowly_with_a_known_offset():
     assert m["path_progress_fraction"] == pytest.approx(2.4 / 4.0, abs=1e-6)
 
 
+@pytest.mark.parametrize("short_of_end, done", [(0.0, 1.0), (0.09, 1.0), (0.11, 0.0), (0.5, 0.0)])
+def test_an_open_path_counts_as_completed_within_0_1_m_of_its_end(short_of_end, done):
+    n = int(round(10.0 / TS)) + 1
+    t = np.round(np.arange(n) * TS, 12)
+    xy = np.column_stack([np.minimum(0.55 * t, 4.0 - short_of_end), np.zeros(n)])
+    assert path_metrics(_log(xy, t, LINE))["path_completed"] == done
+
+
 def test_a_run_to_the_end_of_an_open_path_is_completed():
     n = int(round(10.0 / TS)) + 1
     t = np.round(np.arange(n) * TS, 12)
