@@ -129,6 +129,19 @@ def test_guidance_defaults_to_no_latency():
     assert (law.latency, law.split) == (0, False)
 
 
+def test_the_firmware_guidance_is_the_missions_law():
+    """The firmware's MPC predicts the loop the mission runs it on: the FLC cascade with the
+    shipped velocity gains (the same cached law as a guided cascade scenario's, not one
+    built for a robot without the velocity loop)."""
+    from ballbot_casadi.core.constants import TS_CONTROL
+    from ballbot_casadi.sim.guided import scenario_law
+    from ballbot_casadi.sim.scenario import Scenario
+
+    mission = Scenario(name="m", controller="flc", cascade=True, duration=TS_CONTROL, guidance="mpc")
+    assert firmware_guidance("mpc") is scenario_law(mission)
+    assert firmware_guidance("pursuit") is scenario_law(mission.replace(guidance="pursuit"))
+
+
 def test_guidance_refusals_name_what_is_allowed():
     assert firmware_guidance(None) is None
     with pytest.raises(ScenarioError, match=r"unknown guidance 'warp'; allowed: .*mpc"):
