@@ -110,15 +110,15 @@ def test_firmware_split_group_by_hand(monkeypatch, tau_d, v_d, want):
     law = SimpleNamespace(latency=4, first_latency=17)
     monkeypatch.setattr(bf, "firmware_guidance", lambda g, latency: law if (g, latency) == ("mpc", 4)
                         else None)
-    tau, v = np.full((6, 3), 0.1), np.full((6, 3), 0.25)   # non-zero: a difference, not a sum
+    tau, v = np.full((6, 3), 0.1), np.full((6, 3), 0.3)   # non-zero: a difference, not a sum
     rec = SimpleNamespace(tau_mission=tau, v_ref_mission=v)
     monkeypatch.setattr(bf, "record_guided_log", lambda n, latency: rec if (n, latency) == (11, 4)
                         else None)
     monkeypatch.setattr(bf, "build_firmware", lambda precision, guidance, latency:
                         (precision, guidance, latency))
     q_tau, q_v = tau.copy(), v.copy()
-    q_tau[2, 1], q_v[4, 0] = 0.1 + tau_d, 0.25 + v_d
-    q_tau[1, 2], q_v[3, 1] = 0.1 + tau_d / 2, 0.25 + v_d / 2
+    q_tau[2, 1], q_v[4, 0] = 0.1 + tau_d, 0.3 + v_d
+    q_tau[1, 2], q_v[3, 1] = 0.1 + tau_d / 2, 0.3 + v_d / 2
     q = SimpleNamespace(tau=q_tau, v_ref=q_v)
     monkeypatch.setattr(bf, "run_qemu", lambda b, r: q if (b, r) == (("double", "mpc", 4), rec) else None)
     seen, lap = {}, []
