@@ -476,6 +476,10 @@ def test_diverging_step_is_discarded_and_rolled_back():
     st = p.raw("fmi2DoStep", c_double(0.0), c_double(500.0), 1)
     assert st == 2  # fmi2Discard
     assert any("discarded" in m for m in p.errors())
+    # logged as a warning, in the warning category (an error category would hide it from
+    # a master that shows warnings only, and be filtered with the errors)
+    warned = [(s, c) for s, c, m in p.logs if "discarded" in m]
+    assert warned == [(2, "logStatusWarning")], p.logs
     assert np.array_equal(p.state(), x0)
     p.free()
 
