@@ -33,9 +33,12 @@ def _stand_in(monkeypatch, tmp_path, scenario=True):
     monkeypatch.setattr(SIL, "sil_log", lambda r: log)
     monkeypatch.setattr(SIL, "run_metrics", lambda lg: {"peak_tilt_deg": 1.5})
     monkeypatch.setattr(SIL.Spec, "from_row", staticmethod(lambda r: ("spec", r["row"])))
-    monkeypatch.setattr(SIL, "evaluate_specs", lambda specs, m: calls.setdefault("specs", (specs, m)) and [
-        {"metric": "peak_tilt_deg", "value": m["peak_tilt_deg"], "op": "<=", "threshold": 2.0, "ok": True,
-         "source": "s"}])
+    def evaluate_specs(specs, m):
+        calls["specs"] = (specs, m)
+        return [{"metric": "peak_tilt_deg", "value": m["peak_tilt_deg"], "op": "<=", "threshold": 2.0,
+                 "ok": True, "source": "s"}]
+
+    monkeypatch.setattr(SIL, "evaluate_specs", evaluate_specs)
     monkeypatch.setattr(SIL, "save_log", lambda lg, p: p.write_bytes(b"npz"))
     monkeypatch.setattr(SIL, "mission_difference", lambda r, a: {
         "reference": "compiled mission", "state_max": 0.004, "tau_max": 0.02, "state_diff": np.ones(3)})
