@@ -40,7 +40,7 @@ PROBE = {"qukf": 1e-6, "qukf_renorm": 2e-16, "qukf_additive": 3e-16, "qekf": 0.0
 
 def _log(estimator: str):
     sc = Scenario(name="renorm", controller="flc", estimator=estimator, duration=N * TS)
-    roll = 0.1 * np.arange(N + 1)                       # the true attitude: a roll ramp
+    roll = 0.3 + 0.1 * np.arange(N + 1)                 # the true attitude: a roll ramp
     state = np.zeros((N + 1, 12))
     state[:, STATE["q"]] = [_rot(1, r) for r in roll]
     w0 = np.array([0.3, -0.2, 0.5])                     # body rate at k = 0
