@@ -54,13 +54,25 @@ def _y_range(patch) -> tuple[float, float]:
 def _style(fig, dpi) -> dict:
     """What a figure looks like beyond its data: size, resolution, and per axes the lines'
     width, style, marker and size, alpha and colour, the patches' colours, the legend's
-    and title's font sizes (compared with a pinned copy by ``_figures.assert_style``)."""
+    and title's font sizes, and where it sits in its grid with the grid's height and width
+    ratios (compared with a pinned copy by ``_figures.assert_style``)."""
     def legend(ax):
         leg = ax.get_legend()
         return None if leg is None else {"fontsize": leg.get_texts()[0].get_fontsize() if leg.get_texts() else None,
                                          "loc": leg._loc, "ncol": leg._ncols}
+
+    def grid(ax):  # where the axes sits in its grid and the grid's ratios (not fonts: exact)
+        spec = ax.get_subplotspec()
+        if spec is None:
+            return None
+        gs = spec.get_gridspec()
+        return {"shape": list(gs.get_geometry()), "rows": [spec.rowspan.start, spec.rowspan.stop],
+                "cols": [spec.colspan.start, spec.colspan.stop],
+                "height_ratios": [float(v) for v in gs.get_height_ratios() or [1] * gs.nrows],
+                "width_ratios": [float(v) for v in gs.get_width_ratios() or [1] * gs.ncols]}
     return {"figsize": [float(v) for v in fig.get_size_inches()], "dpi": dpi,
             "axes": [{"lines": [[ln.get_linewidth(), ln.get_linestyle(), ln.get_marker(), ln.get_markersize(),
                                  ln.get_alpha(), ln.get_drawstyle()] for ln in ax.lines],
                       "patches": [[[float(v) for v in p.get_facecolor()], p.get_alpha()] for p in ax.patches],
-                      "legend": legend(ax), "title_size": ax.title.get_fontsize()} for ax in fig.axes]}
+                      "legend": legend(ax), "title_size": ax.title.get_fontsize(), "grid": grid(ax)}
+                     for ax in fig.axes]}
