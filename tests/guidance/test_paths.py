@@ -84,9 +84,10 @@ def test_bad_paths_refused_with_one_line(make, key):
 
 def test_coincident_waypoints_are_those_closer_than_a_micrometre():
     """The tolerance is 1e-6 m: points 0.9 um apart are one point (named by index), 1.5 um
-    apart two (the path through them is built and passes both)."""
-    with pytest.raises(ScenarioError, match=r"^waypoints 1 and 2 coincide; consecutive points must differ$"):
-        waypoint_path([(0, 0), (1, 0), (1 + 0.9e-6, 0), (2, 1)])
+    apart two (the path through them is built and passes both); the pair named is the
+    first closer than the tolerance, after a pair just above it."""
+    with pytest.raises(ScenarioError, match=r"^waypoints 3 and 4 coincide; consecutive points must differ$"):
+        waypoint_path([(0, 0), (1, 0), (1 + 1.5e-6, 0), (2, 1), (2, 1 + 0.9e-6), (3, 1), (3, 1)])
     path = waypoint_path([(0, 0), (1, 0), (1 + 1.5e-6, 0), (2, 1)])
     np.testing.assert_allclose(path.waypoints[2], [1 + 1.5e-6, 0], rtol=0, atol=0)
     assert np.all(np.isfinite(path.point(np.linspace(0, path.length, 50))))
