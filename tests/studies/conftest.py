@@ -53,9 +53,10 @@ def _y_range(patch) -> tuple[float, float]:
 
 def _style(fig, dpi) -> dict:
     """What a figure looks like beyond its data: size, resolution, and per axes the lines'
-    width, style, marker and size, alpha and colour, the patches' colours, the legend's
-    and title's font sizes, and where it sits in its grid with the grid's height and width
-    ratios (compared with a pinned copy by ``_figures.assert_style``)."""
+    width, style, marker and size, alpha, draw style and number of points (a curve's
+    resolution), the patches' colours, the legend's and title's font sizes, where the axes
+    sits in its grid with the grid's height and width ratios, and whether it shares its x
+    axis with the first axes (compared with a pinned copy by ``_figures.assert_style``)."""
     def legend(ax):
         leg = ax.get_legend()
         return None if leg is None else {"fontsize": leg.get_texts()[0].get_fontsize() if leg.get_texts() else None,
@@ -72,7 +73,8 @@ def _style(fig, dpi) -> dict:
                 "width_ratios": [float(v) for v in gs.get_width_ratios() or [1] * gs.ncols]}
     return {"figsize": [float(v) for v in fig.get_size_inches()], "dpi": dpi,
             "axes": [{"lines": [[ln.get_linewidth(), ln.get_linestyle(), ln.get_marker(), ln.get_markersize(),
-                                 ln.get_alpha(), ln.get_drawstyle()] for ln in ax.lines],
+                                 ln.get_alpha(), ln.get_drawstyle(), len(ln.get_xdata())] for ln in ax.lines],
                       "patches": [[[float(v) for v in p.get_facecolor()], p.get_alpha()] for p in ax.patches],
-                      "legend": legend(ax), "title_size": ax.title.get_fontsize(), "grid": grid(ax)}
+                      "legend": legend(ax), "title_size": ax.title.get_fontsize(), "grid": grid(ax),
+                      "shares_x_with_first": bool(ax.get_shared_x_axes().joined(ax, fig.axes[0]))}
                      for ax in fig.axes]}
