@@ -7,14 +7,12 @@ a deliberate change with ``BALLBOT_PIN_REPORTS=1`` and review the difference."""
 from __future__ import annotations
 
 import copy
-import os
 from pathlib import Path
 
 import pytest
+from _snapshots import assert_snapshot, snapshot_text
 
 from ballbot_casadi.studies import analysis_report as AR
-
-SNAPSHOTS = Path(__file__).parent / "report_snapshots"
 
 
 def _result() -> dict:
@@ -103,20 +101,11 @@ def test_analysis_markdown_is_the_pinned_copy(tmp_path, name):
     path = AR.write_markdown(result, tmp_path, "params/test robot.toml", plots)
     assert path == tmp_path / "analysis.md"
     assert result == before  # the report does not change its input
-    got = path.read_text(encoding="utf-8")
-    pinned = SNAPSHOTS / f"analysis_{name}.md"
-    if os.environ.get("BALLBOT_PIN_REPORTS") == "1":
-        SNAPSHOTS.mkdir(exist_ok=True)
-        pinned.write_text(got, encoding="utf-8")
-    assert pinned.is_file(), f"no pinned copy {pinned}: run with BALLBOT_PIN_REPORTS=1 and review"
-    assert got == pinned.read_text(encoding="utf-8")
+    assert_snapshot(f"analysis_{name}", path.read_text(encoding="utf-8"))
 
 
 def test_the_variants_differ_where_their_branches_do():
-    v = _variants()
-    texts = {}
-    for name in v:
-        texts[name] = (SNAPSHOTS / f"analysis_{name}.md").read_text(encoding="utf-8")
+    texts = {name: snapshot_text(f"analysis_{name}") for name in _variants()}
     assert "6 eigenvalues at zero: the double integrators" in texts["full"]
     assert "3 eigenvalues at zero: the ball position and heading" in texts["off_exact"]
     assert "1 eigenvalues at zero: rigid-body modes." in texts["plant_only"]
