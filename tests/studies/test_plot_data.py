@@ -94,3 +94,18 @@ def test_monte_carlo_scatter_draws_each_run_at_its_drawn_value_and_metric(saved,
     assert np.allclose(x, 5.0, rtol=1e-12, atol=0)  # 5 deg (thesis §7.1 tilt limit), in degrees
     assert_style(saved, "scatter.png")
     assert_style(saved, "histograms.png")
+
+
+@pytest.mark.parametrize("runs", [[], [{"values": {}}] * 2], ids=["no runs", "nothing dispersed"])
+def test_monte_carlo_scatter_without_dispersed_parameters_is_one_empty_row(saved, tmp_path, runs):
+    """Only the noise seeds vary (or nothing ran): the scatter figure is one row of three
+    switched-off axes, not an error."""
+    results = [{"ok": True, "spec_ok": [True], "metrics": {"peak_tilt_deg": 0.5}, "error": None,
+                "failure": None} for _ in runs]
+    summary = {"specs": [{"metric": "peak_tilt_deg", "op": "<", "threshold": 1.0}], "n": len(runs),
+               "success_rate": 1.0}
+    assert mr._plots(summary, runs, results, tmp_path) == ["histograms.png", "scatter.png"]
+    assert saved["scatter.png:style"]["figsize"] == [11.0, 3.0]
+    assert len(saved["scatter.png"]) == 3
+    assert all(ax["scatter"] == [] and ax["xlabel"] == "" for ax in saved["scatter.png"])
+    assert (tmp_path / "scatter.png").is_file()
