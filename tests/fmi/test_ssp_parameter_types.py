@@ -29,3 +29,21 @@ def test_refused(name, value, needle):
         check_parameters({"c": {name: value}}, VARS)
     with pytest.raises(FileFormatError, match="no such component"):
         check_parameters({"d": {"r": 1.0}}, VARS)
+
+
+@pytest.mark.parametrize("xml, want", [
+    ('<ssv:Real xmlns:ssv="{ssv}" value="2.5"/>', 2.5),
+    ('<ssv:Integer xmlns:ssv="{ssv}" value="-7"/>', -7),
+    ('<ssv:Boolean xmlns:ssv="{ssv}" value="true"/>', True),
+    ('<ssv:Boolean xmlns:ssv="{ssv}" value=" 1 "/>', True),
+    ('<ssv:Boolean xmlns:ssv="{ssv}" value="false"/>', False),
+    ('<Integer value="12"/>', 12),                  # no namespace: read by its local name
+    ('<Boolean value="TRUE"/>', True),
+])
+def test_a_value_element_is_read_by_its_local_name(xml, want):
+    from xml.etree import ElementTree
+
+    from ballbot_casadi.fmi.system.ssp import NS, _value
+
+    got = _value(ElementTree.fromstring(xml.format(ssv=NS["ssv"])))
+    assert got == want and type(got) is type(want)
