@@ -53,10 +53,15 @@ def _y_range(patch) -> tuple[float, float]:
 
 def _style(fig, dpi) -> dict:
     """What a figure looks like beyond its data: size, resolution, and per axes the lines'
-    width, style, marker and size, alpha, draw style and number of points (a curve's
-    resolution), the patches' colours, the legend's and title's font sizes, where the axes
-    sits in its grid with the grid's height and width ratios, and whether it shares its x
-    axis with the first axes (compared with a pinned copy by ``_figures.assert_style``)."""
+    width, style, marker and size, alpha, draw style, colour, number of points (a curve's
+    resolution) and, for a straight horizontal or vertical line (a limit, a threshold), its
+    level; the scatter sets' sizes, colours and counts; the patches' colours; the legend's,
+    title's and axis labels' font sizes; the axis scales and the limits set on purpose (not
+    autoscaled); where the axes sits in its grid with the grid's height and width ratios,
+    and whether it shares its x axis with the first axes (compared with a pinned copy by
+    ``_figures.assert_style``)."""
+    from matplotlib.colors import to_hex
+
     def legend(ax):
         leg = ax.get_legend()
         return None if leg is None else {"fontsize": leg.get_texts()[0].get_fontsize() if leg.get_texts() else None,
@@ -71,10 +76,33 @@ def _style(fig, dpi) -> dict:
                 "cols": [spec.colspan.start, spec.colspan.stop],
                 "height_ratios": [float(v) for v in gs.get_height_ratios() or [1] * gs.nrows],
                 "width_ratios": [float(v) for v in gs.get_width_ratios() or [1] * gs.ncols]}
+
+    def level(ln):  # the level of a two-point horizontal or vertical line, 6 significant digits
+        x, y = (np.asarray(v, float) for v in (ln.get_xdata(), ln.get_ydata()))
+        for axis, v in (("y", y), ("x", x)):
+            if v.size == 2 and np.isfinite(v).all() and v[0] == v[1]:
+                return [axis, float(f"{v[0]:.6g}")]
+        return None
+
+    def line(ln):
+        return [ln.get_linewidth(), ln.get_linestyle(), ln.get_marker(), ln.get_markersize(), ln.get_alpha(),
+                ln.get_drawstyle(), to_hex(ln.get_color(), keep_alpha=True), len(ln.get_xdata()), level(ln)]
+
+    def collection(c):
+        fc = c.get_facecolors()
+        return [len(c.get_offsets()), [float(v) for v in c.get_sizes()[:1]],
+                to_hex(fc[0], keep_alpha=True) if len(fc) else None]
+
+    def limits(ax):
+        return {"x": None if ax.get_autoscalex_on() else [float(f"{v:.6g}") for v in ax.get_xlim()],
+                "y": None if ax.get_autoscaley_on() else [float(f"{v:.6g}") for v in ax.get_ylim()]}
+
     return {"figsize": [float(v) for v in fig.get_size_inches()], "dpi": dpi,
-            "axes": [{"lines": [[ln.get_linewidth(), ln.get_linestyle(), ln.get_marker(), ln.get_markersize(),
-                                 ln.get_alpha(), ln.get_drawstyle(), len(ln.get_xdata())] for ln in ax.lines],
+            "axes": [{"lines": [line(ln) for ln in ax.lines],
+                      "collections": [collection(c) for c in ax.collections],
                       "patches": [[[float(v) for v in p.get_facecolor()], p.get_alpha()] for p in ax.patches],
-                      "legend": legend(ax), "title_size": ax.title.get_fontsize(), "grid": grid(ax),
+                      "legend": legend(ax), "title_size": ax.title.get_fontsize(),
+                      "label_sizes": [ax.xaxis.label.get_fontsize(), ax.yaxis.label.get_fontsize()],
+                      "scales": [ax.get_xscale(), ax.get_yscale()], "limits": limits(ax), "grid": grid(ax),
                       "shares_x_with_first": bool(ax.get_shared_x_axes().joined(ax, fig.axes[0]))}
                      for ax in fig.axes]}
