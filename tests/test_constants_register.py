@@ -1,6 +1,6 @@
 """The register of behaviour-setting numbers: every number (or flag, or tuple or table of
-numbers) a module of the package or the studies defines at top level, and every number or
-flag a function or method takes by default, read back generically and compared with the
+numbers) a module of the package or the studies defines at top level or a class defines
+as an attribute, and every number or flag a function or method takes by default, read back generically and compared with the
 reviewed register ``constants_register.json``.
 
 Tolerances, tunings, sizes, limits and defaults set what the code does as much as its
@@ -73,7 +73,12 @@ def register() -> dict:
             if inspect.isfunction(v) and v.__module__ == name:
                 funcs = [(key, v)]
             elif inspect.isclass(v) and v.__module__ == name:
-                funcs = [(f"{key}.{a}", f) for a, f in vars(v).items() if inspect.isfunction(f)]
+                funcs = [(f"{key}.{a}", getattr(f, "__func__", f)) for a, f in vars(v).items()
+                         if inspect.isfunction(getattr(f, "__func__", f))]  # static and class methods too
+                fields = getattr(v, "__dataclass_fields__", {})  # their defaults: in __init__
+                out.update({f"{name}:{key}.{a}": _plain(c) for a, c in vars(v).items()
+                            if not a.startswith(("__", "_is_")) and a not in fields  # typing's flags
+                            and _numeric(c)})
             elif _numeric(v) and re.search(rf"^{re.escape(key)}\s*(:[^=\n]*)?=", src, re.M):
                 out[f"{name}:{key}"] = _plain(v)  # defined here, not imported
             for qual, f in funcs:
