@@ -523,3 +523,43 @@ def test_control_group_times_the_compiled_closed_loop(monkeypatch):
     with pytest.raises(Stop):
         bench_control_mod.bench_control(n_calls=1, repeats=1)
     assert seen == [{"compiled": True}]
+
+
+def test_control_group_figures_by_hand_on_a_stand_in_clock(monkeypatch):
+    """The mission timings are the best of the repeats (not the last), each an elapsed time
+    (end - start) on the clock; the per-period figures and the ratio follow from them."""
+    from types import SimpleNamespace
+
+    ticks = iter(i * (i + 1) / 2 for i in range(100))     # 0, 1, 3, 6, 10, 15, 21, 28: gaps 1, 2, 3, ...
+    monkeypatch.setattr(bench_control_mod, "time", SimpleNamespace(perf_counter=lambda: next(ticks)))
+    calls = []
+
+    class Loop:
+        def __init__(self, compiled, use_driver=True):
+            self.driver = use_driver
+
+        def mission(self, ctrl, n):
+            calls.append(("mission", self.driver, ctrl, n))
+
+        def simulate(self, ctrl, **inputs):
+            calls.append(("simulate", self.driver, ctrl))
+            return {"state": np.full((3, 12), 1.0 if self.driver else 1.25)}
+
+    sc = SimpleNamespace(n_periods=20000, controller="flc")
+    monkeypatch.setattr(bench_control_mod, "ClosedLoop", Loop)
+    monkeypatch.setattr(bench_control_mod, "mission_inputs", lambda d: (sc, {"u": d}))
+    monkeypatch.setattr(bench_control_mod, "control_bench_library", lambda: "lib")
+    monkeypatch.setattr(bench_control_mod, "_c_bench", lambda lib, inp, n: {"c_ns": 1.5, "n": n, "inp": inp})
+    monkeypatch.setattr(bench_control_mod, "_python_loop_period_s", lambda sim, inp, n: 6e-5 * n / 400)
+    out = bench_control_mod.bench_control(n_calls=7, repeats=2)
+    assert out["c_ns"] == 1.5 and out["n"] == 7 and out["inp"] == {"u": 100.0}
+    assert out["mission_build_s"] == 1.0                    # 1 - 0
+    assert out["mission_100s_s"] == 3.0                     # best of 6 - 3 and 15 - 10
+    assert out["mission_100s_casadi_call_s"] == 7.0         # 28 - 21
+    assert out["mission_driver_vs_casadi_max_abs_diff"] == 0.25
+    assert out["python_loop_period_us"] == pytest.approx(60.0, rel=1e-12)
+    assert out["mission_period_us"] == pytest.approx(3.0 / 20000 * 1e6, rel=1e-12)
+    assert out["python_loop_ratio"] == pytest.approx(6e-5 / (3.0 / 20000), rel=1e-12)
+    assert (out["control_step_target_us"], out["mission_100s_target_s"]) == (5.0, 0.5)
+    assert calls == [("mission", True, "flc", 20000), ("simulate", True, "flc"), ("simulate", True, "flc"),
+                     ("mission", False, "flc", 20000), ("simulate", False, "flc")]
