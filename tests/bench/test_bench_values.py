@@ -530,7 +530,7 @@ def test_control_group_figures_by_hand_on_a_stand_in_clock(monkeypatch):
     (end - start) on the clock; the per-period figures and the ratio follow from them."""
     from types import SimpleNamespace
 
-    ticks = iter(i * (i + 1) / 2 for i in range(100))     # 0, 1, 3, 6, 10, 15, 21, 28: gaps 1, 2, 3, ...
+    ticks = iter(100 + i * (i + 1) / 2 for i in range(100))  # 100, 101, 103, 106, ...: gaps 1, 2, 3, ...
     monkeypatch.setattr(bench_control_mod, "time", SimpleNamespace(perf_counter=lambda: next(ticks)))
     calls = []
 
