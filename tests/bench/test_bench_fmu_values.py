@@ -20,10 +20,11 @@ from ballbot_casadi.model.numeric import make_state
 
 
 class _Clock:
-    """perf_counter advancing by the next scripted step (seconds) at each second read."""
+    """perf_counter advancing by the next scripted step (seconds) at each second read, from
+    an arbitrary start (an elapsed time is a difference of reads, never a read)."""
 
     def __init__(self, steps):
-        self.steps, self.t, self.reads = [float(s) for s in steps], 0.0, 0
+        self.steps, self.t, self.reads = [float(s) for s in steps], 0.5, 0
 
     def perf_counter(self):
         self.reads += 1

@@ -201,11 +201,12 @@ def test_lap_lateral_rms_by_hand(monkeypatch):
 
 
 class _Clock:
-    """perf_counter / thread_time advancing by scripted steps (seconds) per read pair."""
+    """perf_counter / thread_time advancing by scripted steps (seconds) per read pair, from
+    an arbitrary start (an elapsed time is a difference of reads, never a read)."""
 
     def __init__(self, wall, cpu):
         self.wall, self.cpu = [float(w) for w in wall], [float(c) for c in cpu]
-        self.tw = self.tc = 0.0
+        self.tw, self.tc = 0.5, 0.25
         self.reads = 0
 
     def perf_counter(self):
