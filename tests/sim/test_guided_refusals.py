@@ -20,7 +20,7 @@ from ballbot_casadi.sim.guided import (
     run_path_scenario,
     scenario_law,
 )
-from ballbot_casadi.sim.path_following import path_scenario
+from ballbot_casadi.sim.path_following import path_scenario, run_path
 from ballbot_casadi.sim.scenario.file import parse_scenario
 
 BASE = {"duration_s": 1.0, "cascade": True,
@@ -90,3 +90,18 @@ def test_balance_feed_dt_on_the_control_period(guided_inputs):
     with pytest.raises(ScenarioError) as exc:
         mpc_balance_law(guided_inputs["p_ctrl"], MpcConfig(dt=0.0123))
     assert "multiple of 0.005" in _one_line(exc)
+
+
+@pytest.mark.parametrize("period", [0.0123, 0.001, 0.0, 0.0075])
+def test_run_path_guidance_period_on_the_control_period(period):
+    """Shorter than one control period, or not a whole number of them: refused first."""
+    with pytest.raises(ScenarioError) as exc:
+        run_path(None, None, 1.0, guidance_period=period, sim=object())
+    assert _one_line(exc) == f"guidance_period must be a multiple of 0.005 s, got {period!r}"
+
+
+@pytest.mark.parametrize("period", [0.005, 0.1 + 5e-10, 0.1 - 5e-10])
+def test_run_path_guidance_period_within_round_off_passes_the_check(period):
+    with pytest.raises(Exception) as exc:  # the stand-in path fails later, not the period check
+        run_path(None, None, 1.0, guidance_period=period, sim=object())
+    assert "guidance_period" not in str(exc.value)
