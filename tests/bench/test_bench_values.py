@@ -19,8 +19,10 @@ from ballbot_casadi.bench import guidance as bg
 from ballbot_casadi.bench import montecarlo as bm
 from ballbot_casadi.codegen.libraries import model_functions_list
 from ballbot_casadi.core.layout import STATE
+from ballbot_casadi.core.params import load_params
 from ballbot_casadi.errors import BallbotError, BuildError
 from ballbot_casadi.sim.embedded import VALID
+from ballbot_casadi.sim.ports import PERIOD_CONSTANTS, PERIOD_SEQUENCES
 
 
 def _fake_toolchain(monkeypatch, missing=()):
@@ -564,3 +566,41 @@ def test_control_group_figures_by_hand_on_a_stand_in_clock(monkeypatch):
     assert (out["control_step_target_us"], out["mission_100s_target_s"]) == (5.0, 0.5)
     assert calls == [("mission", True, "flc", 20000), ("simulate", True, "flc"), ("simulate", True, "flc"),
                      ("mission", False, "flc", 20000), ("simulate", False, "flc")]
+
+
+def test_python_call_time_is_the_best_block_per_call(monkeypatch):
+    """ns per call: the fastest of 3 blocks of n calls, (end - start) / n on the clock."""
+    reads = iter([7000, 7000 + 900, 9000, 9000 + 600, 20000, 20000 + 750])  # blocks of 900, 600, 750 ns
+    monkeypatch.setattr(bench, "time", SimpleNamespace(perf_counter_ns=lambda: next(reads)))
+    calls = []
+    monkeypatch.setattr(bench, "make_ode", lambda: lambda x, tau, p: calls.append((x.copy(), tau.copy(), p)))
+    assert bench._python_call_ns(3) == 200.0
+    assert len(calls) == 9
+    np.testing.assert_array_equal(calls[0][0], bench.BENCH_STATE)
+    np.testing.assert_array_equal(calls[0][1], bench.BENCH_TAU)
+    np.testing.assert_array_equal(calls[0][2], load_params().to_vector())
+
+
+def test_python_loop_period_is_the_best_block_per_period(monkeypatch):
+    """Seconds per period: the fastest of 3 blocks of n periods, each block continuing the
+    state where the last ended, with the period's sequences read at its own index."""
+    reads = iter([0.5, 0.5 + 0.3, 1.0, 1.0 + 0.12, 2.0, 2.0 + 0.2])
+    monkeypatch.setattr(bench_control_mod, "time", SimpleNamespace(perf_counter=lambda: next(reads)))
+    seen = []
+
+    def period(blocks, x, z, seq, const, plant):
+        seen.append((float(x[0]), float(z[0]), {k: float(np.ravel(v)[0]) for k, v in seq.items()}))
+        return {"x_next": x + 1.0, "z_next": z + 2.0}
+
+    monkeypatch.setattr(bench_control_mod, "control_period", period)
+    monkeypatch.setattr(bench_control_mod, "rk4_plant", lambda ode, n_sub, p, Ts: ("plant", n_sub, Ts))
+    n = 2
+    inputs = {k: 0.005 if k == "Ts" else np.zeros(3) for k in PERIOD_CONSTANTS}
+    inputs.update({k: np.arange(3 * n, dtype=float)[:, None] * np.ones((1, 2)) for k in PERIOD_SEQUENCES})
+    inputs["x0"], inputs["z0"] = np.zeros(12), np.ones(4)
+    got = bench_control_mod._python_loop_period_s(SimpleNamespace(n_sub=5), inputs, n)
+    assert got == pytest.approx(0.12 / n, rel=1e-12)
+    assert [s[0] for s in seen] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]     # the state carried over blocks
+    assert [s[1] for s in seen] == [1.0, 3.0, 5.0, 7.0, 9.0, 11.0]
+    for k, (_, _, seq) in enumerate(seen):
+        assert set(seq) == set(PERIOD_SEQUENCES) and all(v == float(k) for v in seq.values())
