@@ -166,7 +166,8 @@ def write_markdown(result: dict[str, Any], out: Path, params_source: str, plots:
     add(f"| constraint modes (difference) | {_fmt_list(result['constraint_eigenvalues'])} |\n")
     er = np.array([complex(*z) for z in result["eigenvalues_reduced"]])
     n_zero = int(np.sum(np.abs(er) < 1e-6))
-    add(f"Unstable poles: {', '.join(f'{p:.4f}' for p in result['unstable_poles']) or 'none'} rad/s "
+    poles = ", ".join(f"{p:.4f}" for p in result["unstable_poles"])
+    add(f"Unstable poles: {poles + ' rad/s' if poles else 'none'} "
         "(one real unstable pole per tilt axis: the inverted pendulum; without friction each "
         f"has a stable mirror image -p). {n_zero} eigenvalues at zero: "
         + ("the double integrators of the ball position x, y and of the heading."

@@ -118,6 +118,6 @@ def test_the_variants_differ_where_their_branches_do():
     assert "Not computed: the FLC is not available here." in texts["plant_only"]
     assert "Not computed: the controllers are not available." in texts["bare"]
     assert "No right-half-plane zeros at this operating point." in texts["bare"]
-    assert "Unstable poles: none rad/s" in texts["bare"]
+    assert "Unstable poles: none (one real" in texts["bare"]
     assert "UNSTABLE modes present" in texts["off_exact"]
     assert "![pole_zero](pole_zero.png)" in texts["full"] and "## Plots" not in texts["bare"]
