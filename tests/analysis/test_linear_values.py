@@ -181,3 +181,39 @@ def test_mode_groups_tolerance_scales_with_the_eigenvalue_above_one():
     A = np.diag([100.0, 100.0 + 5e-5, 3.0, 3.0 + 5e-6, -0.5, -0.5 - 5e-7])
     sizes = sorted((len(g), round(float(np.min(g.real)), 3)) for g in an.mode_groups(A))
     assert sizes == [(1, 3.0), (1, 3.0), (2, -0.5), (2, 100.0)]
+
+
+def _projector(V: np.ndarray) -> np.ndarray:
+    Qm, _ = np.linalg.qr(V)
+    return Qm @ Qm.T
+
+
+def test_invariant_subspaces_of_a_complex_pair_and_a_real_mode_against_eigenvectors():
+    """A non-normal 4 x 4 (a rotation block coupled into two real modes): the left and right
+    invariant subspaces of the complex pair are spanned by the real and imaginary parts of
+    its left / right eigenvectors (scipy's), of the real mode by its eigenvector."""
+    import scipy.linalg as sla
+
+    from ballbot_casadi.analysis.linear import _left_invariant_subspace, _right_invariant_subspace
+
+    a, b = -0.5, 2.0
+    A = np.array([[a, b, 0.7, -0.3], [-b, a, 0.2, 0.9], [0.0, 0.0, -1.0, 0.4], [0.0, 0.0, 0.0, -3.0]])
+    T = np.array([[1.0, 0.3, 0.0, 0.2], [0.0, 1.0, 0.5, 0.0], [0.1, 0.0, 1.0, 0.0], [0.0, 0.2, 0.0, 1.0]])
+    A = T @ A @ np.linalg.inv(T)                      # no structure left to lean on
+    w, vl, vr = sla.eig(A, left=True, right=True)
+    pair = np.abs(w.imag) > 1e-9
+    assert pair.sum() == 2
+    group = w[pair]
+    k = np.flatnonzero(pair)[0]
+    U = _left_invariant_subspace(A, group)
+    V = _right_invariant_subspace(A, group)
+    assert U.shape == (4, 2) and V.shape == (4, 2)
+    np.testing.assert_allclose(U.T @ U, np.eye(2), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(_projector(U), _projector(np.column_stack([vl[:, k].real, vl[:, k].imag])),
+                               rtol=0, atol=1e-9)
+    np.testing.assert_allclose(_projector(V), _projector(np.column_stack([vr[:, k].real, vr[:, k].imag])),
+                               rtol=0, atol=1e-9)
+    assert np.linalg.norm(_projector(U) - _projector(V)) > 0.1   # non-normal: they differ
+    j = int(np.argmin(np.abs(w - (-3.0))))
+    u = _left_invariant_subspace(A, w[j:j + 1])
+    np.testing.assert_allclose(_projector(u), _projector(vl[:, j:j + 1].real), rtol=0, atol=1e-9)
