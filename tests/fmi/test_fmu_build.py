@@ -240,3 +240,23 @@ def test_cli_build_info_validate(plant, capsys):
     assert cli_main(["fmu", "validate", str(out / "missing.fmu")]) == 2  # a bad path: user error
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "missing.fmu does not exist" in err
+
+
+def test_source_dir_prefers_complete_package_data_then_the_checkout(monkeypatch, tmp_path):
+    """The installed package data when it holds every common source (checked file by file),
+    else ``fmu/`` of the checkout; neither complete: one clear error."""
+    from ballbot_casadi.errors import BuildError
+    from ballbot_casadi.fmi import package as pk
+
+    installed = tmp_path / "installed"
+    for rel in pk.COMMON_SOURCES:
+        (installed / rel).parent.mkdir(parents=True, exist_ok=True)
+        (installed / rel).write_text("")
+    checkout = Path(pk.__file__).resolve().parents[2] / "fmu"
+    monkeypatch.setattr(pk.resources, "files", lambda name: installed)
+    assert pk.fmu_source_dir() == installed
+    (installed / pk.COMMON_SOURCES[-1]).unlink()          # incomplete: the checkout's
+    assert pk.fmu_source_dir() == checkout
+    monkeypatch.setattr(pk, "__file__", str(tmp_path / "a" / "b" / "c" / "package.py"))
+    with pytest.raises(BuildError, match=r"^the FMU C sources \(.*\) were not found; reinstall"):
+        pk.fmu_source_dir()
