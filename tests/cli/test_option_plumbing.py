@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from ballbot_casadi.cli import animate as cli_animate
@@ -368,3 +369,66 @@ def test_study_out_folder_checked_up_front_for_one_study_not_for_all(study_calls
     (out / "sine").rmdir()
     (out / "report.md").write_text("an earlier run's\n")
     assert main(["study", "sine", "--quiet", "--out", str(out)]) == 0 and study_calls[0]["out"] == out
+
+
+def _verify_stand_ins(monkeypatch, qemu_tau, guided=False):
+    """``ballbot firmware --verify`` around recording stand-ins: which recorder, which builds,
+    which replays; the torques of QEMU against the double host replay decide the exit code."""
+    calls = []
+    fw = SimpleNamespace(library=Path("/l/lib.a"), status="built", include=Path("/l/inc"),
+                         example_elf=Path("/l/e.elf"), precision="p")
+
+    def build(c, e, p, guidance, latency):
+        calls.append(("build", c, e, p, guidance, latency))
+        return SimpleNamespace(**{**vars(fw), "precision": p})
+
+    rec = SimpleNamespace(n=5, tau_mission=np.array([[0.5, 0.0, 0.0]]), v_ref_mission=np.zeros((1, 3)),
+                          values=SimpleNamespace(guidance=np.zeros(7)))
+    monkeypatch.setattr(cli_firmware, "build_firmware", build)
+    monkeypatch.setattr(cli_firmware, "replay_scenario", lambda n, estimator: calls.append(
+        ("scenario", n, estimator)) or "log")
+    monkeypatch.setattr(cli_firmware, "record_log", lambda log: calls.append(("record", log)) or rec)
+    monkeypatch.setattr(cli_firmware, "record_guided_log", lambda n, guidance, latency, estimator: calls.append(
+        ("guided", n, guidance, latency, estimator)) or rec)
+    monkeypatch.setattr(cli_firmware, "run_host", lambda b, r: calls.append(("host", b.precision, r is rec))
+                        or SimpleNamespace(tau=np.array([[0.25, 0.0, 0.0]]), v_ref=np.zeros((1, 3))))
+    monkeypatch.setattr(cli_firmware, "run_qemu", lambda b, r: calls.append(("qemu", b.precision, r is rec))
+                        or SimpleNamespace(tau=np.array([[0.25 + qemu_tau, 0.0, 0.0]]), v_ref=np.zeros((1, 3))))
+    cost = SimpleNamespace(step_instructions_max=1e5, step_us=250.0, period_fraction=0.05, ram_bytes=100,
+                           context_bytes=60, stack_bytes=40, image_flash_bytes=9000, library_flash_bytes=8000)
+    monkeypatch.setattr(cli_firmware, "firmware_cost", lambda b, q: cost)
+    g = SimpleNamespace(solve_instructions_max=2e6, solve_instructions_median=1e6, first_instructions=3e6,
+                        solve_ms=lambda hz: 4.0, hold_instructions_max=1e5, ram_bytes=5, static_ram_bytes=3,
+                        stack_bytes=2, flash_bytes=7)
+    monkeypatch.setattr(cli_firmware, "guided_cost", lambda b, q, every, size: calls.append(
+        ("guided_cost", every, size)) or g)
+    return calls
+
+
+@pytest.mark.parametrize("precision, off, code", [("double", 5e-13, 0), ("double", 2e-12, 1),
+                                                  ("single", 1.5e-3, 0), ("single", 3e-3, 1)])
+def test_firmware_verify_replays_the_recorded_mission_against_the_double_host(monkeypatch, capsys, precision,
+                                                                               off, code):
+    calls = _verify_stand_ins(monkeypatch, off)
+    assert main(["firmware", "--precision", precision, "--estimator", "ukf", "--verify", "5"]) == code
+    assert calls == [("build", "flc", "ukf", precision, None, 0), ("scenario", 5, "ukf"), ("record", "log"),
+                     ("build", "flc", "ukf", "double", None, 0), ("host", "double", True),
+                     ("qemu", precision, True)]
+    out = capsys.readouterr().out.splitlines()
+    assert out[-2].startswith(f"QEMU replay of 5 periods: max |tau_qemu - tau_host(double)| = {off:.3g} N m "
+                              f"(tolerance {cli_firmware.REPLAY_ATOL[precision]:g}); host replay vs "
+                              "compiled mission 0.25 N m")
+    assert out[-1] == ("cost: 100000 instructions per period (worst), 250 us at 400 MHz and 1 IPC "
+                       "(5.0 % of 5 ms); RAM 100 B (context 60, stack 40); flash 9000 B (library 8000)")
+
+
+def test_firmware_verify_with_guidance_records_the_guided_mission(monkeypatch, capsys):
+    calls = _verify_stand_ins(monkeypatch, 5e-11)
+    assert main(["firmware", "--guidance", "pursuit", "--verify", "4"]) == 0   # 5e-11 <= 1e-10 guided
+    est = cli_firmware.DEFAULT_ESTIMATOR
+    assert calls[:3] == [("build", "flc", est, "double", "pursuit", 0), ("guided", 4, "pursuit", 0, est),
+                         ("build", "flc", est, "double", "pursuit", 0)]
+    assert calls[-1] == ("guided_cost", cli_firmware.guidance_every(cli_firmware.firmware_guidance("pursuit")), 7)
+    out = capsys.readouterr().out
+    assert "guidance pursuit: max |v_ref_qemu - v_ref_host(double)| = 0 m/s" in out
+    assert "(tolerance 1e-10)" in out
