@@ -371,7 +371,7 @@ def test_study_out_folder_checked_up_front_for_one_study_not_for_all(study_calls
     assert main(["study", "sine", "--quiet", "--out", str(out)]) == 0 and study_calls[0]["out"] == out
 
 
-def _verify_stand_ins(monkeypatch, qemu_tau, guided=False):
+def _verify_stand_ins(monkeypatch, qemu_tau, base=0.25):
     """``ballbot firmware --verify`` around recording stand-ins: which recorder, which builds,
     which replays; the torques of QEMU against the double host replay decide the exit code."""
     calls = []
@@ -391,9 +391,9 @@ def _verify_stand_ins(monkeypatch, qemu_tau, guided=False):
     monkeypatch.setattr(cli_firmware, "record_guided_log", lambda n, guidance, latency, estimator: calls.append(
         ("guided", n, guidance, latency, estimator)) or rec)
     monkeypatch.setattr(cli_firmware, "run_host", lambda b, r: calls.append(("host", b.precision, r is rec))
-                        or SimpleNamespace(tau=np.array([[0.25, 0.0, 0.0]]), v_ref=np.zeros((1, 3))))
+                        or SimpleNamespace(tau=np.array([[base, 0.0, 0.0]]), v_ref=np.zeros((1, 3))))
     monkeypatch.setattr(cli_firmware, "run_qemu", lambda b, r: calls.append(("qemu", b.precision, r is rec))
-                        or SimpleNamespace(tau=np.array([[0.25 + qemu_tau, 0.0, 0.0]]), v_ref=np.zeros((1, 3))))
+                        or SimpleNamespace(tau=np.array([[base + qemu_tau, 0.0, 0.0]]), v_ref=np.zeros((1, 3))))
     cost = SimpleNamespace(step_instructions_max=1e5, step_us=250.0, period_fraction=0.05, ram_bytes=100,
                            context_bytes=60, stack_bytes=40, image_flash_bytes=9000, library_flash_bytes=8000)
     monkeypatch.setattr(cli_firmware, "firmware_cost", lambda b, q: cost)
@@ -432,3 +432,9 @@ def test_firmware_verify_with_guidance_records_the_guided_mission(monkeypatch, c
     out = capsys.readouterr().out
     assert "guidance pursuit: max |v_ref_qemu - v_ref_host(double)| = 0 m/s" in out
     assert "(tolerance 1e-10)" in out
+
+
+@pytest.mark.parametrize("precision", ["double", "single"])
+def test_firmware_verify_passes_at_exactly_the_tolerance(monkeypatch, precision):
+    _verify_stand_ins(monkeypatch, cli_firmware.REPLAY_ATOL[precision], base=0.0)
+    assert main(["firmware", "--precision", precision, "--verify", "5"]) == 0
