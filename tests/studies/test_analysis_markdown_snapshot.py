@@ -81,7 +81,7 @@ def _variants() -> dict[str, tuple[dict, list[Path]]]:
     # no RHP zero, no closed loop (with and without its message), other zero counts
     plant = copy.deepcopy(full)
     plant["rhp_zeros_position"] = []
-    plant["eigenvalues_reduced"][3:8] = [[-1.0, 0.0]] * 5
+    plant["eigenvalues_reduced"][3:8] = [[-1.0, 0.0]] * 4 + [[1.5e-6, 0.0]]   # 1.5e-6: not zero
     plant["closed_loop"] = {"status": "failed", "message": "the FLC is not available here"}
     bare = copy.deepcopy(plant)
     del bare["closed_loop"]
