@@ -268,3 +268,23 @@ def test_the_fmi3_logger_receives_each_refusal_with_its_status_and_unescaped_tex
         bad.instantiate(logMessage=log)
     assert got == [(3, "logStatusError", f"fmi2Instantiate: wrong GUID 'bad#token', this binary of "
                                          f"{b.model_identifier} has GUID '{b.guid}'")]
+
+
+def test_fmi3_set_boolean_takes_at_most_64_values_per_call():
+    """The FMI 3.0 Boolean setter converts through a buffer of 64: 64 values are set, 65
+    refused with its reason (not written past the buffer)."""
+    b = plant3()
+    got = []
+    m = FMU3Model(guid=b.guid, unzipDirectory=str(b.unzipped),
+                  modelIdentifier=b.model_identifier, instanceName="bools")
+    m.instantiate(loggingOn=True, logMessage=lambda env, status, category, message:
+                  got.append((status, message.decode())))
+    vr = {v.name: v.valueReference for v in read_model_description(str(b.fmu)).modelVariables}["noise_on"]
+    m.enterInitializationMode()
+    m.setBoolean([vr] * 64, [False] * 63 + [True])
+    assert m.getBoolean([vr]) == [True]
+    with pytest.raises(Exception, match="status 3"):
+        m.setBoolean([vr] * 65, [False] * 65)
+    assert "at most 64 Booleans per call" in got[-1][1]
+    assert m.getBoolean([vr]) == [True]
+    m.freeInstance()
