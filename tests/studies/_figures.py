@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
+from _snapshots import assert_pinned
 
 #: Pinned looks of the study figures; ``BALLBOT_PIN_FIGURES=1`` rewrites them (review the diff).
 GOLDEN = Path(__file__).parent / "figure_styles"
@@ -35,10 +35,5 @@ def assert_style(saved: dict, name: str) -> None:
     """The look of figure ``name`` (sizes, widths, markers, colours of patches, font sizes)
     equals its pinned copy ``figure_styles/<name>.json``: a changed line width or font size
     is a change a reader sees, made on purpose by re-pinning."""
-    got = json.loads(json.dumps(saved[name + ":style"]))
-    path = GOLDEN / f"{name}.json"
-    if os.environ.get("BALLBOT_PIN_FIGURES") == "1":
-        GOLDEN.mkdir(exist_ok=True)
-        path.write_text(json.dumps(got, indent=1) + "\n")
-    assert path.is_file(), f"no pinned look for {name}: run with BALLBOT_PIN_FIGURES=1 and review"
-    assert got == json.loads(path.read_text()), f"{name} looks different from {path}"
+    assert_pinned(GOLDEN / f"{name}.json", json.dumps(saved[name + ":style"], indent=1) + "\n",
+                  "BALLBOT_PIN_FIGURES")
