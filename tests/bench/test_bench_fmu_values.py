@@ -11,26 +11,13 @@ from types import ModuleType, SimpleNamespace
 
 import numpy as np
 import pytest
+from _clock import Clock
 
 from ballbot_casadi.bench import fmu as bfm
 from ballbot_casadi.bench import fmu3 as bf3
 from ballbot_casadi.fmi.plant.plant import X0_PREFIX
 from ballbot_casadi.model.dynamics import STATE_NAMES
 from ballbot_casadi.model.numeric import make_state
-
-
-class _Clock:
-    """perf_counter advancing by the next scripted step (seconds) at each second read, from
-    an arbitrary start (an elapsed time is a difference of reads, never a read)."""
-
-    def __init__(self, steps):
-        self.steps, self.t, self.reads = [float(s) for s in steps], 0.5, 0
-
-    def perf_counter(self):
-        self.reads += 1
-        if self.reads % 2 == 0:
-            self.t += self.steps.pop(0)
-        return self.t
 
 
 def test_fmu_group_by_hand(monkeypatch):
@@ -132,7 +119,7 @@ def test_sil_group_by_hand(monkeypatch, tmp_path):
     monkeypatch.setattr(bfm, "ClosedLoop", lambda: "sim")
     missions = []
     monkeypatch.setattr(bfm, "run_scenario", lambda sc, sim: missions.append((sc.duration, sim)))
-    monkeypatch.setattr(bfm, "time", _Clock([3.0, 2.5, 0.5, 0.4]))
+    monkeypatch.setattr(bfm, "time", Clock([3.0, 2.5, 0.5, 0.4]))
     out = bfm.bench_sil(reps=2)
     assert Path(loaded[0]).name == "full_velocity.toml"
     ssp = (100.0, tmp_path / "bench" / "sil" / "BallbotSIL_100s.ssp")
