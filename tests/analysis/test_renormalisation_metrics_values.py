@@ -13,17 +13,13 @@ import numpy as np
 import pytest
 
 import ballbot_casadi.analysis.renormalisation as R
+from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.layout import STATE
 from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.sim.scenario import Scenario
 
 TS = 0.005
 N = 6
-
-
-def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    a0, av, b0, bv = a[0], a[1:], b[0], b[1:]
-    return np.r_[a0 * b0 - av @ bv, a0 * bv + b0 * av + np.cross(av, bv)]
 
 
 def _rot(axis: int, ang: float) -> np.ndarray:
@@ -44,7 +40,7 @@ def _log(estimator: str):
     state = np.zeros((N + 1, 12))
     state[:, STATE["q"]] = [_rot(1, r) for r in roll]
     w0 = np.array([0.3, -0.2, 0.5])                     # body rate at k = 0
-    state[0, STATE["dq"]] = 0.5 * _mul(state[0, STATE["q"]], np.r_[0.0, w0])
+    state[0, STATE["dq"]] = 0.5 * Q.mul(state[0, STATE["q"]], np.r_[0.0, w0])
     state[N, STATE["q"]] = _rot(3, 2.0)                 # past the readings: must not be used
     meas = np.arange(N * 9.0).reshape(N, 9) + 0.5
     return sc, SimpleNamespace(scenario=sc.to_dict(), arrays={"state": state, "meas": meas}), w0
@@ -63,7 +59,7 @@ def _stand_ins(monkeypatch, calls):
         xh = np.full((meas.shape[0], 7), 9.0)           # rate columns: not part of the attitude
         for k in range(meas.shape[0]):
             e = _rot(1, ex) if k % 2 == 0 else _rot(3, ez)
-            xh[k, :4] = _mul(q_true[k], e)
+            xh[k, :4] = Q.mul(q_true[k], e)
         return xh
 
     def probe(f, P0, Qn, Rn, p, dt):
