@@ -79,3 +79,23 @@ def test_the_summary_counts_compiles_and_names_the_same_sources_compiled_again(t
     # same tool and the same sources (flags aside) twice; another compiler or other C is not
     assert s["repeated"] == [("compiling the FMU", 2, 61.0)]
     assert tc.build_log_summary(log)["compiles"] == 6
+
+
+def test_a_logged_line_holds_the_child_cpu_and_wall_seconds_to_the_millisecond(tmp_path):
+    """Each entry's seconds are the child CPU used since the run began and the wall time
+    given, rounded to 1 ms (a hand-built rusage: user 1.2 s and system 0.3 s before)."""
+    src = tmp_path / "m.c"
+    src.write_text("int m;\n")
+    before = tc.resource.getrusage(tc.resource.RUSAGE_CHILDREN)
+    fields = {k: getattr(before, k) for k in dir(before) if k.startswith("ru_")}
+    fields.update(ru_utime=before.ru_utime - 1.2, ru_stime=before.ru_stime - 0.3)
+    cpu0 = type("R", (), fields)()
+    log = tmp_path / "sub" / "log.jsonl"
+    tc._log_tool(log, ["/usr/bin/gcc", "-c", "-O3", "-Iinc", "-o", "m.o", str(src)],
+                 "compiling m", cpu0, 0.12345)
+    (entry,) = _entries(log)
+    assert entry["wall_s"] == 0.123  # rounded to 1 ms, not 0.1235
+    assert entry["cpu_s"] == pytest.approx(1.5, abs=1.5e-3)
+    assert entry["tool"] == "gcc" and entry["what"] == "compiling m"
+    assert entry["flags"] == ["-c", "-O3"]  # include and output flags left out
+    assert entry["sources"] == {"m.c": hashlib.sha256(b"int m;\n").hexdigest()[:16]}
