@@ -177,3 +177,16 @@ def test_encoder_rate_falls_back_when_any_one_gyro_component_is_missing(axis, ba
     r, Pr = f([0.1, 0.2, 0.3], np.eye(3) * 7.0, gyro, np.eye(3) * 2.0, np.eye(3) * 3.0)
     np.testing.assert_array_equal(np.asarray(r).ravel(), [0.1, 0.2, 0.3])
     np.testing.assert_array_equal(np.asarray(Pr), np.eye(3) * 7.0)
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_encoder_rate_takes_a_gyro_reading_of_the_largest_finite_double(axis):
+    """Only NaN and Inf are dropouts: a reading of +-DBL_MAX is a (finite) reading."""
+    w, P, g = ca.MX.sym("w", 3), ca.MX.sym("P", 3, 3), ca.MX.sym("g", 3)
+    S, Qr = ca.MX.sym("S", 3, 3), ca.MX.sym("Qr", 3, 3)
+    f = ca.Function("f", [w, P, g, S, Qr], list(encoder_rate(w, P, g, S, Qr)))
+    gyro = np.array([1.0, 2.0, 3.0])
+    gyro[axis] = np.finfo(float).max * (-1.0 if axis == 1 else 1.0)
+    r, Pr = f([0.1, 0.2, 0.3], np.eye(3) * 7.0, gyro, np.eye(3) * 2.0, np.eye(3) * 3.0)
+    np.testing.assert_array_equal(np.asarray(r).ravel(), gyro)
+    np.testing.assert_allclose(np.asarray(Pr), np.eye(3) * 3.0, rtol=1e-15, atol=0)
