@@ -127,3 +127,20 @@ def test_get_status_reports_a_discarded_step_and_the_last_successful_time():
     assert _status(q, FMI2_DO_STEP_STATUS) == (FMI2_OK, FMI2_OK)
     assert _status(q, FMI2_LAST_SUCCESSFUL_TIME, "fmi2GetRealStatus", c_double) == (FMI2_OK, 0.01)
     q.free()
+
+
+def test_a_period_giving_nan_is_discarded_and_named_by_its_index_and_time_from_the_start():
+    """A started-late controller (start time 2 s) runs two periods, then a gyro reading of
+    1e308 makes the third (index 2, t = 2 + 2 Ts) give non-finite numbers: the step is
+    discarded and the message names that period and its time."""
+    fmu = Controller(name="late")
+    fmu.slave.setup(2.0)
+    fmu.slave.exit_initialization()
+    fmu.t = 2.0
+    fmu.step(2 * TS)
+    fmu.set(sensor_gyro_x=1e308)
+    assert fmu.raw_step(3 * TS) == FMI2_DISCARD
+    (msg,) = [m for s, m in fmu.logs if s == FMI2_DISCARD]
+    assert "period 2 (t = 2.01) of the embedded software gave NaN or Inf" in msg
+    assert msg.startswith("fmi2DoStep: step from t = 2.01 discarded")
+    fmu.free()
