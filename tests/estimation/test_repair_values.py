@@ -3,6 +3,7 @@ shift ``-min pivot + jitter`` on an indefinite matrix (not merely *some* PD resu
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -43,3 +44,21 @@ def test_when_the_pivot_shift_is_not_enough_the_gershgorin_shift_is_taken():
     shift = 3.124 + JITTER * 3.373 / 3
     np.testing.assert_allclose(np.array(out), A + shift * np.eye(3), rtol=0, atol=1e-12)
     assert np.min(np.linalg.eigvalsh(np.array(out))) > 0
+
+
+def test_the_cholesky_factor_is_lower_triangular_by_structure_and_guarded_when_not_pd():
+    """``L`` has no entry above the diagonal (the generated C computes none); on an
+    indefinite matrix the failing pivot is replaced by ``max(|A_jj|, floor)`` in ``L``:
+    ``A = [[4, 2, 0], [2, -3, 1], [0, 1, 5]]``: ``L_00 = 2``, ``L_10 = 1``, pivot
+    ``d_1 = -3 - 1 = -4`` fails, so ``L_11 = sqrt(3)``; ``L_21 = 1 / sqrt(3)`` and
+    ``d_2 = 5 - 1/3``."""
+    from ballbot_casadi.estimation.linalg import make_cholesky
+    f = make_cholesky(3)
+    Ls = f(ca.SX.sym("A", 3, 3))[0]
+    assert [Ls[i, j].is_zero() for i, j in ((0, 1), (0, 2), (1, 2))] == [True] * 3
+    A = np.array([[4.0, 2.0, 0.0], [2.0, -3.0, 1.0], [0.0, 1.0, 5.0]])
+    L, pd = f(A)
+    assert float(pd) == 0.0
+    s3 = np.sqrt(3.0)
+    want = np.array([[2.0, 0, 0], [1.0, s3, 0], [0.0, 1 / s3, np.sqrt(5.0 - 1 / 3)]])
+    np.testing.assert_allclose(np.array(L), want, rtol=1e-15, atol=0)
