@@ -288,3 +288,19 @@ def test_fmi3_set_boolean_takes_at_most_64_values_per_call():
     assert "at most 64 Booleans per call" in got[-1][1]
     assert m.getBoolean([vr]) == [True]
     m.freeInstance()
+
+
+def test_the_fmi3_logger_receives_a_long_message_with_many_hashes_whole():
+    """A 600-character wrong token holding 300 '#': escaped to 1000 characters by the FMI 2.0
+    layer and unescaped again, the FMI 3.0 logger gets the whole message (its buffers hold
+    two model messages, not one)."""
+    b = plant3()
+    got = []
+    token = "t#" * 300
+    bad = FMU3Model(guid=token, unzipDirectory=str(b.unzipped),
+                    modelIdentifier=b.model_identifier, instanceName="long")
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        bad.instantiate(logMessage=lambda env, status, category, message:
+                        got.append(message.decode()))
+    assert got == [f"fmi2Instantiate: wrong GUID '{token}', this binary of "
+                   f"{b.model_identifier} has GUID '{b.guid}'"]
