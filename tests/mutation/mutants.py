@@ -3,9 +3,9 @@
 A *mutant* is one realistic single-point bug: a comparison, arithmetic or boolean operator
 replaced by a neighbour, a number nudged, a constant flipped. This script draws a seeded,
 blind set of them over given source paths, applies them one at a time to a checkout, runs
-the tests nearest to each (the test files naming the module), then the area's test folder
-and the package-wide checks of ``tests/test_*.py`` for the survivors, and always restores the
-file.
+the tests nearest to each (the first 15 test files naming the module), then for the
+survivors the area's test folder with the package-wide checks of ``tests/test_*.py``, then
+every other test file naming the module (in another area), and always restores the file.
 
 Run it on a *separate clone* (it edits files in place)::
 
@@ -237,8 +237,9 @@ def generate(root: Path, paths: list[str], seed: int, n: int, since: str | None)
     return muts
 
 
-def nearest_tests(root: Path, rel: str) -> list[str]:
-    """Test files naming the module (or the C file), those of the module's own area first."""
+def nearest_tests(root: Path, rel: str, limit: int | None = 15) -> list[str]:
+    """Test files naming the module (or the C file), those of the module's own area first;
+    the first ``limit`` of them (all with ``None``)."""
     stem = Path(rel).stem
     if stem == "__init__":
         stem = Path(rel).parent.name
@@ -249,7 +250,7 @@ def nearest_tests(root: Path, rel: str) -> list[str]:
         if pattern.search(t.read_text(errors="ignore")) or stem in t.name:
             hits.append(str(t.relative_to(root)))
     hits.sort(key=lambda h: (not h.startswith(area), h))
-    return hits[:15]
+    return hits[:limit]
 
 
 def area_folder(rel: str) -> str:
@@ -311,6 +312,15 @@ def run(root: Path, muts: list[dict], out: Path, timeout: float, ids: set[int] |
                 status, dt, said = _pytest(root, area, timeout)
                 rec["area"], rec["area_status"], rec["area_s"] = " ".join(area), status, round(dt, 1)
                 rec["area_said"] = said
+            if status in ("survived", "no-tests"):
+                area_set = set(rec.get("area", "").split())
+                wide = [t for t in nearest_tests(root, mut["path"], None)
+                        if t not in near and not any(t == a or t.startswith(a + "/")
+                                                     for a in area_set)]
+                if wide:
+                    status, dt, said = _pytest(root, wide, timeout)
+                    rec["wide"], rec["wide_status"], rec["wide_s"] = " ".join(wide), status, round(dt, 1)
+                    rec["wide_said"] = said
             rec["status"] = status
         finally:
             path.write_text(original)

@@ -127,3 +127,29 @@ def test_run_refuses_a_checkout_whose_tests_do_not_load(tmp_path, monkeypatch):
     with pytest.raises(SystemExit, match="the tests do not collect before any mutant"):
         M.run(root, muts, root / "r.jsonl", timeout=120, ids=None)
     assert not (root / "r.jsonl").exists()
+
+
+def test_a_survivor_of_both_stages_meets_every_other_test_file_naming_its_module(tmp_path, monkeypatch):
+    """The first stage runs 15 of the files naming the module (its own area's first), the
+    second the area's folder; a file naming it beyond those 15, in another area, runs third."""
+    root = tmp_path
+    (root / "ballbot_casadi" / "sub").mkdir(parents=True)
+    (root / "ballbot_casadi" / "sub" / "mod.py").write_text("def f(x):\n    return x + 1\n")
+    for init in ("ballbot_casadi", "ballbot_casadi/sub"):  # this package, not the installed one
+        (root / init / "__init__.py").write_text("")
+    for d in ("aa", "sub", "zz"):
+        (root / "tests" / d).mkdir(parents=True)
+    for i in range(15):  # name the module, test nothing
+        (root / "tests" / "aa" / f"test_{i:02d}.py").write_text("# mod\ndef test_n():\n    pass\n")
+    (root / "tests" / "sub" / "test_s.py").write_text("def test_s():\n    pass\n")
+    (root / "tests" / "zz" / "test_real.py").write_text(
+        "from ballbot_casadi.sub.mod import f\n\ndef test_f():\n    assert f(1) == 2\n")
+    monkeypatch.setenv("PYTHONPATH", str(root))
+    out = root / "r.jsonl"
+    M.run(root, [{"id": 0, "path": "ballbot_casadi/sub/mod.py", "line": 2, "col": 13,
+                  "old": "+", "new": "-"}], out, timeout=120, ids=None)
+    (rec,) = [json.loads(l) for l in out.read_text().splitlines()]
+    assert len(rec["near"]) == 15 and rec["near_status"] == "survived"
+    assert rec["area"].split()[0] == "tests/sub" and rec["area_status"] == "survived"
+    assert rec["wide"] == "tests/zz/test_real.py" and rec["status"] == "caught"
+    assert "1 failed" in rec["wide_said"] and "assert" in rec["wide_said"]  # not an import error
