@@ -89,7 +89,7 @@ def chirp_study_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
     """The chirp study's metrics: :func:`~ballbot_casadi.analysis.bandwidth.chirp_metrics`
     and the §7.1 peaks of each feed-forward mode (``by_feedforward``), the main run's at
     the top level, and the linear model's bandwidths (:func:`linear_response`)."""
-    by, per_wheel = {}, None
+    by, per_wheel, per_wheel_end = {}, None, None
     main_limit = logs[-1].scenario.get("torque_limit", "direction")
     for log in logs:
         m = chirp_metrics(log)
@@ -98,7 +98,7 @@ def chirp_study_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
         if log.scenario.get("torque_limit", "direction") == main_limit:
             by[log.scenario["feedforward"]] = m
         else:
-            per_wheel = m
+            per_wheel, per_wheel_end = m, log.scenario["duration"]
     main = by[logs[-1].scenario["feedforward"]]
     out = {k: v for k, v in main.items() if k != "response"}
     out["by_feedforward"] = by
@@ -108,7 +108,7 @@ def chirp_study_metrics(logs: Sequence[SimulationLog]) -> dict[str, Any]:
             out[f"per_wheel_{k}"] = per_wheel[k]
         onset, fell = per_wheel["cross_axis_onset_s"], per_wheel["fell_at_s"]
         out["per_wheel_cross_axis_lead_s"] = (None if onset is None else
-                                              (fell if fell is not None else logs[-1].scenario["duration"]) - onset)
+                                              (fell if fell is not None else per_wheel_end) - onset)
     linear = linear_response(logs[-1].params, logs[-1].scenario["controller"], out["chirp_axis"])
     out["linear_bandwidth_hz"] = linear["linear_bandwidth_hz"]
     out["linear_bandwidth_none_hz"] = linear["none"]["bandwidth_hz"]

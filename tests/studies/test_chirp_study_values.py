@@ -19,8 +19,8 @@ PER_WHEEL = ("first_saturation_s", "first_saturation_motor", "cross_axis_onset_s
              "cross_axis_error_max_deg", "fell_at_s", "bandwidth_hz")
 
 
-def _log(ff, limit, i):
-    sc = {"feedforward": ff, "duration": 100.0, "controller": "flc", **({"torque_limit": limit} if limit else {})}
+def _log(ff, limit, i, duration=100.0):
+    sc = {"feedforward": ff, "duration": duration, "controller": "flc", **({"torque_limit": limit} if limit else {})}
     return SimpleNamespace(scenario=sc, params="P", i=i)
 
 
@@ -53,7 +53,7 @@ def test_each_mode_from_its_own_run_and_the_per_wheel_run(patched):
     assert patched == [("P", "flc", "pitch")]
 
 
-def test_without_a_fall_the_lead_runs_to_the_end(patched, monkeypatch):
+def test_without_a_fall_the_lead_runs_to_the_end_of_the_per_wheel_run(patched, monkeypatch):
     base = CH.chirp_metrics
 
     def no_fall(log):
@@ -62,8 +62,8 @@ def test_without_a_fall_the_lead_runs_to_the_end(patched, monkeypatch):
         return m
 
     monkeypatch.setattr(CH, "chirp_metrics", no_fall)
-    m = CH.chirp_study_metrics([_log("none", "per-wheel", 1), _log("exact", "direction", 0)])
-    assert m["per_wheel_cross_axis_lead_s"] == pytest.approx(100.0 - 12.0)
+    m = CH.chirp_study_metrics([_log("none", "per-wheel", 1, 80.0), _log("exact", "direction", 0)])
+    assert m["per_wheel_cross_axis_lead_s"] == pytest.approx(80.0 - 12.0)  # its own run's end
     assert set(m["by_feedforward"]) == {"exact"}
     m = CH.chirp_study_metrics([_log("exact", None, 0)])
     assert not any(k.startswith("per_wheel") for k in m)
