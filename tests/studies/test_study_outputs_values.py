@@ -152,3 +152,15 @@ def test_study_thesis_counts_and_missing(monkeypatch, tmp_path):
     assert ran == [] and res["passed"] is True and res["missing"] == []
     ST.run_thesis(tmp_path / "t", root=tmp_path, rerun=True, plot=True)
     assert [(n, p) for n, _, _, p in ran] == [("s1", True), ("s2", True)]
+
+
+def test_a_limit_within_is_never_said_to_be_exceeded_by_the_scenario():
+    """A reference peaking beyond the limit (``by_scenario``) that the robot does not reach
+    (within), and a limit exceeded by the run alone: neither gets the scenario's suffix."""
+    limits = [{"metric": "peak_tilt_deg", "value": 4.5, "limit": 5.0, "exceeded": False, "by_scenario": True},
+              {"metric": "peak_tilt_rate_deg_s", "value": 40.0, "limit": 30.0, "exceeded": True,
+               "by_scenario": False}]
+    r = {"study": "sine", "controller": "flc", "passed": True, "spec": [], "limits": limits}
+    assert ST.format_summary(r).splitlines()[1:] == [
+        "  [limit within] peak_tilt_deg = 4.5 (limit 5)",
+        "  [limit EXCEEDED] peak_tilt_rate_deg_s = 40 (limit 30)"]
