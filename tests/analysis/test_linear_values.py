@@ -183,6 +183,14 @@ def test_mode_groups_tolerance_scales_with_the_eigenvalue_above_one():
     assert sizes == [(1, 3.0), (1, 3.0), (2, -0.5), (2, 100.0)]
 
 
+def test_mode_groups_with_zero_tolerance_group_exactly_repeated_eigenvalues_only():
+    """The bound is inclusive: with ``tol = 0`` an eigenvalue equal to a group's joins it,
+    one 1 ulp away does not."""
+    A = np.diag([2.0, 2.0, 2.0, np.nextafter(2.0, 3.0), -1.0])
+    sizes = sorted(len(g) for g in an.mode_groups(A, tol=0.0))
+    assert sizes == [1, 1, 3]
+
+
 def _projector(V: np.ndarray) -> np.ndarray:
     Qm, _ = np.linalg.qr(V)
     return Qm @ Qm.T
