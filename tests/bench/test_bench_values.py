@@ -324,12 +324,19 @@ def test_montecarlo_group_by_hand(monkeypatch):
     monkeypatch.setattr(bm, "_source", lambda duration: ("src", duration))
     monkeypatch.setattr(bm, "draw_runs", lambda source, n, seed: list(range(n)))
     monkeypatch.setattr(bm, "ClosedLoop", lambda: "sim")
-    monkeypatch.setattr(bm, "run_serial", lambda source, runs, sim: [r * 2 for r in runs])
+    calls: list = []
+    monkeypatch.setattr(bm, "run_serial", lambda source, runs, sim: calls.append(("serial", list(runs)))
+                        or [r * 2 for r in runs])
     dask_results = iter([[0, 2], list(range(0, 16, 2)), [0, 2, 4, 6], list(range(0, 16, 2))])
-    monkeypatch.setattr(bm, "run_dask", lambda source, runs, client: next(dask_results))
+    monkeypatch.setattr(bm, "run_dask", lambda source, runs, client: calls.append(("dask", list(runs)))
+                        or next(dask_results))
     clock = Clock([4.0, 2.0, 1.25], [])
     monkeypatch.setattr(bm, "time", clock)
     out = bm.bench_montecarlo(n_runs=8, duration=0.5)
+    # untimed warm-ups: two serial runs, then two runs per worker on each cluster
+    every = list(range(8))
+    assert calls == [("serial", [0, 1]), ("serial", every), ("dask", [0, 1]), ("dask", every),
+                     ("dask", [0, 1, 2, 3]), ("dask", every)]
     assert clusters == [dict(n_workers=k, threads_per_worker=1, processes=True, dashboard_address=None)
                         for k in (1, 2)]  # worker processes, one thread each, no dashboard
     assert out == {"montecarlo_serial_runs_per_s": 2.0, "montecarlo_runs_per_s_1w": 4.0,
