@@ -56,3 +56,13 @@ def test_bandwidth_interpolates_the_criterion_that_fired(g, p, want, reason):
     bw, why = bandwidth_from_response(np.array([1.0, 2.0, 3.0, 4.0]), np.array(g), np.array(p))
     assert why == reason
     assert bw == pytest.approx(want, rel=1e-12)
+
+
+@pytest.mark.parametrize("f,g,p,want", [
+    ([], [], [], (None, None)),                    # no sweep: nothing to say
+    ([1.5], [-4.0], [0.0], (1.5, "gain")),         # one point, lost by gain: its frequency
+    ([1.5], [0.0], [-100.0], (1.5, "phase")),      # one point, lost by phase
+    ([1.5], [-1.0], [-10.0], (None, None)),        # one point, tracked
+])
+def test_bandwidth_of_an_empty_or_one_point_sweep(f, g, p, want):
+    assert bandwidth_from_response(np.array(f), np.array(g), np.array(p)) == want
