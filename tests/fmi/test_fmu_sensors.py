@@ -334,6 +334,7 @@ def test_model_exchange_samples_at_time_events(sensor_fns):
     m.set(tau0=-0.5)  # the importer changes the input at the event: not seen by sample 1
     *_, defined, t_next = m.fmu.newDiscreteStates()
     assert defined and t_next == 0.01 and m.get_int("sensor_sample") == [1]
+    assert not any("did not stop at nextEventTime" in msg for _, _, msg in m.logs)  # on time
     ns = NoiseStream(9)
     nrm = {k: ns.normal(v, 2, 3) for k, v in NOISE_STREAMS.items()}
     sv = BIASED.to_vector()
