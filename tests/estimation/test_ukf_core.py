@@ -191,3 +191,16 @@ def test_model_validation_errors(linear_system):
         FilterModel(euclidean(N), f, "h")
     with pytest.raises(BallbotTypeError):
         make_filter("t", FilterModel(euclidean(N), f, h), "pf")
+
+
+def test_the_repair_count_adds_the_incoming_and_the_predicted_repairs(linear_system):
+    """``repairs`` counts each covariance the period had to repair: the incoming one
+    (indefinite ``P``), the predicted one (an indefinite additive ``Q``), or both."""
+    _, _, _, f, h = linear_system
+    F = make_filter("t", FilterModel(euclidean(N), f, h, "additive"), "ukf")
+    P_ok, P_bad = 0.1 * np.eye(N), np.diag([1.0, -1e-3, 1.0, 1.0])
+    Q_ok, Q_bad = 1e-3 * np.eye(N), -np.eye(N)
+    for P, Qn, want in ((P_ok, Q_ok, 0), (P_bad, Q_ok, 1), (P_ok, Q_bad, 1), (P_bad, Q_bad, 2)):
+        out = F(np.zeros(N), P, np.zeros(M), np.zeros(NU), Qn, np.eye(M), 1.0, 0.0)
+        assert float(out[5]) == want
+        assert np.linalg.eigvalsh(np.array(out[1])).min() > 0
