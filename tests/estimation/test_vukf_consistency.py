@@ -153,10 +153,15 @@ def test_period_acceleration_noise_is_g_q_gt():
     np.testing.assert_allclose(np.asarray(f(Qs, 0.005)), G @ Qs @ G.T, rtol=1e-14, atol=1e-20)
 
 
-def test_encoder_rate_takes_the_gyro_and_falls_back_in_a_dropout():
+def _encoder_rate_fn() -> ca.Function:
+    """:func:`encoder_rate` as a Function of ``(omega_att, P_rate_att, gyro, Sigma_gyro, Q_rate)``."""
     w, P, g = ca.MX.sym("w", 3), ca.MX.sym("P", 3, 3), ca.MX.sym("g", 3)
     S, Qr = ca.MX.sym("S", 3, 3), ca.MX.sym("Qr", 3, 3)
-    f = ca.Function("f", [w, P, g, S, Qr], list(encoder_rate(w, P, g, S, Qr)))
+    return ca.Function("f", [w, P, g, S, Qr], list(encoder_rate(w, P, g, S, Qr)))
+
+
+def test_encoder_rate_takes_the_gyro_and_falls_back_in_a_dropout():
+    f = _encoder_rate_fn()
     args = ([0.1, 0.2, 0.3], np.eye(3) * 7.0, [1.0, 2.0, 3.0], np.eye(3) * 2.0, np.eye(3) * 3.0)
     r, Pr = f(*args)
     np.testing.assert_allclose(np.asarray(r).ravel(), [1, 2, 3], rtol=0, atol=0)
@@ -169,9 +174,7 @@ def test_encoder_rate_takes_the_gyro_and_falls_back_in_a_dropout():
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
 @pytest.mark.parametrize("axis", [0, 1, 2])
 def test_encoder_rate_falls_back_when_any_one_gyro_component_is_missing(axis, bad):
-    w, P, g = ca.MX.sym("w", 3), ca.MX.sym("P", 3, 3), ca.MX.sym("g", 3)
-    S, Qr = ca.MX.sym("S", 3, 3), ca.MX.sym("Qr", 3, 3)
-    f = ca.Function("f", [w, P, g, S, Qr], list(encoder_rate(w, P, g, S, Qr)))
+    f = _encoder_rate_fn()
     gyro = np.array([1.0, 2.0, 3.0])
     gyro[axis] = bad
     r, Pr = f([0.1, 0.2, 0.3], np.eye(3) * 7.0, gyro, np.eye(3) * 2.0, np.eye(3) * 3.0)
@@ -182,9 +185,7 @@ def test_encoder_rate_falls_back_when_any_one_gyro_component_is_missing(axis, ba
 @pytest.mark.parametrize("axis", [0, 1, 2])
 def test_encoder_rate_takes_a_gyro_reading_of_the_largest_finite_double(axis):
     """Only NaN and Inf are dropouts: a reading of +-DBL_MAX is a (finite) reading."""
-    w, P, g = ca.MX.sym("w", 3), ca.MX.sym("P", 3, 3), ca.MX.sym("g", 3)
-    S, Qr = ca.MX.sym("S", 3, 3), ca.MX.sym("Qr", 3, 3)
-    f = ca.Function("f", [w, P, g, S, Qr], list(encoder_rate(w, P, g, S, Qr)))
+    f = _encoder_rate_fn()
     gyro = np.array([1.0, 2.0, 3.0])
     gyro[axis] = np.finfo(float).max * (-1.0 if axis == 1 else 1.0)
     r, Pr = f([0.1, 0.2, 0.3], np.eye(3) * 7.0, gyro, np.eye(3) * 2.0, np.eye(3) * 3.0)
