@@ -1,0 +1,122 @@
+"""The C fuzzer of the FMI API (fmu/tools/fuzz.c) fails an FMU that breaks the rules, each
+rule with its own exit status and message.
+
+The plant FMU keeps every rule, so the other fuzz tests only ever see exit 0. Here a thin
+shared library stands in front of the plant's binary (it is linked against it, so every
+function it does not define is the plant's own) and breaks one rule, chosen by
+``BROKEN_RULE``:
+
+- ``guid``: instantiates whatever GUID it is given (exit 10, "instantiated with a wrong GUID");
+- ``state``: reports a serialised state larger than the fuzzer's 64 KiB buffer (exit 11);
+- ``null``: ``fmi2GetDerivatives`` on a NULL instance returns fmi2OK (exit 12 when the
+  fuzzer's NULL-instance probe finds it, 13 when a random call on an empty slot does);
+- ``silent``: ``fmi2Terminate`` refuses without a log message (counted as ``silent``, the
+  first five printed, exit 0)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+from _fmu_support import plant_build, run_fuzz
+
+from ballbot_casadi.fmi.package import fmi_headers_dir
+
+pytestmark = pytest.mark.needs_cc
+
+WRAPPER = r"""
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <stdlib.h>
+#include <string.h>
+#include "fmi2FunctionTypes.h"
+
+static int rule(const char *name) {
+    const char *r = getenv("BROKEN_RULE");
+    return r != NULL && strcmp(r, name) == 0;
+}
+static void *plant(const char *name) { return dlsym(RTLD_NEXT, name); }
+
+fmi2Component fmi2Instantiate(fmi2String n, fmi2Type t, fmi2String guid, fmi2String res,
+                              const fmi2CallbackFunctions *cb, fmi2Boolean vis, fmi2Boolean log) {
+    fmi2InstantiateTYPE *f = (fmi2InstantiateTYPE *)plant("fmi2Instantiate");
+    if (rule("guid")) guid = getenv("PLANT_GUID");
+    return f(n, t, guid, res, cb, vis, log);
+}
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *size) {
+    fmi2SerializedFMUstateSizeTYPE *f =
+        (fmi2SerializedFMUstateSizeTYPE *)plant("fmi2SerializedFMUstateSize");
+    fmi2Status st = f(c, s, size);
+    if (rule("state") && st == fmi2OK) *size = (size_t)1 << 20;
+    return st;
+}
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real dx[], size_t nx) {
+    fmi2GetDerivativesTYPE *f = (fmi2GetDerivativesTYPE *)plant("fmi2GetDerivatives");
+    if (rule("null") && c == NULL) return fmi2OK;
+    return f(c, dx, nx);
+}
+fmi2Status fmi2Terminate(fmi2Component c) {
+    fmi2TerminateTYPE *f = (fmi2TerminateTYPE *)plant("fmi2Terminate");
+    if (rule("silent") && c != NULL) return fmi2Error;
+    return f(c);
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def broken(tmp_path_factory) -> Path:
+    """The rule-breaking library in front of the plant FMU's binary."""
+    build = plant_build()
+    d = tmp_path_factory.mktemp("broken_fmu")
+    (d / "broken.c").write_text(WRAPPER)
+    lib = d / "broken.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", "-I", str(fmi_headers_dir()), "-o", str(lib),
+                    str(d / "broken.c"), "-Wl,--no-as-needed", str(build.binary),
+                    f"-Wl,-rpath,{build.binary.parent}", "-ldl"], check=True,
+                   capture_output=True)
+    return lib
+
+
+def _fuzz(lib: Path, rule: str, n: int, seed: int) -> subprocess.CompletedProcess:
+    build = plant_build()
+    env = {"BROKEN_RULE": rule, "PLANT_GUID": build.guid, "PATH": "/usr/bin:/bin"}
+    return run_fuzz(build, str(lib), "{guid}", str(n), str(seed), env=env)
+
+
+def test_the_wrapper_alone_keeps_every_rule(broken):
+    res = _fuzz(broken, "none", 3000, 5)
+    assert res.returncode == 0, res.stderr[-2000:]
+    s = json.loads(res.stdout)
+    assert s["silent"] == 0 and s["bad_guid"] > 0 and s["steps_ok"] > 0, s
+
+
+def test_an_instance_made_with_a_wrong_guid_fails_the_fmu(broken):
+    res = _fuzz(broken, "guid", 3000, 5)
+    assert (res.returncode, res.stderr, res.stdout) == (10, "instantiated with a wrong GUID\n", "")
+
+
+def test_a_serialised_state_beyond_the_buffer_fails_the_fmu(broken):
+    res = _fuzz(broken, "state", 3000, 5)
+    assert (res.returncode, res.stdout) == (11, "")
+
+
+# The fuzzer draws from its own generator, so a seed replays on any host: seed 1 meets the
+# NULL-instance probe first, seed 24 an fmi2GetDerivatives (op 27) drawn on an empty slot.
+@pytest.mark.parametrize(("seed", "code", "message"), [
+    (1, 12, "a call on a NULL instance returned fmi2OK\n"),
+    (24, 13, "op 27 on a NULL instance returned fmi2OK\n"),
+])
+def test_ok_on_a_null_instance_fails_the_fmu(broken, seed, code, message):
+    res = _fuzz(broken, "null", 3000, seed)
+    assert (res.returncode, res.stderr, res.stdout) == (code, message, "")
+
+
+def test_a_refusal_without_a_message_is_counted_silent(broken):
+    res = _fuzz(broken, "silent", 3000, 5)
+    assert res.returncode == 0, res.stderr[-2000:]
+    s = json.loads(res.stdout)
+    lines = res.stderr.splitlines()
+    assert s["silent"] > 5, s
+    assert lines == ["silent non-OK status 3 in op 5"] * 5
