@@ -7,7 +7,8 @@ function it does not define is the plant's own) and breaks one rule, chosen by
 ``BROKEN_RULE``:
 
 - ``guid``: instantiates whatever GUID it is given (exit 10, "instantiated with a wrong GUID");
-- ``state``: reports a serialised state larger than the fuzzer's 64 KiB buffer (exit 11);
+- ``state``: reports a serialised state of ``STATE_SIZE`` bytes: one more than the fuzzer's
+  64 KiB buffer fails the FMU (exit 11), exactly the buffer does not;
 - ``null``: ``fmi2GetDerivatives`` on a NULL instance returns fmi2OK (exit 12 when the
   fuzzer's NULL-instance probe finds it, 13 when a random call on an empty slot does);
 - ``silent``: ``fmi2Terminate`` refuses without a log message (counted as ``silent``, the
@@ -49,7 +50,7 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *s
     fmi2SerializedFMUstateSizeTYPE *f =
         (fmi2SerializedFMUstateSizeTYPE *)plant("fmi2SerializedFMUstateSize");
     fmi2Status st = f(c, s, size);
-    if (rule("state") && st == fmi2OK) *size = (size_t)1 << 20;
+    if (rule("state") && st == fmi2OK) *size = (size_t)atol(getenv("STATE_SIZE"));
     return st;
 }
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real dx[], size_t nx) {
@@ -79,9 +80,9 @@ def broken(tmp_path_factory) -> Path:
     return lib
 
 
-def _fuzz(lib: Path, rule: str, n: int, seed: int) -> subprocess.CompletedProcess:
+def _fuzz(lib: Path, rule: str, n: int, seed: int, **extra: str) -> subprocess.CompletedProcess:
     build = plant_build()
-    env = {"BROKEN_RULE": rule, "PLANT_GUID": build.guid, "PATH": "/usr/bin:/bin"}
+    env = {"BROKEN_RULE": rule, "PLANT_GUID": build.guid, "PATH": "/usr/bin:/bin", **extra}
     return run_fuzz(build, str(lib), "{guid}", str(n), str(seed), env=env)
 
 
@@ -98,8 +99,11 @@ def test_an_instance_made_with_a_wrong_guid_fails_the_fmu(broken):
 
 
 def test_a_serialised_state_beyond_the_buffer_fails_the_fmu(broken):
-    res = _fuzz(broken, "state", 3000, 5)
+    res = _fuzz(broken, "state", 3000, 5, STATE_SIZE=str(65536 + 1))
     assert (res.returncode, res.stdout) == (11, "")
+    res = _fuzz(broken, "state", 3000, 5, STATE_SIZE=str(65536))  # fits: refused by the FMU
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert json.loads(res.stdout)["silent"] == 0
 
 
 # The fuzzer draws from its own generator, so a seed replays on any host: seed 1 meets the
