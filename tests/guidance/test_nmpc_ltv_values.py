@@ -92,7 +92,13 @@ def test_shift_moves_steps_one_ahead_per_block(line) -> None:
     np.testing.assert_array_equal(nm.shift(ub), np.concatenate([ub[0:3], ub[6:9], ub[6:9]]))
 
 
-def test_qp_solution_equals_the_linear_mpc_where_the_models_coincide(line) -> None:
+#: the lateral weights of the path window near the obstacle (all 0.1, relaxed), and a set
+#: that differs node by node (a weight applied to the wrong node, or divided, shows)
+W_LAT = (None, (1.0, 0.1, 2.0, 0.3, 0.05))
+
+
+@pytest.mark.parametrize("w_lat", W_LAT)
+def test_qp_solution_equals_the_linear_mpc_where_the_models_coincide(line, w_lat) -> None:
     """At small signals the NMPC's model is the shipped linear loop model, so its QP (cost
     term by term, soft rows with one slack each, obstacle rows, progress rows) has the
     linear MPC's solution: HiGHS on the NMPC's QP against OSQP on guidance/mpc.py's."""
@@ -103,6 +109,12 @@ def test_qp_solution_equals_the_linear_mpc_where_the_models_coincide(line) -> No
     x0[12:14] = [0.42, 0.02]           # 2 cm off the line, the obstacle ahead
     x0[NXL:] = [0.42, 0.05]
     par = nm.qp_parameters(x0, np.tile(x0, (CFG.N + 1, 1)), np.zeros(nm.n_u))
+    if w_lat is not None:
+        at = par.size - nm.layout.n_p  # the MPC's parameters close the NMPC's vector
+        for name, shape in nm.layout.params.items():
+            if name == "w_lat":
+                par[at:at + len(w_lat)] = w_lat
+            at += int(np.prod(shape))
     w, ok = nm._solve(par, None)
     assert ok
     model = velocity_loop_model(inp["p_ctrl"], inp["k_vel"], 0.1)
