@@ -92,8 +92,9 @@ def test_shift_moves_steps_one_ahead_per_block(line) -> None:
     np.testing.assert_array_equal(nm.shift(ub), np.concatenate([ub[0:3], ub[6:9], ub[6:9]]))
 
 
-#: the lateral weights of the path window near the obstacle (all 0.1, relaxed), and a set
-#: that differs node by node (a weight applied to the wrong node, or divided, shows)
+#: the lateral weights of the path window near the obstacle (all 0.1, relaxed; the obstacle
+#: row then sets the lateral offset), and, on the line without the obstacle, a set that
+#: differs node by node (a weight applied to the wrong node, or divided, shows)
 W_LAT = (None, (1.0, 0.1, 2.0, 0.3, 0.05))
 
 
@@ -102,6 +103,8 @@ def test_qp_solution_equals_the_linear_mpc_where_the_models_coincide(line, w_lat
     """At small signals the NMPC's model is the shipped linear loop model, so its QP (cost
     term by term, soft rows with one slack each, obstacle rows, progress rows) has the
     linear MPC's solution: HiGHS on the NMPC's QP against OSQP on guidance/mpc.py's."""
+    if w_lat is not None:
+        line = line_path((0.0, 0.0), (3.0, 0.0), 0.5)
     inp = path_scenario(line, 0.1).inputs()
     nm = NonlinearPathMPC(ClippedLoop(inp, 0.1), line, CFG, solver="highs")
     x0 = np.zeros(NXL + 2)
