@@ -21,6 +21,7 @@ from ballbot_casadi.studies.montecarlo_runner import run_serial
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
+from ballbot_casadi.sim.log import load_log
 from ballbot_casadi.sim.scenario import load_scenario_file
 from ballbot_casadi.studies.registry import shipped_scenarios
 from ballbot_casadi.studies.study import run_study
@@ -53,6 +54,12 @@ def test_com_study_passes_side_by_side_and_keeps_todays_loop(sim, tmp_path):
     assert m["shipped_vs_thesis_velocity_rms_ratio"] < 0.5
     saved = json.loads((tmp_path / "com" / "metrics.json").read_text())
     assert saved["passed"] and (tmp_path / "com" / "report.md").read_text().count("com_observer_true") >= 1
+    # every run saved: the main one (the last) as run.npz, each other as run_<name>.npz
+    files = sorted(p.name for p in (tmp_path / "com").glob("run*.npz"))
+    assert len(files) == len(res["scenarios"]) == 8
+    names = [load_log(tmp_path / "com" / f).scenario["name"] for f in files]
+    assert names[0] == "com_observer" and len(set(names)) == 8
+    assert files[1:] == [f"run_{n.removeprefix('com_')}.npz" for n in names[1:]]
 
 
 def test_inclination_error_ignores_heading_and_measures_tilt():
