@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -141,3 +143,50 @@ def test_the_nonlinear_variant_predicts_by_stepping_its_model_from_each_new_stat
     v = np.array([[0.5, 0.0], [0.0, 1.0], [1.0, 1.0]])
     expected = [[1.0, -1.0], [2.5, -2.0], [5.0, -3.0], [11.0, -5.0]]
     np.testing.assert_array_equal(predict(X0, v), expected)
+
+
+def test_a_variant_run_hands_its_metrics_every_sample_after_the_first(monkeypatch) -> None:
+    """run_variant follows the scenario's course with the variant's guidance and measures the
+    run: the log, the plant's own torque limit, the applied references, the QP sizes and the
+    guidance's failures; the solve times of every sample but the first (the cold start
+    re-linearises several times: not a sample's time)."""
+    seen = {}
+
+    def inputs(periods):
+        seen["periods"] = periods
+        return {"inp": 1}
+
+    def build(inp, path, config):
+        seen["build"] = (inp, path, config)
+        return guidance, "predict", {"rows": 7}
+
+    scenario = SimpleNamespace(
+        route=SimpleNamespace(build=lambda: "path"), duration=2.5, inputs=inputs,
+        to_dict=lambda: {"name": "course"}, plant_params=lambda: SimpleNamespace(tau_max=3.25))
+    guidance = SimpleNamespace(failures=4)
+    variant = SimpleNamespace(build=build)
+    run = SimpleNamespace(log={"time": np.zeros(3)}, v_ref=np.ones((3, 2)),
+                          solve_s=np.array([9.0, 0.1, 0.2]))
+
+    def run_path(path, g, duration):
+        seen["run_path"] = (path, g, duration)
+        return run
+
+    def metrics(*args):
+        seen["metrics"] = args
+        return {"row": 1.0}
+
+    monkeypatch.setattr(MM, "run_path", run_path)
+    monkeypatch.setattr(MM, "variant_metrics", metrics)
+    assert MM.run_variant(variant, scenario) == {"row": 1.0}
+    assert seen["periods"] == (0, 1) and seen["run_path"] == ("path", guidance, 2.5)
+    assert seen["build"] == ({"inp": 1}, "path", MM.MpcConfig())
+    sc, log, tau_max, v_ref, step_s, predictor, qp_size, failures = seen["metrics"]
+    assert (sc, log, tau_max, predictor, qp_size, failures) == (
+        {"name": "course"}, run.log, 3.25, "predict", {"rows": 7}, 4)
+    assert v_ref is run.v_ref
+    np.testing.assert_array_equal(step_s, [0.1, 0.2])
+    # a guidance without a failure count has none
+    guidance.__dict__.pop("failures")
+    MM.run_variant(variant, scenario)
+    assert seen["metrics"][-1] == 0
