@@ -71,9 +71,17 @@ SEED5_4000 = {"calls": 3734, "ok": 1079, "error": 2633, "discard": 0, "other": 2
               "boolean_error": 64}
 
 
+# and those of seed 6 (two records: a changed weight that leaves one seed's tallies alone,
+# e.g. one more NULL value buffer in a few hundred reads, shows in the other's)
+SEED6_4000 = {"calls": 3696, "ok": 1074, "error": 2612, "discard": 0, "other": 1, "silent": 0,
+              "null_instance": 119, "bad_guid": 9, "steps_ok": 27, "init_ok": 59,
+              "log_messages": 3004, "integer_ok": 10, "integer_error": 66, "boolean_ok": 10,
+              "boolean_error": 76}
+
+
 def test_a_seed_replays_the_same_calls():
     assert _counts(4000, 5) == SEED5_4000
-    assert _counts(4000, 6) != SEED5_4000
+    assert _counts(4000, 6) == SEED6_4000
 
 
 def _draws(n: int, seed: int) -> tuple[list[float], list[int]]:
