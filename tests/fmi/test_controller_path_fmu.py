@@ -40,6 +40,7 @@ from ballbot_casadi.sim.closed_loop import power_on_inputs
 from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
 from ballbot_casadi.sim.guided import guided_software, run_path_scenario
 from ballbot_casadi.sim.path_following import velocity_loop_model
+from ballbot_casadi.sim.scenario import initial_state
 from ballbot_casadi.sim.scenario.file import parse_scenario
 
 pytestmark = [pytest.mark.needs_cc, pytest.mark.fmi_extra]
@@ -133,8 +134,15 @@ def test_the_fmu_runs_the_missions_guided_software_and_exposes_the_path(tmp_path
         controller_spec(path=sc.replace(guidance="pursuit"))
 
 
-def test_the_guide_state_starts_as_the_missions(tmp_path):
-    sc = _scenario()
+#: standing at rest, and tilted, turned and moving off the start: the velocity controller's
+#: power-on state (the measured tilt) and the shape state are then not zero
+MOVING_X0 = np.array(initial_state(3.0, -2.0, 20.0))
+MOVING_X0[[0, 1, 6, 7]] = (0.03, -0.02, 0.1, -0.05)
+
+
+@pytest.mark.parametrize("x0", [None, tuple(MOVING_X0)], ids=["standing", "moving"])
+def test_the_guide_state_starts_as_the_missions(tmp_path, x0):
+    sc = _scenario() if x0 is None else _scenario().replace(x0=x0)
     law = path_law(sc)
     ctrl = _Ctrl(tmp_path)
     ctrl.init(controller_values(sc, guided_software(law, "ukf"), law))
@@ -143,6 +151,7 @@ def test_the_guide_state_starts_as_the_missions(tmp_path):
     inp = power_on_inputs("ukf", sc.inputs(periods=(0, 1)))
     g0 = law.initial_state(sc.route.build(), inp["x0"], inp["z0"])
     assert len(names) == g0.size
+    assert (np.count_nonzero(inp["z0"]) > 0) == (x0 is not None)
     np.testing.assert_array_equal(g, g0)
     assert g0[law.state["first"].start + 1] == 1.0
 
