@@ -22,6 +22,20 @@ def test_set_main_only_studies_change_the_main_run_except_for_every_run_keys():
     assert "seed" in SET_EVERY_RUN and all(t["controller"] == "flc" for t in tables)
 
 
+def test_a_runs_source_names_the_overrides_only_where_they_reached_it():
+    """Each run's file path says "(with --set ...)" exactly when an override changed it: every
+    run for a key of SET_EVERY_RUN, else the main run only (a set_main_only study)."""
+    study = get_study("robustness")
+    where = {str(shipped_scenarios()[f]) for f in study.files}
+    files = study.scenario_files("flc", [("duration_s", 0.5)])
+    assert [f.path.endswith(" (with --set duration_s=0.5)") for f in files] == \
+        [False] * (len(files) - 1) + [True]
+    assert all(f.path in where for f in files[:-1])
+    files = study.scenario_files("flc", [("duration_s", 0.5), ("seed", 9)])
+    assert all(f.path.endswith(" (with --set duration_s=0.5, seed=9)") for f in files)
+    assert all(f.path in where for f in study.scenario_files("flc"))
+
+
 def test_overrides_parse_toml_values_and_dotted_keys():
     assert parse_overrides(["duration_s=20", "attitude.roll.amplitude_deg = 5.5", "estimator=ukf",
                             "noise=false", "name=a b"]) == [
