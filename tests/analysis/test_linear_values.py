@@ -17,6 +17,7 @@ import pytest
 
 from ballbot_casadi import load_params
 from ballbot_casadi.analysis import linear as an
+from ballbot_casadi.errors import ShapeError
 from ballbot_casadi.model import linearization as lz
 
 NAMES = lz.REDUCED_STATE_NAMES
@@ -173,6 +174,8 @@ def test_channel_outputs_pick_the_named_reduced_states(lin):
         assert C.shape == (len(idx), 10) and list(sys.output_labels) == list(outs)
         np.testing.assert_array_equal(np.argmax(C, axis=1), idx)
         assert np.count_nonzero(C) == len(idx)
+    with pytest.raises(ShapeError, match=r"^unknown channel 'speed'; known: position, tilt, heading, pose$"):
+        an.channel_system(lin, "speed")
 
 
 def test_mode_groups_tolerance_scales_with_the_eigenvalue_above_one():

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -162,3 +163,11 @@ def test_bad_files(tmp_path):
     misplaced.write_text("[body]\nacc_bias = [0, 0, 0]\n")  # sensor name outside [sensors]
     with pytest.raises(ParameterError, match=r"unknown parameter.*\[sensors\] table"):
         load_params(misplaced)
+
+
+def test_noise_covariances_are_the_diagonal_of_the_per_axis_variances():
+    """Sigma_acc and Sigma_gyro, thesis (3.4) and (3.8): each axis its own variance."""
+    s = dataclasses.replace(load_sensor_params(), acc_noise_var=(1e-3, 2e-3, 3e-3),
+                            gyro_noise_var=(4e-6, 5e-6, 6e-6))
+    np.testing.assert_array_equal(s.acc_noise_cov, np.diag([1e-3, 2e-3, 3e-3]))
+    np.testing.assert_array_equal(s.gyro_noise_cov, np.diag([4e-6, 5e-6, 6e-6]))
