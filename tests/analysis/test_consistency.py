@@ -129,3 +129,10 @@ def test_verdict_at_the_band_edges():
                           (np.nextafter(lo, -np.inf), "underconfident")):
         r = ConsistencyResult(float(mean), lo, hi, 6, 3800, 0.95)
         assert r.verdict == verdict and r.inside == (verdict == "consistent")
+
+
+def test_the_ensemble_average_is_over_runs_of_a_runs_by_time_array():
+    np.testing.assert_array_equal(ensemble_average([[1.0, 2.0, 3.0], [3.0, 4.0, 9.0]]), [2.0, 3.0, 6.0])
+    for bad in ([1.0, 2.0], np.zeros((2, 2, 2))):
+        with pytest.raises(ShapeError, match=r"^ensemble_average needs a \(runs, time\) array, got shape"):
+            ensemble_average(bad)

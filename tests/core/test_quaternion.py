@@ -125,3 +125,8 @@ def test_bad_shapes():
         Q.Phi(np.ones(3))
     with pytest.raises(ValueError, match="elements"):
         Q.Phi(ca.SX.sym("q", 3))
+
+
+def test_rpy_of_rows_needs_four_columns():
+    with pytest.raises(ValueError, match=r"^expected quaternion rows of shape \(N, 4\), got \(2, 3\)$"):
+        Q.to_rpy(np.zeros((2, 3)))

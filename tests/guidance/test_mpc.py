@@ -307,3 +307,11 @@ def test_solver_equals_a_dense_reference_iteration(model):
     for got, want in zip(out[1:], ref):
         np.testing.assert_allclose(np.asarray(got, float).ravel(), np.ravel(want), rtol=0,
                                    atol=1e-9 * max(1.0, np.abs(want).max()))
+
+
+@pytest.mark.parametrize("blocks", [(), (2, 0, 1), (-1,)])
+def test_condensing_needs_positive_block_lengths(model, blocks):
+    with pytest.raises(ScenarioError, match=rf"^blocks must be positive step counts, got "
+                                            rf"{re.escape(repr(blocks))}$"):
+        condense(model, blocks)
+    assert condense(model, (1,)).n_u == 3  # one block of one step: one input (v_x, v_y, a_s)

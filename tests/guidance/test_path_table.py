@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+import pytest
 
 from ballbot_casadi.guidance.path_table import PATH_SAMPLES, PathSymbols, pack_path, path_eval, path_table_layout
 from ballbot_casadi.guidance.paths import figure_eight
@@ -39,3 +40,15 @@ def test_tangents_between_the_samples_are_unit_vectors():
     s = (np.arange(21) * 97 + 0.5) * h   # half-way between samples along the whole path
     _, tangent = _eval_function(21)(pack_path(path, 0), s)
     np.testing.assert_allclose(np.linalg.norm(np.asarray(tangent), axis=0), 1.0, rtol=0, atol=1e-13)
+
+
+def test_a_table_holds_at_most_its_guidance_blocks_obstacles():
+    from ballbot_casadi.errors import ScenarioError
+    from ballbot_casadi.guidance.paths import line_path
+
+    path = line_path((0.0, 0.0), (3.0, 0.0), 0.5, obstacles=[(1.0, 0.3, 0.1), (2.0, -0.3, 0.1)])
+    assert pack_path(path, 2).size == path_table_layout(2).size
+    with pytest.raises(ScenarioError, match=r"^obstacles: at most 1 allowed by this guidance "
+                                            r"block, got 2$"):
+        pack_path(path, 1)
+    assert pack_path(path, 1, obstacles=False).size == path_table_layout(1).size
