@@ -128,5 +128,8 @@ def test_bad_shapes():
 
 
 def test_rpy_of_rows_needs_four_columns():
-    with pytest.raises(ValueError, match=r"^expected quaternion rows of shape \(N, 4\), got \(2, 3\)$"):
-        Q.to_rpy(np.zeros((2, 3)))
+    for shape in ((2, 3), (4, 3), (4, 5)):
+        with pytest.raises(ValueError, match=rf"^expected quaternion rows of shape \(N, 4\), "
+                                             rf"got \({shape[0]}, {shape[1]}\)$"):
+            Q.to_rpy(np.zeros(shape))
+    assert Q.to_rpy(np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))).shape == (3, 3)
