@@ -70,6 +70,9 @@ def test_prediction_errors_use_the_applied_references() -> None:
     moved = lambda X0, vs: X0[12:14] + np.outer(np.arange(len(vs) + 1), 0.1 * vs[0, :1].repeat(2) * [1, 0])  # noqa: E731
     err = MM.prediction_errors(X, v, moved, horizon=2)
     np.testing.assert_allclose(err, [0.0, 0.0, 0.0], atol=1e-15)
+    # a sample whose horizon runs past the applied references has no error
+    assert MM.prediction_errors(X, v[:3], moved, horizon=2).shape == (2,)
+    assert MM.prediction_errors(X, v[:2], moved, horizon=2).shape == (1,)
 
 
 def _metrics(rms: dict, tilt: float = 3.0, completed: float = 1.0) -> dict:
