@@ -5,14 +5,16 @@ swapped slices survived the tests)."""
 
 from __future__ import annotations
 
+import re
 import tomllib
 
 import numpy as np
 import pytest
 
+from ballbot_casadi.errors import ScenarioFileError
 from ballbot_casadi.estimation import DEFAULT_TUNING
 from ballbot_casadi.sim.embedded import ESTIMATOR_FILTERS
-from ballbot_casadi.sim.scenario import dump_toml, parse_scenario
+from ballbot_casadi.sim.scenario import dump_toml, load_scenario_file, parse_scenario
 from ballbot_casadi.sim.scenario.sections import initial_state
 
 
@@ -90,3 +92,15 @@ def test_estimator_tuning_sets_its_own_diagonal_block_only(key, cov, block):
     want = np.array({"Qa": att.Q, "Ra": att.R, "Qv": vel.Q, "Rv": vel.R}[cov], float)
     want[block, block] = np.eye(block.stop - block.start) * 7.5e-3
     np.testing.assert_array_equal(got, want)
+
+
+def test_a_file_that_is_not_utf8_text_or_is_a_folder_cannot_be_read(tmp_path):
+    bad = tmp_path / "latin1.toml"
+    bad.write_bytes('name = "Müller"\nduration_s = 1.0\n'.encode("latin-1"))
+    with pytest.raises(ScenarioFileError, match=rf"^{re.escape(str(bad))}: cannot read the "
+                                                r"scenario file \('utf-8' codec can't decode"):
+        load_scenario_file(bad)
+    with pytest.raises(ScenarioFileError, match=r": cannot read the scenario file \(\[Errno 21\]"):
+        load_scenario_file(tmp_path)
+    bad.write_bytes('name = "Müller"\nduration_s = 1.0\n'.encode("utf-8"))
+    assert load_scenario_file(bad).scenario.name == "Müller"
