@@ -7,7 +7,8 @@ from __future__ import annotations
 import pytest
 
 from ballbot_casadi.core.constants import N_SUB
-from ballbot_casadi.sim.library import library_name
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.sim.library import closed_loop_steps, library_name
 
 
 @pytest.mark.parametrize("args, name", [
@@ -20,3 +21,9 @@ from ballbot_casadi.sim.library import library_name
 ])
 def test_library_names(args, name):
     assert library_name(*args) == name
+
+
+def test_the_actuation_delay_needs_an_estimator_in_the_loop():
+    with pytest.raises(ScenarioError, match=r"^the actuation delay is an option of the missions "
+                                            r"with an estimator \('ukf' or 'ekf'\)$"):
+        closed_loop_steps(N_SUB, "true", actuation_delay=True)
