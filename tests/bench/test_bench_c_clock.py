@@ -58,3 +58,40 @@ def test_function_bench_program_reports_microseconds_per_call_down_to_one_call(m
     monkeypatch.setattr(bench_estimation_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
     us = bench_estimation_mod.c_function_us(lib, f, [[1.5, -2.0], 3.0], n_calls)
     assert us == pytest.approx(1e6 / n_calls / 1000.0, rel=0, abs=5e-5)
+
+
+def test_control_bench_program_reads_at_most_its_buffers_and_refuses_the_rest(monkeypatch, tmp_path):
+    """The input file's five counts (parameters, FLC, SMC and velocity gains, controller
+    state) are bounded by the program's buffers (128 entries; the state with the 12 plant
+    states): exactly full runs, one more, a short file or no file exits 2 with one line."""
+    import subprocess
+
+    monkeypatch.setattr(bench_control_mod, "build_root", lambda: tmp_path)
+    _, inputs = bench_control_mod.mission_inputs(0.1)
+    bench_control_mod._c_bench(control_bench_library(), inputs, 1)
+    exe, good = tmp_path / "bench" / "bench_control", tmp_path / "bench" / "bench_control_input.txt"
+    lines = good.read_text().splitlines()
+    counts = [int(c) for c in lines[0].split()]
+    assert len(lines) == 9 and counts[0] < 128 and counts[4] < 116
+
+    def run(count_index: int, n: int, line: int) -> subprocess.CompletedProcess:
+        c, rows = list(counts), list(lines)
+        c[count_index] = n
+        rows[0] = " ".join(map(str, c))
+        rows[line] = " ".join(rows[line].split() + ["0.0"] * (n - counts[count_index]))
+        f = tmp_path / f"in_{count_index}_{n}.txt"
+        f.write_text("\n".join(rows) + "\n")
+        return subprocess.run([str(exe), "1", str(f)], capture_output=True, text=True)
+
+    malformed = "bench_control: malformed input file\n"
+    for count_index, line, full in ((0, 1, 128), (3, 4, 128), (4, 6, 116)):
+        assert run(count_index, full, line).returncode == 0
+        res = run(count_index, full + 1, line)
+        assert (res.returncode, res.stderr, res.stdout) == (2, malformed, "")
+    short = tmp_path / "short.txt"
+    short.write_text("\n".join(lines[:-1]) + "\n")  # no velocity reference
+    res = subprocess.run([str(exe), "1", str(short)], capture_output=True, text=True)
+    assert (res.returncode, res.stderr) == (2, malformed)
+    for args in ([], ["1"], ["1", str(tmp_path / "missing.txt")]):
+        res = subprocess.run([str(exe), *args], capture_output=True, text=True)
+        assert (res.returncode, res.stderr) == (2, "usage: bench_control N_CALLS INPUT_FILE\n")
