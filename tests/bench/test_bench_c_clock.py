@@ -95,3 +95,34 @@ def test_control_bench_program_reads_at_most_its_buffers_and_refuses_the_rest(mo
     for args in ([], ["1"], ["1", str(tmp_path / "missing.txt")]):
         res = subprocess.run([str(exe), *args], capture_output=True, text=True)
         assert (res.returncode, res.stderr) == (2, "usage: bench_control N_CALLS INPUT_FILE\n")
+
+
+def test_function_bench_program_refuses_bad_calls_and_flags_a_nan(tmp_path, monkeypatch):
+    """``bench_function.c``: usage, a call count below one, a missing or short input file exit
+    2 with one line; a NaN output is refused by the caller, as is a failed run."""
+    import subprocess
+
+    from ballbot_casadi.errors import BuildError
+
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("bench_nan_probe", [x, ca.SX.sym("k")], [ca.sqrt(x[0]) * x[1]])
+    lib = build_library("bench_nan_probe", [f], root=tmp_path / "lib")
+    monkeypatch.setattr(bench_estimation_mod, "build_root", lambda: tmp_path)
+    assert bench_estimation_mod.c_function_us(lib, f, [[4.0, 2.0], 1.0], 3) > 0.0
+    with pytest.raises(BuildError, match=r"^benchmark of bench_nan_probe produced a non-finite output$"):
+        bench_estimation_mod.c_function_us(lib, f, [[-4.0, 2.0], 1.0], 3)
+    exe = tmp_path / "bench" / f"bench_{f.name()}_{lib.digest}"
+    data = tmp_path / "bench" / f"bench_{f.name()}_input.txt"
+    short = tmp_path / "short.txt"
+    short.write_text("4.0 2.0\n")  # the second input (k) missing
+    for args, code, err in (
+            ([], 2, "usage: bench_function N_CALLS INPUT_FILE\n"),
+            (["1", str(data), "x"], 2, "usage: bench_function N_CALLS INPUT_FILE\n"),
+            (["0", str(data)], 2, f"bench_function: cannot read {data}\n"),
+            (["1", str(tmp_path / "none.txt")], 2, f"bench_function: cannot read {tmp_path / 'none.txt'}\n"),
+            (["1", str(short)], 2, "bench_function: input 1 needs 1 numbers\n")):
+        res = subprocess.run([str(exe), *args], capture_output=True, text=True)
+        assert (res.returncode, res.stderr, res.stdout) == (code, err, ""), args
+    short.write_text("4.0\n")
+    res = subprocess.run([str(exe), "1", str(short)], capture_output=True, text=True)
+    assert (res.returncode, res.stderr) == (2, "bench_function: input 0 needs 2 numbers\n")
