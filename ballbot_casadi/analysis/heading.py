@@ -80,7 +80,11 @@ class HeadingRun:
 
 def heading_truth(k0: int, k1: int, Ts: float = TS_CONTROL) -> tuple[np.ndarray, np.ndarray]:
     """The true attitude ``q`` at ``t_k`` (rows ``k0 .. k1``, one more than periods) and the
-    body rate over ``[t_{k-1}, t_k]`` for ``k = k0 .. k1-1`` (rows; row 0 of a run is 0)."""
+    body rate over ``[t_{k-1}, t_k]`` for ``k = k0 .. k1-1`` (rows; row 0 of a run is 0).
+
+    ZYX angles: roll ``1 deg sin(2 pi 0.5 Hz t)``, pitch ``1 deg cos(2 pi 0.3 Hz t)``, yaw
+    ``(0.3 rad/s) / w (1 - cos(w t))`` with ``w = 2 pi / 120 s`` (the heading sweeps
+    0 .. 11.5 rad and back at up to 0.3 rad/s)."""
     t = np.arange(k0 - 1, k1 + 1) * Ts
     w = 2 * np.pi / _YAW_PERIOD
     yaw = _YAW_RATE / w * (1 - np.cos(w * t))

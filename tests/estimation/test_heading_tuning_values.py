@@ -74,3 +74,18 @@ def test_heading_loss_window_is_half_open():
     t = np.round(np.arange(300) * TS, 12)
     have = np.isfinite(z[:, 6])
     np.testing.assert_array_equal(t[have], [0.0, 0.1, 0.2, 0.3, 0.4, 1.0, 1.1, 1.2, 1.3, 1.4])
+
+
+def test_true_attitude_is_the_documented_sweep():
+    """heading_truth's ZYX angles at t_k = k Ts: roll 1 deg sin(2 pi 0.5 t), pitch
+    1 deg cos(2 pi 0.3 t), yaw 0.3 / w (1 - cos(w t)), w = 2 pi / 120 s."""
+    k0, k1 = 7, 2407
+    q, _ = heading_truth(k0, k1)
+    t = np.arange(k0, k1 + 1) * TS
+    w = 2 * np.pi / 120.0
+    want = np.column_stack([np.radians(1.0) * np.sin(2 * np.pi * 0.5 * t),
+                            np.radians(1.0) * np.cos(2 * np.pi * 0.3 * t),
+                            0.3 / w * (1 - np.cos(w * t))])
+    rpy = np.array([Q.to_rpy(a) for a in q])
+    rpy[:, 2] = np.unwrap(rpy[:, 2])
+    np.testing.assert_allclose(rpy, want, rtol=0, atol=1e-12)
