@@ -18,11 +18,13 @@ from ballbot_casadi.studies import envelope as E
 DT = 0.125  # exact in binary: the window edges fall on samples
 
 
-def _log(roll_deg, yaw_deg, w_body, vxy):
+def _log(roll_deg, yaw_deg, w_body, vxy, pitch_deg=None):
     n = len(roll_deg)
+    pitch_deg = np.zeros(n) if pitch_deg is None else pitch_deg
     x = np.zeros((n, 12))
     for i in range(n):
-        q = np.asarray(Q.from_rpy(math.radians(roll_deg[i]), 0.0, math.radians(yaw_deg[i])), float).ravel()
+        q = np.asarray(Q.from_rpy(math.radians(roll_deg[i]), math.radians(pitch_deg[i]),
+                                  math.radians(yaw_deg[i])), float).ravel()
         x[i, STATE["q"]] = q
         x[i, STATE["dq"]] = 0.5 * np.asarray(Q.mul(q, np.r_[0.0, w_body[i]]), float).ravel()
         x[i, STATE.index("dx")], x[i, STATE.index("dy")] = vxy[i]
@@ -50,6 +52,18 @@ def test_final_motion_over_the_last_half_second():
     bad = _final_case()
     bad["state"][3, 0] = np.nan
     assert E.final_motion(bad) == (math.inf, math.inf, math.inf)
+
+
+def test_tilt_of_a_roll_and_a_pitch_together_is_the_body_axis_angle_from_the_vertical():
+    """cos(tilt) = cos(roll) cos(pitch) (ZYX): 3 deg of roll with -4 deg of pitch tilt the
+    body axis by 4.998 deg, not by either angle, nor by their difference or sum."""
+    n = 17
+    roll, pitch = np.full(n, 3.0), np.full(n, -4.0)
+    log = _log(roll, np.full(n, 25.0), np.zeros((n, 3)), np.zeros((n, 2)), pitch)
+    want = math.degrees(math.acos(math.cos(math.radians(3.0)) * math.cos(math.radians(4.0))))
+    assert 4.99 < want < 5.0
+    assert E.final_motion(log)[0] == pytest.approx(want, rel=1e-9)
+    assert E.peak_motion(log)["tilt_deg"] == pytest.approx(want, rel=1e-9)
 
 
 def test_peak_motion_from_the_disturbance_on():
