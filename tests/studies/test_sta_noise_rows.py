@@ -28,9 +28,10 @@ def study(monkeypatch, tmp_path):
     monkeypatch.setattr(S, "levant_gains", lambda L: (np.asarray(L) * 10.0, np.asarray(L) * 100.0))
     var = [4e-4, 1e-4, 16e-4]
     monkeypatch.setattr(S, "load_sensor_params", lambda: type("P", (), {"gyro_noise_var": var}))
-    m = S.run_sta_noise_study(tmp_path, seeds=(0, 2), L_scales=(0.5, 2.0), duration=3.0, sim=object(),
+    out = tmp_path / "new" / "sta_noise"  # a folder not there yet, nor its parent
+    m = S.run_sta_noise_study(out, seeds=(0, 2), L_scales=(0.5, 2.0), duration=3.0, sim=object(),
                               estimator="ukf")
-    return m, calls, tmp_path
+    return m, calls, out
 
 
 def test_rows_average_the_axes_and_take_the_worst_scalar(study):
