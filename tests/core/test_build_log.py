@@ -8,6 +8,7 @@ shared library is linked and the static archive is made.
 from __future__ import annotations
 
 import hashlib
+import time
 import json
 
 import casadi as ca
@@ -31,7 +32,9 @@ def _entries(log) -> list[dict]:
 def test_a_library_is_compiled_once_and_every_tool_run_is_logged(tmp_path, monkeypatch):
     log = tmp_path / "builds.jsonl"
     monkeypatch.setenv("BALLBOT_BUILD_LOG", str(log))
+    t0 = time.perf_counter()
     lib = tc.build_library("log_probe", _functions(), root=tmp_path)
+    elapsed = time.perf_counter() - t0
     assert lib.status == "built"
     entries = _entries(log)
     want = hashlib.sha256(lib.source.read_bytes()).hexdigest()[:16]
@@ -42,6 +45,8 @@ def test_a_library_is_compiled_once_and_every_tool_run_is_logged(tmp_path, monke
     assert "-c" in compiles[0]["flags"] and "-fPIC" in compiles[0]["flags"]
     assert [e["tool"] for e in entries] == [compiles[0]["tool"], compiles[0]["tool"], "ar"]
     assert all(e["cpu_s"] >= 0.0 and e["wall_s"] >= 0.0 for e in entries)
+    # each tool's wall time is a part of the build's: together at most the build's own
+    assert 0.0 < sum(e["wall_s"] for e in entries) <= elapsed + 0.0015 * len(entries)
     # the shared library (linked from that object) computes the function
     f = tc.load_library(lib, ["ballbot_log_probe"])["ballbot_log_probe"]
     assert ca.DM(f([3.0, 5.0])).full().ravel().tolist() == [1.0, 15.0]
