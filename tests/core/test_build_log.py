@@ -8,8 +8,8 @@ shared library is linked and the static archive is made.
 from __future__ import annotations
 
 import hashlib
-import time
 import json
+import time
 
 import casadi as ca
 import pytest
