@@ -91,6 +91,11 @@ def test_a_frame_draws_the_ball_its_axes_and_the_trace_in_a_view_following_it():
         np.testing.assert_allclose(tx, 1.0 + 0.1 * np.arange(5), rtol=0, atol=1e-12)
         np.testing.assert_allclose(ty, -0.5 - 0.2 * np.arange(5), rtol=0, atol=1e-12)
         np.testing.assert_allclose(tz, 0.0, atol=0)
+        # every line is drawn (visible, a line of some width), the body's z axis thickest
+        assert all(ln.get_visible() and ln.get_linewidth() > 0 for ln in ax.lines)
+        widths = {ln.get_color(): ln.get_linewidth() for ln in ax.lines
+                  if len(ln.get_data_3d()[0]) == 2}
+        assert widths["b"] > widths["r"] == widths["g"]
         assert ax.get_title() == "anim  t =   0.02 s"
         # the ball: a wire sphere of radius rk about (px, py, rk), reaching the floor and 2 rk
         wire = next(c for c in ax.collections if c.get_gid() == BALL_GID)
