@@ -29,7 +29,7 @@ def test_nis_figure_draws_each_filter_on_its_panel_with_the_band(monkeypatch, tm
     monkeypatch.setattr(C, "estimation_metrics", lambda log: {"estimator_velocity_rms_mps": 0.01})
     monkeypatch.setattr(C, "final_walk", lambda log, est: [1e-3, 2e-3])
     monkeypatch.setattr(C, "acceleration_random_walk", lambda log, Ts: (1e-4, 2e-4))
-    C.run_consistency_study(tmp_path, names=["full_sine"], sim=object())
+    C.run_consistency_study(tmp_path / "new" / "consistency", names=["full_sine"], sim=object())
     att, vel = saved["nis.png"]
     t = (np.arange(N + 1) * 0.005)[:-1][199:]
 

@@ -34,7 +34,8 @@ def stubbed(monkeypatch):
 
 
 def test_rows_are_judged_against_their_undisturbed_allowance(stubbed, tmp_path):
-    m = E.run_envelope_study(tmp_path, plot=False, controllers=("flc", "flc_dob"), estimators=("true", "ekf"),
+    out = tmp_path / "new" / "envelope"  # the study makes its folder and the parents
+    m = E.run_envelope_study(out, plot=False, controllers=("flc", "flc_dob"), estimators=("true", "ekf"),
                              push_max=16.0, push_tol=4.0, torque_max=3.0, torque_tol=0.5, sim=object())
     lims = (16.0, 4.0, 3.0, 0.5)
     assert stubbed == [("flc", "true", FINAL["flc"], {"peak_of": "flc"}, lims),
@@ -51,10 +52,10 @@ def test_rows_are_judged_against_their_undisturbed_allowance(stubbed, tmp_path):
     assert m["dob"] == {"true": {"rows": ["flc", "flc_dob"], "tols": (4.0, 0.5)},
                         "ekf": {"rows": ["flc", "flc_dob"], "tols": (4.0, 0.5)}}
     assert m["passed"] is True and (m["push_tol_deg"], m["torque_tol_nm"]) == (4.0, 0.5)
-    saved = json.loads((tmp_path / "metrics.json").read_text())
+    saved = json.loads((out / "metrics.json").read_text())
     assert saved["passed"] is True and saved["dob_same_allowance"]["ekf"]["push_roll_deg"] == 5
-    assert (tmp_path / "report.md").read_text() == "# envelope\n"
-    assert not (tmp_path / "envelope.png").exists()
+    assert (out / "report.md").read_text() == "# envelope\n"
+    assert not (out / "envelope.png").exists()
 
 
 def test_without_the_observer_there_is_no_verdict_and_no_sweep(stubbed, tmp_path):

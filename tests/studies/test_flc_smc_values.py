@@ -32,7 +32,8 @@ def study(monkeypatch, tmp_path):
     monkeypatch.setattr(FS, "run_scenario", lambda key, sim: key)
     monkeypatch.setattr(FS, "run_metrics", lambda key: dict(zip(FS._ERRORS, ERR[key])))
     monkeypatch.setattr(FS, "stiffness_ratio", lambda: 1.8)
-    return FS.run_flc_smc_study(tmp_path, controllers=("flc", "smc", "sta"), sim=object()), tmp_path
+    out = tmp_path / "new" / "flc_smc"  # the study makes its folder and the parents
+    return FS.run_flc_smc_study(out, controllers=("flc", "smc", "sta"), sim=object()), out
 
 
 def test_ratios_specs_and_verdict(study):

@@ -51,8 +51,9 @@ def _study(tmp_path, monkeypatch, plot):
 
     monkeypatch.setattr(H, "heading_run", fake)
     kwargs = {} if plot is None else {"plot": plot}   # None: the study's default
-    m = H.run_heading_study(tmp_path, duration=200.0, seeds=(3, 4), **kwargs)
-    return m, calls, tmp_path, (t, aided_err, lost_err)
+    out = tmp_path / "new" / "heading"  # the study makes its folder and the parents
+    m = H.run_heading_study(out, duration=200.0, seeds=(3, 4), **kwargs)
+    return m, calls, out, (t, aided_err, lost_err)
 
 
 def test_the_runs_asked_for(study):
