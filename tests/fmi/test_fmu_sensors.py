@@ -244,12 +244,13 @@ def test_seed_changes_the_noise_and_noise_off_is_deterministic():
     np.testing.assert_array_equal(c, d)
 
 
-def test_start_time_and_sensor_period_parameters():
+@pytest.mark.parametrize("start", [1.25, -2.5])  # FMI allows any start time
+def test_start_time_and_sensor_period_parameters(start):
     """Samples at startTime + k Ts_sensor; Ts_sensor 10 ms holds each reading two steps."""
-    ref = plant_sensor_oracle(X0, TAU[:40], step=0.005, Ts_sensor=0.01, start_time=1.25,
-                                 noise_on=True, seed=3)
+    ref = plant_sensor_oracle(X0, TAU[:40], step=0.005, Ts_sensor=0.01, start_time=start,
+                              noise_on=True, seed=3)
     p = Plant("cs")
-    p.init(start_time=1.25, **dict(zip(X0_NAMES, X0.tolist())), Ts_sensor=0.01, noise_on=True,
+    p.init(start_time=start, **dict(zip(X0_NAMES, X0.tolist())), Ts_sensor=0.01, noise_on=True,
            seed=3)
     rows = [p.get(*SENSORS)]
     for i in range(40):
