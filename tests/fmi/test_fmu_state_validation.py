@@ -168,3 +168,58 @@ def test_get_real_keeps_failing_after_an_error_until_reset():
     st, vals = _raw_get(p, ["der(dq1)", "q0"])
     assert st == 0 and vals[1] == 1.0 and np.all(np.isfinite(vals))
     p.free()
+
+
+@pytest.mark.parametrize("offset, message", [
+    (8, "the state was serialised by an FMU with a different GUID"),
+    (16, "corrupt state: wrong number of Real variables"),
+    (24, "corrupt state: wrong number of Integer variables"),
+    (32, "corrupt state: wrong number of Boolean variables"),
+])
+def test_a_state_of_another_fmu_or_layout_is_refused(cs_blob, offset, message):
+    """The header's GUID hash and variable counts, each changed by one and resealed."""
+    body = bytearray(cs_blob[:-8])
+    (u,) = struct.unpack_from("<Q", body, offset)
+    struct.pack_into("<Q", body, offset, u + 1)
+    q, ok = _restore(_reseal(bytes(body)))
+    assert not ok
+    assert q.errors() == [f"fmi2DeSerializeFMUstate: {message}"]
+    q.free()
+
+
+def test_state_pointer_arguments_are_checked():
+    """NULL where a state or buffer must be, and a pointer to memory that is no state of
+    this FMU, each refused with its own line (no crash, no write through it)."""
+    from ctypes import addressof, byref, c_char, c_size_t, c_void_p
+
+    p = Plant("cs", name="pointers")
+    p.init()
+    foreign = (c_char * 256)()  # zeroed: no state's magic number
+    fp = c_void_p(addressof(foreign))
+    s = c_void_p(None)
+    size = c_size_t(0)
+    calls = [
+        (("fmi2GetFMUstate", None), "fmi2GetFMUstate: FMUstate is NULL"),
+        (("fmi2GetFMUstate", byref(fp)), "fmi2GetFMUstate: *FMUstate is neither NULL nor a state "
+                                         "of this FMU"),
+        (("fmi2FreeFMUstate", None), "fmi2FreeFMUstate: FMUstate is NULL"),
+        (("fmi2FreeFMUstate", byref(fp)), "fmi2FreeFMUstate: not an FMU state of this FMU"),
+        (("fmi2SerializedFMUstateSize", None, byref(size)),
+         "fmi2SerializedFMUstateSize: invalid FMUstate or size pointer"),
+        (("fmi2DeSerializeFMUstate", None, c_size_t(8), byref(s)),
+         "fmi2DeSerializeFMUstate: NULL argument"),
+    ]
+    for (fn, *args), message in calls:
+        assert p.raw(fn, *args) == 3, fn
+        assert p.errors()[-1] == message
+    assert p.raw("fmi2GetFMUstate", byref(s)) == 0 and s.value is not None
+    assert p.raw("fmi2SerializedFMUstateSize", s, byref(size)) == 0 and size.value > 64
+    assert p.raw("fmi2SerializeFMUstate", s, None, size) == 3
+    assert p.errors()[-1] == "fmi2SerializeFMUstate: invalid FMUstate or NULL buffer"
+    buf = (c_char * size.value)()
+    assert p.raw("fmi2SerializeFMUstate", s, buf, size) == 0
+    assert p.raw("fmi2DeSerializeFMUstate", buf, size, byref(fp)) == 3
+    assert p.errors()[-1] == ("fmi2DeSerializeFMUstate: *FMUstate is neither NULL nor a state of "
+                              "this FMU")
+    assert p.raw("fmi2FreeFMUstate", byref(s)) == 0 and s.value is None
+    p.free()
