@@ -194,7 +194,7 @@ def test_state_pointer_arguments_are_checked():
 
     p = Plant("cs", name="pointers")
     p.init()
-    foreign = (c_char * 256)()  # zeroed: no state's magic number
+    foreign = (c_char * 256).from_buffer_copy(b"Z" * 256)  # no state's magic number
     fp = c_void_p(addressof(foreign))
     s = c_void_p(None)
     size = c_size_t(0)
