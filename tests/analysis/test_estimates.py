@@ -106,3 +106,16 @@ def test_quaternion_component_errors_are_sign_aligned_and_the_rate_error_is_the_
     assert m["estimator_rate_rms_dps"] == pytest.approx(math.degrees(np.linalg.norm(w)), rel=1e-12)
     assert m["estimator_tilt_max_deg"] == pytest.approx(2.0, rel=1e-9)
     assert m["estimator_heading_max_deg"] == pytest.approx(4.0, rel=1e-9)
+
+
+def test_the_rate_of_an_estimate_off_the_unit_sphere_is_still_its_body_rate():
+    """omega = 2 (q* o dq) / |q|^2: an estimate scaled by 1.2 (a filter between its
+    renormalisations) with dq = 1/2 q o [0, omega] has the body rate omega, not 1.2^4 times it."""
+    n = 4
+    x = _state(n, _q())
+    qh = 1.2 * np.asarray(_q(roll_deg=3.0), float)
+    xh = _state(n, qh)
+    w = np.array([0.2, 0.1, -0.4])
+    xh[:, STATE["dq"]] = 0.5 * Q.mul(qh, np.r_[0.0, w])
+    m = estimation_metrics({"x_hat": xh, "state": x, "nis": np.zeros((n, 2)), "repairs": np.zeros(n)})
+    assert m["estimator_rate_rms_dps"] == pytest.approx(math.degrees(np.linalg.norm(w)), rel=1e-12)
