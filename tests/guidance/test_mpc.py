@@ -315,3 +315,12 @@ def test_condensing_needs_positive_block_lengths(model, blocks):
                                             rf"{re.escape(repr(blocks))}$"):
         condense(model, blocks)
     assert condense(model, (1,)).n_u == 3  # one block of one step: one input (v_x, v_y, a_s)
+
+
+def test_the_warm_start_moves_the_steps_one_ahead_and_repeats_the_last(model):
+    """Blocks (2, 1, 1): steps 0, 0, 1, 2 shifted are 0, 1, 2, 2, so the blocks start at
+    steps 0, 2, 3: blocks 0, 2, 2 (as the NMPC's shift)."""
+    cfg = MpcConfig(N=4, blocks=(2, 1, 1), nodes=(1, 3, 4), n_obstacles=1)
+    mpc = PathMPC(model, line_path((0.0, 0.0), (3.0, 0.0), 0.5), cfg)
+    ub = np.arange(9, dtype=float)
+    np.testing.assert_array_equal(mpc.shift(ub), np.concatenate([ub[0:3], ub[6:9], ub[6:9]]))
