@@ -23,6 +23,7 @@ from pathlib import Path
 import pytest
 from _fmu_support import plant_build, run_fuzz
 
+from ballbot_casadi.core.toolchain import compiler_command
 from ballbot_casadi.fmi.package import fmi_headers_dir
 
 pytestmark = pytest.mark.needs_cc
@@ -73,8 +74,8 @@ def broken(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("broken_fmu")
     (d / "broken.c").write_text(WRAPPER)
     lib = d / "broken.so"
-    subprocess.run(["gcc", "-shared", "-fPIC", "-I", str(fmi_headers_dir()), "-o", str(lib),
-                    str(d / "broken.c"), "-Wl,--no-as-needed", str(build.binary),
+    subprocess.run([*compiler_command(), "-shared", "-fPIC", "-I", str(fmi_headers_dir()),
+                    "-o", str(lib), str(d / "broken.c"), "-Wl,--no-as-needed", str(build.binary),
                     f"-Wl,-rpath,{build.binary.parent}", "-ldl"], check=True,
                    capture_output=True)
     return lib
