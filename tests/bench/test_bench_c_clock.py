@@ -6,6 +6,8 @@ divisions by N and by the chunk, which result goes to which key)."""
 
 from __future__ import annotations
 
+import subprocess
+
 import pytest
 
 import casadi as ca
@@ -14,6 +16,7 @@ from ballbot_casadi.bench import control as bench_control_mod
 from ballbot_casadi.bench import estimation as bench_estimation_mod
 from ballbot_casadi.bench.exports import control_bench_library
 from ballbot_casadi.core.toolchain import build_library, compiler_command
+from ballbot_casadi.errors import BuildError
 
 pytestmark = pytest.mark.needs_cc
 
@@ -64,8 +67,6 @@ def test_control_bench_program_reads_at_most_its_buffers_and_refuses_the_rest(mo
     """The input file's five counts (parameters, FLC, SMC and velocity gains, controller
     state) are bounded by the program's buffers (128 entries; the state with the 12 plant
     states): exactly full runs, one more, a short file or no file exits 2 with one line."""
-    import subprocess
-
     monkeypatch.setattr(bench_control_mod, "build_root", lambda: tmp_path)
     _, inputs = bench_control_mod.mission_inputs(0.1)
     bench_control_mod._c_bench(control_bench_library(), inputs, 1)
@@ -100,10 +101,6 @@ def test_control_bench_program_reads_at_most_its_buffers_and_refuses_the_rest(mo
 def test_function_bench_program_refuses_bad_calls_and_flags_a_nan(tmp_path, monkeypatch):
     """``bench_function.c``: usage, a call count below one, a missing or short input file exit
     2 with one line; a NaN output is refused by the caller, as is a failed run."""
-    import subprocess
-
-    from ballbot_casadi.errors import BuildError
-
     x = ca.SX.sym("x", 2)
     f = ca.Function("bench_nan_probe", [x, ca.SX.sym("k")], [ca.sqrt(x[0]) * x[1]])
     lib = build_library("bench_nan_probe", [f], root=tmp_path / "lib")

@@ -23,7 +23,8 @@ NO_CLOCKS = "the FMU has no clocks (the controller's period is its fixed step)"
 
 
 class Api:
-    """One Model Exchange instance with a log, and the binary's functions by name."""
+    """One Model Exchange instance with a log, and the binary's functions by name (through a
+    handle of our own: fmpy's declares argument types, these calls pass raw pointers)."""
 
     def __init__(self, kind=FMU3Model) -> None:
         self.b = plant3()

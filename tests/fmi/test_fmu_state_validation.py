@@ -10,7 +10,7 @@ booleans i32[] | FNV-1a-64 of everything before.
 from __future__ import annotations
 
 import struct
-from ctypes import c_double, c_uint
+from ctypes import addressof, byref, c_char, c_double, c_size_t, c_uint, c_void_p
 
 import numpy as np
 import pytest
@@ -190,8 +190,6 @@ def test_a_state_of_another_fmu_or_layout_is_refused(cs_blob, offset, message):
 def test_state_pointer_arguments_are_checked():
     """NULL where a state or buffer must be, and a pointer to memory that is no state of
     this FMU, each refused with its own line (no crash, no write through it)."""
-    from ctypes import addressof, byref, c_char, c_size_t, c_void_p
-
     p = Plant("cs", name="pointers")
     p.init()
     foreign = (c_char * 256).from_buffer_copy(b"Z" * 256)  # no state's magic number

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from ballbot_casadi.guidance.path_table import PATH_SAMPLES, PathSymbols, pack_path, path_eval, path_table_layout
-from ballbot_casadi.guidance.paths import figure_eight
+from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.guidance.paths import figure_eight, line_path
 
 
 def _eval_function(n_nodes: int) -> ca.Function:
@@ -43,9 +44,6 @@ def test_tangents_between_the_samples_are_unit_vectors():
 
 
 def test_a_table_holds_at_most_its_guidance_blocks_obstacles():
-    from ballbot_casadi.errors import ScenarioError
-    from ballbot_casadi.guidance.paths import line_path
-
     path = line_path((0.0, 0.0), (3.0, 0.0), 0.5, obstacles=[(1.0, 0.3, 0.1), (2.0, -0.3, 0.1)])
     assert pack_path(path, 2).size == path_table_layout(2).size
     with pytest.raises(ScenarioError, match=r"^obstacles: at most 1 allowed by this guidance "
