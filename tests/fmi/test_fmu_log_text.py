@@ -4,10 +4,11 @@ on (a logger may treat the message as a format), and a longer message cut, not o
 
 from __future__ import annotations
 
+import ctypes
 import re
 
 import pytest
-from _fmu_support import Plant
+from _fmu_support import Plant, plant_build
 from fmpy.fmi1 import FMICallException
 
 from ballbot_casadi.fmi.package import fmu_source_dir
@@ -39,3 +40,48 @@ def test_percent_signs_are_blanked_and_a_too_long_message_is_cut_at_its_buffer()
     msg = _logged("e" * 3000)
     # the text is formatted into 2 MSG_LEN bytes: its first 2 MSG_LEN - 1 characters
     assert msg == (PREFIX + "e" * 3000)[:2 * MSG_LEN - 1]
+
+
+def _cut(prefix: str, n_hash: int) -> str:
+    """``prefix`` then ``n_hash`` '#' as the layer escapes them into its 2 MSG_LEN + 16 byte
+    output buffer: a character is copied while fewer than buflen - 3 are written (room for
+    '##' and the terminator), so a run of '#' stops at the first even count past that."""
+    buflen, out = 2 * MSG_LEN + 16, prefix
+    for _ in range(n_hash):
+        if len(out) + 3 >= buflen:
+            break
+        out += "##"
+    return out
+
+
+def test_a_message_of_hashes_is_cut_at_the_escaped_buffer_not_beyond():
+    msg = _logged("#" * 3000)  # 2 MSG_LEN - 1 formatted characters, each escaped to two
+    assert msg == _cut(PREFIX, 3000)
+    assert len(msg) == 2 * MSG_LEN + 16 - 3  # 1037 characters with MSG_LEN 512
+
+
+def test_an_instantiation_message_is_escaped_and_cut_like_an_instance_message():
+    """The refusals before an instance exists (``fmu_log_early``) have their own buffer."""
+    from fmpy import calloc, free
+    from fmpy.fmi2 import (
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+    )
+
+    got = []
+    cb = fmi2CallbackFunctions()
+    cb.logger = fmi2CallbackLoggerTYPE(
+        lambda env, name, status, category, msg: got.append((status, msg.decode())))
+    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    f = ctypes.CDLL(str(plant_build().binary)).fmi2Instantiate
+    f.restype = ctypes.c_void_p
+    for guid, want in (("g#1%d", "fmi2Instantiate: wrong GUID 'g##1 d', this binary of "
+                                 f"BallbotPlant has GUID '{plant_build().guid}'"),
+                       ("#" * 3000, _cut("fmi2Instantiate: wrong GUID '", 3000))):
+        got.clear()
+        assert f(b"early", ctypes.c_int(1), guid.encode(), b"", ctypes.byref(cb),
+                 ctypes.c_int(0), ctypes.c_int(0)) is None
+        assert got == [(3, want)]
