@@ -24,6 +24,8 @@ from pathlib import Path
 
 REGISTER = Path(__file__).parent / "constants_register.json"
 PACKAGES = ("ballbot_casadi", "ballbot_casadi.studies")
+#: the other names of an unpacking assignment (``A, B = 1.0, 2.0``) before and after one
+_BEFORE, _AFTER = r"(?:[A-Za-z_]\w*\s*,\s*)*", r"(?:\s*,\s*[A-Za-z_]\w*)*\s*"
 
 
 def _numeric(v) -> bool:
@@ -79,8 +81,9 @@ def register() -> dict:
                 out.update({f"{name}:{key}.{a}": _plain(c) for a, c in vars(v).items()
                             if not a.startswith(("__", "_is_")) and a not in fields  # typing's flags
                             and _numeric(c)})
-            elif _numeric(v) and re.search(rf"^{re.escape(key)}\s*(:[^=\n]*)?=", src, re.M):
-                out[f"{name}:{key}"] = _plain(v)  # defined here, not imported
+            elif _numeric(v) and re.search(rf"^{_BEFORE}{re.escape(key)}{_AFTER}(:[^=\n]*)?=(?!=)",
+                                           src, re.M):
+                out[f"{name}:{key}"] = _plain(v)  # defined here (alone or unpacked), not imported
             for qual, f in funcs:
                 try:
                     params = inspect.signature(f).parameters.values()
@@ -112,5 +115,8 @@ def test_the_register_reads_what_it_claims():
     assert reg["ballbot_casadi.analysis.heading:HEADING_CHUNK"] == 2000
     assert reg["ballbot_casadi.bench:BENCH_TAU"] == ["0.2", "-0.1", "0.3"]
     assert reg["ballbot_casadi.bench.control:bench_control()"] == {"n_calls": 100000, "repeats": 3}
+    # both names of an unpacking assignment (the FLC's tilt and yaw weights)
+    assert (reg["ballbot_casadi.control.flc:_W_TILT"], reg["ballbot_casadi.control.flc:_W_YAW"]) == (
+        "10.0", "5.0")
     assert not any(k.endswith(":TS_CONTROL") and not k.startswith("ballbot_casadi.core.constants:")
                    for k in reg)  # imported names are not registered twice

@@ -64,6 +64,25 @@ def test_the_runs_asked_for(study):
     assert calls[2:] == [(200.0, 3, False, (0.0, 0.0, 0.0), None), (200.0, 4, False, (0.0, 0.0, 0.0), None)]
 
 
+@pytest.mark.parametrize("duration, loss", [
+    (200.0, (100.0, 160.0)),       # half-way in a short run, still 60 s long
+    (3600.0, (1800.0, 1860.0)),    # the hour: from 30 min on
+    (3700.0, (1800.0, 1860.0)),    # longer runs: the same 60 s from 30 min
+    (7200.0, (1800.0, 1860.0)),
+])
+def test_the_loss_window_for_each_duration(tmp_path, monkeypatch, duration, loss):
+    t = np.arange(0.0, duration, 10.0)
+    asked = []
+
+    def fake(d, seed, aided, bias0=(0.0, 0.0, 0.0), loss=None):
+        asked.append(loss)
+        return _run(t, np.zeros_like(t))
+
+    monkeypatch.setattr(H, "heading_run", fake)
+    H.run_heading_study(tmp_path, plot=False, duration=duration, seeds=(0,))
+    assert asked == [None, loss, None]
+
+
 def test_every_metric_by_hand(study):
     m, _, out, (t, e, _) = study
     late = e[t >= 60.0]
