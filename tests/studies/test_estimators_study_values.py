@@ -77,6 +77,20 @@ def test_full_counts_repairs_and_rejections_over_all_runs(full):
     assert m["by_run"] is runs
 
 
+
+def test_full_counts_nothing_for_a_run_without_repair_or_rejection_counts(monkeypatch):
+    names = ["s_smc_ekf", "v_smc_ekf", "s_ukf", "v_ukf", "s", "v"]
+    runs = {n: _run(i) for i, n in enumerate(names)}
+    for n in ("s_smc_ekf", "v_smc_ekf"):  # e.g. runs whose estimator keeps no such counts
+        del runs[n]["covariance_repairs"], runs[n]["gate_rejections"]
+    monkeypatch.setattr(E, "by_run", lambda _logs: runs)
+    monkeypatch.setattr(E, "norm_probe_metrics", lambda log: {})
+    m = E.full_metrics(_logs(names))
+    rest = [runs[n] for n in names[2:]]
+    assert m["covariance_repairs"] == sum(int(r["covariance_repairs"]) for r in rest)
+    assert m["gate_rejections"] == sum(int(r["gate_rejections"]) for r in rest)
+
+
 def test_the_expand_hooks_order_and_name_the_runs():
     tables = [{"name": "a", "estimator": "ukf_adaptive"}, {"name": "b"}]
     out = E.comparison_expand({"controller": "smc", "estimator": "ekf"})(tables)

@@ -54,3 +54,9 @@ def test_each_filters_metrics_come_from_its_own_runs(monkeypatch):
             assert m[f"{f}_nis_velocity_mean"] == _run(vel)["nis_velocity_mean"]
     assert m["shipped_vs_thesis_velocity_rms_ratio"] == pytest.approx(
         _run(5)["estimator_velocity_rms_mps"] / _run(3)["estimator_velocity_rms_mps"], rel=1e-15)
+    # the repairs and rejections of every run that counts them; a run without counts adds none
+    assert (m["covariance_repairs"], m["gate_rejections"]) == (0, 0)
+    runs["ukf_sine"].update(covariance_repairs=2, gate_rejections=5)
+    runs["ad_velocity"].update(gate_rejections=3)
+    m = E.estimators_metrics(logs)
+    assert (m["covariance_repairs"], m["gate_rejections"]) == (2, 8)
