@@ -59,3 +59,47 @@ def test_demo_removes_the_previous_report_before_its_steps(tmp_path, monkeypatch
     monkeypatch.setattr(commands, "DEMO_STEPS", (("broken", failing_step),))
     assert main(["demo", "--out", str(tmp_path)]) == 3
     assert seen == [False] and not (tmp_path / "report.md").exists()
+
+
+def test_demo_runs_every_step_in_order_and_exits_with_a_failed_steps_code(tmp_path, monkeypatch,
+                                                                         capsys):
+    from ballbot_casadi.cli import commands
+
+    ran = []
+
+    def step(name, rc):
+        def run(out):
+            ran.append((name, out))
+            return rc
+        return run
+
+    steps = (("first", step("a", 0)), ("second fails", step("b", 1)), ("third", step("c", None)))
+    monkeypatch.setattr(commands, "DEMO_STEPS", steps)
+    out = tmp_path / "new" / "demo"  # the folder and its parents are made
+    assert main(["demo", "--out", str(out)]) == 1  # a later step's success does not hide it
+    assert ran == [("a", out), ("b", out), ("c", out)] and out.is_dir()
+    text = capsys.readouterr().out
+    assert [line for line in text.splitlines() if line.startswith("===")] == [
+        "=== first ===", "=== second fails ===", "=== third ==="]
+    assert "step failed with exit code 1: second fails" in text
+    assert "exit code 0" not in text and text.rstrip().endswith(f"demo outputs in {out}")
+    monkeypatch.setattr(commands, "DEMO_STEPS", (("ok", step("d", 0)), ("ok too", step("e", None))))
+    assert main(["demo", "--out", str(out)]) == 0
+
+
+def test_bench_prints_each_result_sorted_and_where_it_wrote(tmp_path, monkeypatch, capsys):
+    from ballbot_casadi.cli import commands
+
+    asked = []
+
+    def fake(path, only):
+        asked.append((path, only))
+        return {"z_ratio": 2.0, "a_ns": 1234.56789, "m_label": "c99"}
+
+    monkeypatch.setattr(commands, "run_benchmarks", fake)
+    out = tmp_path / "bench.json"
+    assert main(["bench", "--out", str(out), "--only", "model"]) == 0
+    assert asked == [(out, ["model"])]
+    lines = capsys.readouterr().out.splitlines()
+    assert lines == [f"{'a_ns':28s} 1234.57", f"{'m_label':28s} c99", f"{'z_ratio':28s} 2",
+                     f"written to {out}"]
