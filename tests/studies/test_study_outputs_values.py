@@ -105,8 +105,9 @@ def test_study_all_table(monkeypatch, tmp_path):
 
     monkeypatch.setattr(ST, "run_study", run_study)
     monkeypatch.setattr(ST, "ClosedLoop", lambda: None)
-    ST.run_all(tmp_path / "no_plots", plot=False)
+    ST.run_all(tmp_path / "new" / "no_plots", plot=False)  # makes its folder and the parents
     assert plots == [False] * 4
+    assert (tmp_path / "new" / "no_plots" / "summary.json").is_file()
     plots.clear()
     table = ST.run_all(tmp_path)
     assert plots == [True] * 4  # plots by default
