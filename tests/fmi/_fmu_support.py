@@ -58,20 +58,34 @@ def vrs(*names: str) -> list[int]:
     return [t[n] for n in names]
 
 
+def fmi2_callbacks(logger, allocate: bool = True, free: bool = True):
+    """fmpy's FMI 2.0 callback struct: ``logger(env, name, status, category, message)`` and
+    fmpy's ``calloc`` / ``free`` (either left out, NULL, when asked).  Keep the struct alive
+    as long as the instance made with it."""
+    from fmpy import calloc
+    from fmpy import free as fmpy_free
+    from fmpy.fmi2 import (
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+    )
+
+    cb = fmi2CallbackFunctions()
+    cb.logger = fmi2CallbackLoggerTYPE(logger)
+    if allocate:
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    if free:
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(fmpy_free)
+    return cb
+
+
 class Plant:
     """One fmpy instance of the plant with a logger that records every message."""
 
     def __init__(self, kind: str = "cs", name: str = "plant", guid: str | None = None,
                  logging_on: bool = False):
-        from fmpy import calloc, free
-        from fmpy.fmi2 import (
-            FMU2Model,
-            FMU2Slave,
-            fmi2CallbackAllocateMemoryTYPE,
-            fmi2CallbackFreeMemoryTYPE,
-            fmi2CallbackFunctions,
-            fmi2CallbackLoggerTYPE,
-        )
+        from fmpy.fmi2 import FMU2Model, FMU2Slave
 
         b = plant_build()
         self.build = b
@@ -80,10 +94,7 @@ class Plant:
         cls = FMU2Slave if kind == "cs" else FMU2Model
         self.fmu = cls(guid=guid or b.guid, unzipDirectory=str(b.unzipped),
                        modelIdentifier="BallbotPlant", instanceName=name)
-        cb = fmi2CallbackFunctions()
-        cb.logger = fmi2CallbackLoggerTYPE(self._log)
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        cb = fmi2_callbacks(self._log)
         self._cb = cb
         self.fmu.instantiate(callbacks=cb, loggingOn=logging_on)
         self.t = 0.0

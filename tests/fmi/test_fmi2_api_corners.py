@@ -10,7 +10,7 @@ import ctypes
 from ctypes import c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
 
 import pytest
-from _fmu_support import ALL_STATES, Plant, plant_build, vrs
+from _fmu_support import ALL_STATES, Plant, fmi2_callbacks, plant_build, vrs
 
 pytestmark = pytest.mark.needs_cc
 
@@ -34,22 +34,9 @@ def test_platform_and_version_strings():
     (-1, None, "fmi2Instantiate: unknown fmuType -1"),
 ])
 def test_an_instance_the_layer_cannot_make_is_refused_with_a_line(fmu_type, missing, message):
-    from fmpy import calloc, free
-    from fmpy.fmi2 import (
-        fmi2CallbackAllocateMemoryTYPE,
-        fmi2CallbackFreeMemoryTYPE,
-        fmi2CallbackFunctions,
-        fmi2CallbackLoggerTYPE,
-    )
-
     got = []
-    cb = fmi2CallbackFunctions()
-    cb.logger = fmi2CallbackLoggerTYPE(
-        lambda env, name, status, category, msg: got.append((status, msg.decode())))
-    if missing != "allocateMemory":
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-    if missing != "freeMemory":
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    cb = fmi2_callbacks(lambda env, name, status, category, msg: got.append((status, msg.decode())),
+                        allocate=missing != "allocateMemory", free=missing != "freeMemory")
     f = _dll().fmi2Instantiate
     f.restype = c_void_p
     inst = f(b"corner", c_int(fmu_type), plant_build().guid.encode(), b"", ctypes.byref(cb),

@@ -8,7 +8,7 @@ import ctypes
 import re
 
 import pytest
-from _fmu_support import Plant, plant_build
+from _fmu_support import Plant, fmi2_callbacks, plant_build
 from fmpy.fmi1 import FMICallException
 
 from ballbot_casadi.fmi.package import fmu_source_dir
@@ -62,20 +62,8 @@ def test_a_message_of_hashes_is_cut_at_the_escaped_buffer_not_beyond():
 
 def test_an_instantiation_message_is_escaped_and_cut_like_an_instance_message():
     """The refusals before an instance exists (``fmu_log_early``) have their own buffer."""
-    from fmpy import calloc, free
-    from fmpy.fmi2 import (
-        fmi2CallbackAllocateMemoryTYPE,
-        fmi2CallbackFreeMemoryTYPE,
-        fmi2CallbackFunctions,
-        fmi2CallbackLoggerTYPE,
-    )
-
     got = []
-    cb = fmi2CallbackFunctions()
-    cb.logger = fmi2CallbackLoggerTYPE(
-        lambda env, name, status, category, msg: got.append((status, msg.decode())))
-    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    cb = fmi2_callbacks(lambda env, name, status, category, msg: got.append((status, msg.decode())))
     f = ctypes.CDLL(str(plant_build().binary)).fmi2Instantiate
     f.restype = ctypes.c_void_p
     for guid, want in (("g#1%d", "fmi2Instantiate: wrong GUID 'g##1 d', this binary of "

@@ -14,7 +14,7 @@ from ctypes import c_double, c_int, c_uint, c_void_p
 import casadi as ca
 import numpy as np
 import pytest
-from _fmu_support import fuzz_counts
+from _fmu_support import fmi2_callbacks, fuzz_counts
 from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
@@ -121,18 +121,7 @@ def _log_list():
 
 
 def _slave(counter, logs_logger):
-    from fmpy import calloc, free
-    from fmpy.fmi2 import (
-        fmi2CallbackAllocateMemoryTYPE,
-        fmi2CallbackFreeMemoryTYPE,
-        fmi2CallbackFunctions,
-        fmi2CallbackLoggerTYPE,
-    )
-
-    cb = fmi2CallbackFunctions()
-    cb.logger = fmi2CallbackLoggerTYPE(logs_logger)
-    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    cb = fmi2_callbacks(logs_logger)
     s = FMU2Slave(guid=counter.guid, unzipDirectory=str(counter.unzipped),
                   modelIdentifier="Counter", instanceName="counter")
     s.instantiate(callbacks=cb)
@@ -176,18 +165,7 @@ def test_no_model_exchange_refused_steps_state_and_checks(counter):
 
     me = FMU2Model(guid=counter.guid, unzipDirectory=str(counter.unzipped),
                    modelIdentifier="Counter", instanceName="me")
-    from fmpy import calloc, free
-    from fmpy.fmi2 import (
-        fmi2CallbackAllocateMemoryTYPE,
-        fmi2CallbackFreeMemoryTYPE,
-        fmi2CallbackFunctions,
-        fmi2CallbackLoggerTYPE,
-    )
-
-    cb = fmi2CallbackFunctions()
-    cb.logger = fmi2CallbackLoggerTYPE(logger)
-    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    cb = fmi2_callbacks(logger)
     with pytest.raises(Exception, match="Failed to instantiate"):
         me.instantiate(callbacks=cb)
     assert any("Counter does not implement Model Exchange" in m for _, m in logs)
