@@ -292,6 +292,12 @@ def run(root: Path, muts: list[dict], out: Path, timeout: float, ids: set[int] |
     status, _, said = _pytest(root, ["--collect-only", "tests"], timeout)
     if status != "survived":  # an unmutated checkout whose tests do not even load
         raise SystemExit(f"{root}: the tests do not collect before any mutant ({said}); fix the set-up")
+    wide_checks = sorted(str(t.relative_to(root)) for t in (root / "tests").glob("test_*.py"))
+    if wide_checks:  # every second stage runs them: one failing unmutated would "catch" anything
+        status, _, said = _pytest(root, wide_checks, timeout)
+        if status != "survived":
+            raise SystemExit(f"{root}: the package-wide tests fail before any mutant ({said}); "
+                             "fix them first")
     done = set()
     if out.exists():
         done = {json.loads(l)["id"] for l in out.read_text().splitlines() if l.strip()}

@@ -129,6 +129,20 @@ def test_run_refuses_a_checkout_whose_tests_do_not_load(tmp_path, monkeypatch):
     assert not (root / "r.jsonl").exists()
 
 
+def test_run_refuses_a_checkout_whose_package_wide_tests_fail_unmutated(tmp_path, monkeypatch):
+    """The second stage adds the top-level tests to every area: one failing before any
+    mutant would count every survivor of the first stage as caught."""
+    root, _ = _repo(tmp_path)
+    (root / "tests").mkdir()
+    (root / "tests" / "test_a.py").write_text("from pkg.a import f\n\ndef test_f():\n    assert f(1) == 2\n")
+    (root / "tests" / "test_register.py").write_text("def test_stale():\n    assert 1 == 2\n")
+    monkeypatch.setenv("PYTHONPATH", str(root))
+    muts = [{"id": 0, "path": "pkg/a.py", "line": 3, "col": 4, "old": "7", "new": "8"}]
+    with pytest.raises(SystemExit, match="the package-wide tests fail before any mutant"):
+        M.run(root, muts, root / "r.jsonl", timeout=120, ids=None)
+    assert not (root / "r.jsonl").exists()
+
+
 def test_a_survivor_of_both_stages_meets_every_other_test_file_naming_its_module(tmp_path, monkeypatch):
     """The first stage runs 15 of the files naming the module (its own area's first), the
     second the area's folder; a file naming it beyond those 15, in another area, runs third."""
