@@ -220,11 +220,18 @@ def test_mpc_group_statistics_by_hand(monkeypatch):
             self.failures, self.residuals = 2, [1e-9, 3e-7, 2e-8]
             made.append(self)
 
-    monkeypatch.setattr(bg, "compiled_mpc", lambda path: (MPC(), 4321))
+    paths = []
+
+    def compiled_mpc(path):
+        paths.append(path)
+        return MPC(), 4321
+
+    monkeypatch.setattr(bg, "compiled_mpc", compiled_mpc)
     runs = []
 
     def run_path(path, mpc, duration, sim):
         runs.append(duration)
+        paths.append(path)
         if len(runs) == 1:
             for i in range(5):
                 mpc.function(np.array([float(i)]))
@@ -255,6 +262,12 @@ def test_mpc_group_statistics_by_hand(monkeypatch):
     assert (out["mpc_solve_us_p99_target"], out["mpc_workspace_bytes_target"]) == (1000.0, 65536.0)
     assert out["mpc_mission_s"] == approx(2.0) and out["mpc_mission_ratio"] == approx(4.0)
     assert len(made) == 2  # the mission runs a fresh compiled MPC
+    # the documented figure-eight: closed, 4 m x 2 m about the origin, 0.5 m/s, every time
+    assert all(p is paths[0] for p in paths) and len(paths) == 4
+    xy = paths[0].point(np.linspace(0.0, paths[0].length, 4001))
+    assert paths[0].closed and paths[0].speed == 0.5
+    np.testing.assert_allclose([np.ptp(xy[:, 0]), np.ptp(xy[:, 1])], [4.0, 2.0], rtol=1e-3)
+    np.testing.assert_allclose(xy.mean(axis=0), [0.0, 0.0], atol=1e-3)
     assert all(type(v) is float for v in out.values())
 
 
