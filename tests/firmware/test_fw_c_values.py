@@ -408,6 +408,18 @@ def test_replay_refuses_a_bad_input(builds, tmp_path, variant, kw, code, message
     assert res.returncode == code and message in res.stderr
 
 
+@pytest.mark.parametrize("drop, where", [
+    (1, "row 2"), (20, "row 2"), (21, "row 1"), (60, "row 0"),  # 3 rows of 20 values
+    (61, "the guidance data"), (63, "the guidance data"),     # 3 guidance values
+    (64, "the initial state"), (71, "the initial state"),     # 8 state values
+    (72, "the parameters"), (78, "the parameters"),           # 7 parameters
+])
+def test_replay_names_where_a_short_input_ends(builds, tmp_path, drop, where):
+    res, _ = _replay(builds, tmp_path, "guided", n=3, drop=drop)
+    assert res.returncode == 2
+    assert res.stderr == f"replay: the input ends early, in {where}\n"
+
+
 def test_replay_without_an_input_file(builds, tmp_path):
     res = subprocess.run([str(builds["plain", False]), "missing.bin", "out.bin"], cwd=tmp_path,
                          capture_output=True, text=True)

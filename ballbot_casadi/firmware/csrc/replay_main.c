@@ -82,6 +82,15 @@ static int read_doubles(FILE *f, double *v, int n) {
     return (int)fread(v, sizeof(double), (size_t)n, f) == n ? 0 : 1;
 }
 
+/* A short input: one line naming where it ends (k >= 0: that row), exit code 2. */
+static int ends_early(const char *where, long k) {
+    if (k >= 0)
+        fprintf(stderr, "replay: the input ends early, in %s %ld\n", where, k);
+    else
+        fprintf(stderr, "replay: the input ends early, in %s\n", where);
+    return 2;
+}
+
 static int write_doubles(FILE *f, const double *v, int n) {
     return (int)fwrite(v, sizeof(double), (size_t)n, f) == n ? 0 : 1;
 }
@@ -104,10 +113,10 @@ static int replay(FILE *in, FILE *out) {
     }
     n = (long)hdr[0];
     for (i = 0; i < N_PAR; ++i) {
-        if (read_doubles(in, buf, 1)) return 2;
+        if (read_doubles(in, buf, 1)) return ends_early("the parameters", -1);
         pflat[i] = (ballbot_fw_real)buf[0];
     }
-    if (read_doubles(in, buf, BALLBOT_FW_NC)) return 2;
+    if (read_doubles(in, buf, BALLBOT_FW_NC)) return ends_early("the initial state", -1);
     for (i = 0; i < BALLBOT_FW_NC; ++i) c0[i] = (ballbot_fw_real)buf[i];
     rc = ballbot_fw_init(&ctx, &params, c0);
     if (rc != BALLBOT_FW_OK) {
@@ -116,7 +125,7 @@ static int replay(FILE *in, FILE *out) {
     }
 #if BALLBOT_FW_GUIDANCE
     for (i = 0; i < BALLBOT_FW_N_GUIDANCE; ++i) {
-        if (read_doubles(in, buf, 1)) return 2;
+        if (read_doubles(in, buf, 1)) return ends_early("the guidance data", -1);
         guidance_data[i] = (ballbot_fw_real)buf[0];
     }
     rc = ballbot_fw_set_guidance(&ctx, guidance_data);
@@ -146,7 +155,7 @@ static int replay(FILE *in, FILE *out) {
         double row[5 + ROW_EXTRA + 1];
         uint32_t t0, t1;
         int paint = k < 8;
-        if (read_doubles(in, buf, BALLBOT_FW_N_READINGS + N_REF)) return 2;
+        if (read_doubles(in, buf, BALLBOT_FW_N_READINGS + N_REF)) return ends_early("row", k);
         for (i = 0; i < BALLBOT_FW_N_READINGS; ++i) meas[i] = (ballbot_fw_real)buf[i];
         for (i = 0; i < 4; ++i) {
             refs.q_ref[i] = (ballbot_fw_real)buf[BALLBOT_FW_N_READINGS + i];
