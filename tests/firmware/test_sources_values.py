@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -20,6 +21,7 @@ from ballbot_casadi.firmware.sources import (
     firmware_function,
     firmware_guidance,
     generate_sources,
+    generated_work,
     param_inputs,
     scenario_values,
 )
@@ -31,6 +33,19 @@ def generated():
     f = firmware_function()
     vals = scenario_values(f, default_scenario())
     return f, vals, generate_sources(f, "double", vals)
+
+
+def test_generated_work_is_what_the_firmware_c_declares(generated):
+    """The work sizes the firmware's cost report uses (the Function generated alone) are
+    those the firmware's own C declares for it, in either precision, and at most CasADi's
+    counts of the Function (the C can need less)."""
+    f, _, files = generated
+    assert generated_work(f) == codegen_work(f, files["ballbot_fw_cg.c"])
+    x = ca.MX.sym("x", 3)
+    g = ca.Function("fw_probe", [x], [ca.sin(x) * ca.sum1(x)])
+    got = generated_work(g)
+    assert got == generated_work(g, "single") and got[:2] == (g.sz_arg(), g.sz_res())
+    assert 0 < got[3] <= g.sz_w() and got[2] <= g.sz_iw()
 
 
 def _defines(text: str) -> dict[str, str]:
