@@ -50,3 +50,13 @@ def test_the_relative_tolerance_of_a_limit_is_1e_9(rel, beyond):
                  reference_peak_tilt_rate_deg_s=20.0 * (1 + rel))
     for key in ("peak_tilt_deg", "peak_tilt_rate_deg_s"):
         assert rows[key]["exceeded"] is beyond and rows[key]["by_scenario"] is beyond
+
+
+def test_a_run_without_its_start_values_is_not_flagged_by_the_scenario():
+    """Metrics without the initial-state and reference keys (nothing known of the start)
+    count the start as zero: not beyond even a tight limit."""
+    tight = {"tilt_max": math.radians(0.5), "tilt_rate_max": math.radians(0.5)}
+    rows = {r["metric"]: r for r in limit_rows({"peak_tilt_deg": 0.1, "peak_tilt_rate_deg_s": 0.1,
+                                                "peak_torque_nm": 0.5, "tau_max_nm": 2.0}, tight)}
+    assert [rows[k]["by_scenario"] for k in rows] == [False, False, False]
+    assert [rows[k]["exceeded"] for k in rows] == [False, False, False]
