@@ -89,6 +89,19 @@ def test_a_decimated_log_gives_the_same_metrics():
         assert dec[k] == pytest.approx(v, abs=1e-9), k
 
 
+def test_a_log_without_its_decimation_counts_as_every_period_logged():
+    """A log from elsewhere (no ``extra``, or no ``log_every`` in it) holds every period."""
+    xy, t = _slow_line()
+    full = path_metrics(_log(xy, t, LINE, obstacles=[(2.0, 1.0, 0.3)]))
+    bare = _log(xy, t, LINE, obstacles=[(2.0, 1.0, 0.3)])
+    for extra in ({}, None):
+        if extra is None:
+            del bare.extra
+        else:
+            bare.extra = extra
+        assert path_metrics(bare) == full
+
+
 def test_figure_eight_at_a_constant_offset_keeps_its_branch_through_the_crossing():
     spec = {"type": "figure_eight", "length": 4.0, "width": 2.0, "speed": 0.5}
     path = path_from_spec(spec)
