@@ -48,6 +48,20 @@ def test_generated_work_is_what_the_firmware_c_declares(generated):
     assert 0 < got[3] <= g.sz_w() and got[2] <= g.sz_iw()
 
 
+def test_single_precision_constants_are_clamped_into_floats_range_and_zero_stays_zero():
+    """Generated C for single precision: math calls become their float versions, literals
+    beyond FLT_MAX or below FLT_MIN (the model's guards DBL_MAX and 1e-300) are clamped to
+    them with their sign, zero and in-range literals are left as written."""
+    from ballbot_casadi.firmware.sources import _float_math
+
+    src = ("a = 0.0e+00; b = 1.0e-300; c = -1.0e-300; d = 1.0e+300; e = 2.5e-03; "
+           "f = sqrt(x) + cos(y); g = 1.2e-38; h = 3.5e+38; i = 3.4e+38;")
+    assert _float_math(src) == (
+        "a = 0.0e+00; b = 1.1754943508222875e-38; c = -1.1754943508222875e-38; "
+        "d = 3.4028234663852886e+38; e = 2.5e-03; f = sqrtf(x) + cosf(y); g = 1.2e-38; "
+        "h = 3.4028234663852886e+38; i = 3.4e+38;")
+
+
 def _defines(text: str) -> dict[str, str]:
     return {m.group(1): m.group(2).strip() for m in re.finditer(r"^#define (\w+)(?:\(X\))? (.*)$",
                                                                 text, re.M)}
