@@ -365,5 +365,6 @@ def path_from_spec(spec: Any, obstacles: Sequence[Any] = ()) -> Path:
         return _keyed(arc_path, spec["center"], spec["radius"],
                       math.radians(spec.get("start_angle_deg", 0.0)),
                       math.radians(spec["sweep_deg"]), speed, obs)
-    return _keyed(figure_eight, spec.get("length", 4.0), spec.get("width", 2.0),
-                  spec.get("center", (0.0, 0.0)), speed, obs)
+    # the keys left out take figure_eight's own defaults
+    return _keyed(figure_eight, speed=speed, obstacles=obs,
+                  **{k: spec[k] for k in ("length", "width", "center") if k in spec})

@@ -52,6 +52,20 @@ def test_offset_figure_eight_starts_at_its_centre_heading_up_right():
     np.testing.assert_allclose(same.point(s[::100]), pts[::100], atol=1e-12)
 
 
+def test_a_table_without_the_optional_keys_takes_the_documented_defaults():
+    """A figure-eight table with only its type: 4 m x 2 m about the origin at the default
+    speed; an arc without ``start_angle_deg`` starts at angle 0 (east of its centre)."""
+    eight = path_from_spec({"type": "figure_eight"})
+    pts = eight.point(np.linspace(0.0, eight.length, 4001))
+    np.testing.assert_allclose(pts.min(axis=0), [-2.0, -1.0], atol=1e-3)
+    np.testing.assert_allclose(pts.max(axis=0), [2.0, 1.0], atol=1e-3)
+    np.testing.assert_allclose(eight.point(0.0), [0.0, 0.0], atol=1e-12)
+    assert eight.speed == DEFAULT_SPEED
+    arc = path_from_spec({"type": "arc", "center": [1.0, 2.0], "radius": 0.5, "sweep_deg": 90.0})
+    np.testing.assert_allclose(arc.point(0.0), [1.5, 2.0], atol=1e-12)
+    np.testing.assert_allclose(arc.point(arc.length), [1.0, 2.5], atol=1e-9)
+
+
 def test_closed_waypoints_drop_a_repeated_last_point_and_pass_through_all():
     sq = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (0.0, 1.0)]
     a = waypoint_path(sq, closed=True)
