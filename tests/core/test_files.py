@@ -97,6 +97,22 @@ def test_staged_dir_never_deletes_foreign_files(tmp_path):
             pass
 
 
+@pytest.mark.parametrize("n, shown", [
+    (1, "'a.tex'"), (3, "'a.tex', 'b.tex', 'c.tex'"), (4, "'a.tex', 'b.tex', 'c.tex' ..."),
+])
+def test_the_refusal_names_the_first_three_foreign_files(tmp_path, n, shown):
+    home = tmp_path / "home"
+    home.mkdir()
+    for name in "abcd"[:n]:
+        (home / f"{name}.tex").write_text("precious")
+    (home / "x.png").write_text("ours")  # an output of ours is not listed
+    with pytest.raises(F.PathError) as ei:
+        with F.staged_dir(home, owned=("*.png",)):
+            pass
+    assert str(ei.value) == (f"{home} already holds files that ballbot did not write ({shown}); it "
+                             "would be replaced as a whole: give a new or empty directory")
+
+
 def test_manifest_detects_truncation_zeroing_deletion_and_edits(tmp_path):
     for name in ("a.so", "b.a"):
         (tmp_path / name).write_bytes(os.urandom(5000))
