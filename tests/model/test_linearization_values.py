@@ -36,6 +36,16 @@ def test_without_roll_and_pitch_a_centred_robot_is_upright_at_the_heading():
     assert x[0] == 0.5 and x[1] == 0.0
 
 
+def test_keys_left_out_are_zero():
+    """Position, speeds and heading default to 0: the robot at the origin facing x."""
+    x = lz.parse_state_spec("dy=0.2", PAR)
+    assert (x[0], x[1], x[6], x[7]) == (0.0, 0.0, 0.0, 0.2)
+    np.testing.assert_array_equal(x[2:6], lz.balance_tilt(PAR, x)[2:6])
+    assert abs(Q.to_rpy(x[2:6])[2]) < 1e-12  # heading 0
+    x = lz.parse_state_spec("roll=1", PAR)
+    assert (x[0], x[1], x[6], x[7]) == (0.0, 0.0, 0.0, 0.0)
+
+
 def test_twelve_numbers_are_the_full_state():
     vals = [0.1, 0.2, 1, 0, 0, 0, 0.3, -0.4, 0, 0.01, 0.02, 0.03]
     np.testing.assert_array_equal(lz.parse_state_spec(",".join(map(str, vals)), PAR), vals)
