@@ -423,7 +423,7 @@ def test_model_group_by_hand(monkeypatch, tmp_path):
 def test_run_benchmarks_merges_and_refuses_unknown_groups(monkeypatch, tmp_path):
     monkeypatch.setattr(bench, "BENCHMARKS", {"a": lambda: {"x": 1.0, "y": 2.0},
                                               "b": lambda: {"y": 5.0, "z": 3.0}})
-    path = tmp_path / "out" / "bench.json"
+    path = tmp_path / "new" / "out" / "bench.json"  # its folder and the parents are made
     assert bench.run_benchmarks(path, only=["b"]) == {"y": 5.0, "z": 3.0}
     path.write_text(json.dumps({"old": 9.0, "y": 0.0}))
     assert bench.run_benchmarks(path) == {"old": 9.0, "x": 1.0, "y": 5.0, "z": 3.0}
