@@ -54,6 +54,14 @@ def test_staged_dir_replaces_the_folder_as_a_whole(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["study"]  # no stage/old folders left
 
 
+def test_staged_dir_makes_the_parents_of_a_new_folder(tmp_path):
+    final = tmp_path / "a" / "b" / "out"
+    with F.staged_dir(final) as d:
+        (d / "r.txt").write_text("x")
+    assert (final / "r.txt").read_text() == "x"
+    assert sorted(p.name for p in final.parent.iterdir()) == ["out"]  # no stage left behind
+
+
 def test_staged_dir_leaves_the_old_folder_untouched_on_error(tmp_path):
     out = tmp_path / "study"
     with F.staged_dir(out) as d:
