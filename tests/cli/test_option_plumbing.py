@@ -333,6 +333,22 @@ def test_fmu_info_without_a_build_names_the_command(monkeypatch, capsys, tmp_pat
     assert "BallbotSIL.ssp does not exist; run 'make sil'" in _err(capsys)
 
 
+def test_fmu_container_defaults_to_the_sil_ssp_and_the_build_folder(monkeypatch, capsys, tmp_path):
+    monkeypatch.setattr(cli_fmu, "build_root", lambda: tmp_path)
+    ssp = tmp_path / "fmu" / "BallbotSIL.ssp"
+    ssp.parent.mkdir()
+    ssp.write_bytes(b"x")
+    built = []
+    monkeypatch.setattr(cli_fmu, "build_container", lambda s, out: built.append((s, out)) or out)
+    assert main(["fmu", "container"]) == 0
+    assert built == [(ssp, tmp_path / "fmu" / f"{cli_fmu.CONTAINER_NAME}.fmu")]
+    assert capsys.readouterr().out.strip() == str(built[0][1])
+    mine = tmp_path / "mine.ssp"
+    mine.write_bytes(b"x")
+    assert main(["fmu", "container", str(mine), "--out", str(tmp_path / "c.fmu")]) == 0
+    assert built[1] == (mine, tmp_path / "c.fmu")
+
+
 def test_fmu_info_and_validate_accept_an_fmu_without_binaries(monkeypatch, capsys, tmp_path):
     fmu = tmp_path / "m.fmu"
     fmu.write_bytes(b"x")
