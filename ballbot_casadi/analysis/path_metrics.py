@@ -13,7 +13,8 @@ scenario (its ``[path]`` and ``[[obstacle]]``, :mod:`ballbot_casadi.sim.scenario
 * the smallest distance of the ball centre to an obstacle circle (``path_min_clearance_m``;
   inf without obstacles) and ``path_collision`` (1 if it is ever <= 0);
 * ``path_completed``: 1 if an open path was followed to within 0.1 m of its end (a
-  closed one: a lap within ``duration``), ``path_progress_fraction`` how much of it.
+  closed one: within 0.1 m of the progress the run's time asks for, ``speed * t`` at its
+  last sample, at most a lap), ``path_progress_fraction`` how much of it.
 """
 
 from __future__ import annotations

@@ -135,3 +135,16 @@ def test_a_run_starting_along_an_open_path_completes_when_it_reaches_the_end():
     assert m["path_progress_fraction"] == pytest.approx(3.7 / 4.0, abs=1e-6)
     short = path_metrics(_log(xy[t <= 6.0], t[t <= 6.0], LINE))  # 3.3 m: 0.7 m short of the end
     assert short["path_completed"] == 0.0
+
+
+@pytest.mark.parametrize("rate, done", [(0.5, 1.0), (0.495, 1.0), (0.49, 0.0), (0.25, 0.0)])
+def test_a_closed_path_is_completed_only_with_the_progress_its_time_asks_for(rate, done):
+    """16 s at 0.5 m/s ask for 8 m of a figure-eight (less than a lap), 0.1 m less will
+    do: 7.92 m (0.495 m/s) is enough, 7.84 m (0.49 m/s) and 4 m are not."""
+    spec = {"type": "figure_eight", "length": 4.0, "width": 2.0, "speed": 0.5}
+    path = path_from_spec(spec)
+    t = np.round(np.arange(int(round(16.0 / TS)) + 1) * TS, 12)
+    s = 1.0 + rate * t
+    m = path_metrics(_log(path.point(s), t, spec))
+    assert m["path_completed"] == done
+    assert m["path_progress_fraction"] == pytest.approx(rate * 16.0 / path.length, abs=1e-3)
