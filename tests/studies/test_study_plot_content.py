@@ -62,6 +62,7 @@ def test_run_plot_draws_angles_velocities_torques_and_errors_on_their_panels(sav
         x, y = line(err_ax, f"|{lab} error|")
         np.testing.assert_allclose(x, t[:N], rtol=0, atol=0)
         np.testing.assert_allclose(y, np.maximum(np.abs(rpy[:N, i] - ref[:, i]), 1e-12), rtol=0, atol=1e-9)
+        assert y[0] == 1e-12  # no error at the start: drawn at the log axis' floor
     refs = [y for lab, _, y in ang_ax["lines"] if lab.startswith("_")]  # the dashed references
     np.testing.assert_allclose(np.array(refs).T, ref, rtol=0, atol=1e-9)
     assert ang_ax["ylabel"] == "angle (deg), -- ref" and err_ax["yscale"] == "log"
