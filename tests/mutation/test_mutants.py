@@ -118,27 +118,24 @@ def test_run_restores_the_file_and_records_the_verdict(tmp_path, monkeypatch):
     assert recs[1]["area_said"].endswith("1 passed") or "1 passed" in recs[1]["area_said"]
 
 
-def test_run_refuses_a_checkout_whose_tests_do_not_load(tmp_path, monkeypatch):
+@pytest.mark.parametrize("files, refusal", [
+    # tests that do not even load
+    ({"test_a.py": "import not_installed_anywhere\n\ndef test_f():\n    pass\n"},
+     "the tests do not collect before any mutant"),
+    # a top-level test failing before any mutant: the second stage adds the top-level tests
+    # to every area, so it would count every survivor of the first stage as caught
+    ({"test_a.py": "from pkg.a import f\n\ndef test_f():\n    assert f(1) == 2\n",
+      "test_register.py": "def test_stale():\n    assert 1 == 2\n"},
+     "the package-wide tests fail before any mutant"),
+])
+def test_run_refuses_a_checkout_whose_tests_fail_unmutated(tmp_path, monkeypatch, files, refusal):
     root, _ = _repo(tmp_path)
     (root / "tests").mkdir()
-    (root / "tests" / "test_a.py").write_text("import not_installed_anywhere\n\ndef test_f():\n    pass\n")
-    monkeypatch.setenv("PYTHONPATH", str(root))
-    muts = [{"id": 0, "path": "pkg/a.py", "line": 2, "col": 13, "old": "+", "new": "-"}]
-    with pytest.raises(SystemExit, match="the tests do not collect before any mutant"):
-        M.run(root, muts, root / "r.jsonl", timeout=120, ids=None)
-    assert not (root / "r.jsonl").exists()
-
-
-def test_run_refuses_a_checkout_whose_package_wide_tests_fail_unmutated(tmp_path, monkeypatch):
-    """The second stage adds the top-level tests to every area: one failing before any
-    mutant would count every survivor of the first stage as caught."""
-    root, _ = _repo(tmp_path)
-    (root / "tests").mkdir()
-    (root / "tests" / "test_a.py").write_text("from pkg.a import f\n\ndef test_f():\n    assert f(1) == 2\n")
-    (root / "tests" / "test_register.py").write_text("def test_stale():\n    assert 1 == 2\n")
+    for name, text in files.items():
+        (root / "tests" / name).write_text(text)
     monkeypatch.setenv("PYTHONPATH", str(root))
     muts = [{"id": 0, "path": "pkg/a.py", "line": 3, "col": 4, "old": "7", "new": "8"}]
-    with pytest.raises(SystemExit, match="the package-wide tests fail before any mutant"):
+    with pytest.raises(SystemExit, match=refusal):
         M.run(root, muts, root / "r.jsonl", timeout=120, ids=None)
     assert not (root / "r.jsonl").exists()
 
