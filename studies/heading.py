@@ -83,7 +83,7 @@ def run_heading_study(out: Path, plot: bool = True, duration: float = 3600.0,
     if plot:
         fig, ax = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
         ax[0].plot(aided.time / 60, e, lw=0.6, label="aided (10 Hz heading)")
-        ax[0].plot(lost.time / 60, lost.error_deg(), lw=0.6, label="aided, 60 s loss")
+        ax[0].plot(lost.time / 60, lost.error_deg(), lw=0.6, label=f"aided, {_LOSS_LENGTH_S:g} s loss")
         ax[0].axhspan(-HEADING_SPEC_DEG, HEADING_SPEC_DEG, color="0.9", label="±0.5 deg")
         ax[0].set_ylabel("heading error (deg)")
         ax[0].legend(loc="upper right", fontsize=8)
@@ -116,7 +116,7 @@ def heading_report_lines(m: dict[str, Any]) -> list[str]:
         f"| aided heading error, RMS | {m['aided_error_rms_deg']:.3f} deg | - |",
         f"| z gyro bias estimate error, RMS | {m['aided_bias_error_rms_deg_s']:.4f} deg/s | "
         "bias 'added in (4.30)' (§4.2) |",
-        f"| 60 s sensor loss: error at its end / max | {m['loss_error_at_end_deg']:.2f} / "
+        f"| {_LOSS_LENGTH_S:g} s sensor loss: error at its end / max | {m['loss_error_at_end_deg']:.2f} / "
         f"{m['loss_error_max_deg']:.2f} deg | - |",
         f"| after the sensor returns (+10 s on), max | "
         f"{m['loss_error_after_recovery_max_deg']:.3f} deg | - |",

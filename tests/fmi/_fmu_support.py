@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import json
 import subprocess
@@ -56,6 +57,12 @@ def vrs_of_type(kind: str) -> list[int]:
 def vrs(*names: str) -> list[int]:
     t = vr_table()
     return [t[n] for n in names]
+
+
+def plant_dll() -> ctypes.CDLL:
+    """The plant FMU's binary loaded with ctypes alone, for calls fmpy's handle would refuse
+    (fmpy declares argument types there; these calls pass raw NULLs or make instances)."""
+    return ctypes.CDLL(str(plant_build().binary))
 
 
 def fmi2_callbacks(logger, allocate: bool = True, free: bool = True):

@@ -10,17 +10,13 @@ import ctypes
 from ctypes import c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
 
 import pytest
-from _fmu_support import ALL_STATES, Plant, fmi2_callbacks, plant_build, vrs
+from _fmu_support import ALL_STATES, Plant, fmi2_callbacks, plant_build, plant_dll, vrs
 
 pytestmark = pytest.mark.needs_cc
 
 
-def _dll():
-    return ctypes.CDLL(str(plant_build().binary))
-
-
 def test_platform_and_version_strings():
-    dll = _dll()
+    dll = plant_dll()
     for fn, want in (("fmi2GetTypesPlatform", b"default"), ("fmi2GetVersion", b"2.0")):
         f = getattr(dll, fn)
         f.restype = c_char_p
@@ -37,7 +33,7 @@ def test_an_instance_the_layer_cannot_make_is_refused_with_a_line(fmu_type, miss
     got = []
     cb = fmi2_callbacks(lambda env, name, status, category, msg: got.append((status, msg.decode())),
                         allocate=missing != "allocateMemory", free=missing != "freeMemory")
-    f = _dll().fmi2Instantiate
+    f = plant_dll().fmi2Instantiate
     f.restype = c_void_p
     inst = f(b"corner", c_int(fmu_type), plant_build().guid.encode(), b"", ctypes.byref(cb),
              c_int(0), c_int(0))

@@ -8,7 +8,7 @@ import ctypes
 import re
 
 import pytest
-from _fmu_support import Plant, fmi2_callbacks, plant_build
+from _fmu_support import Plant, fmi2_callbacks, plant_build, plant_dll
 from fmpy.fmi1 import FMICallException
 
 from ballbot_casadi.fmi.package import fmu_source_dir
@@ -64,7 +64,7 @@ def test_an_instantiation_message_is_escaped_and_cut_like_an_instance_message():
     """The refusals before an instance exists (``fmu_log_early``) have their own buffer."""
     got = []
     cb = fmi2_callbacks(lambda env, name, status, category, msg: got.append((status, msg.decode())))
-    f = ctypes.CDLL(str(plant_build().binary)).fmi2Instantiate
+    f = plant_dll().fmi2Instantiate
     f.restype = ctypes.c_void_p
     for guid, want in (("g#1%d", "fmi2Instantiate: wrong GUID 'g##1 d', this binary of "
                                  f"BallbotPlant has GUID '{plant_build().guid}'"),

@@ -77,14 +77,7 @@ def test_model_exchange_refuses_the_overflowing_sample_at_its_event():
     seed, axis = 5, 0
     k_bad = _first_overflow(seed, axis, 1.0)
     m = Plant("me")
-    m.fmu.setupExperiment(startTime=0.0)
-    m.fmu.enterInitializationMode()
-    m.set_bool(noise_on=True)
-    m.set_int(seed=seed)
-    m.set(gyro_bias0_x=B_EDGE, gyro_bias_rw_x=RW)
-    m.fmu.exitInitializationMode()
-    m.fmu.newDiscreteStates()
-    m.fmu.enterContinuousTimeMode()
+    m.init(noise_on=True, seed=seed, gyro_bias0_x=B_EDGE, gyro_bias_rw_x=RW)
     m.fmu.setTime(k_bad * TS)  # every sample up to k_bad is due at this event
     m.fmu.enterEventMode()
     st = m.raw("fmi2NewDiscreteStates", byref(fmi2EventInfo()))
