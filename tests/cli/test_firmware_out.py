@@ -52,14 +52,16 @@ def test_out_copies_into_a_project_folder_and_refuses_a_file(monkeypatch, capsys
 
 def test_out_refreshes_an_earlier_copy(monkeypatch, capsys, tmp_path):
     """A second export into the same folder (its ``include/`` already there) replaces the
-    earlier copy: a header changed since is delivered, the user's own header stays."""
+    earlier copy: a library and header changed since are delivered, the user's own header stays."""
     fw = _fake_build(tmp_path / "build")
     monkeypatch.setattr(cli_firmware, "build_firmware", lambda *a, **k: fw)
     out = tmp_path / "deliver"
     assert main(["firmware", "--out", str(out)]) == 0
     (out / "include" / "mine.h").write_text("/* the user's */\n")
     (fw.include / "ballbot_fw.h").write_text("/* header, rebuilt */\n")
+    fw.library.write_bytes(b"!<arch>\nlib, rebuilt")
     assert main(["firmware", "--out", str(out)]) == 0
+    assert (out / "libballbot_fw.a").read_bytes() == b"!<arch>\nlib, rebuilt"
     assert (out / "include" / "ballbot_fw.h").read_text() == "/* header, rebuilt */\n"
     assert (out / "include" / "mine.h").read_text() == "/* the user's */\n"
     assert capsys.readouterr().out.rstrip().endswith(f"copied to {out}")
