@@ -22,6 +22,7 @@
  * guidance, before the first 8 periods that run (or snapshot) a guidance sample, and
  * before the first 8 background samples.
  */
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
@@ -155,6 +156,7 @@ static int replay(FILE *in, FILE *out) {
         double row[5 + ROW_EXTRA + 1];
         uint32_t t0, t1;
         int paint = k < 8;
+        for (i = 0; i < 5 + ROW_EXTRA; ++i) row[i] = NAN; /* a column left unwritten shows */
         if (read_doubles(in, buf, BALLBOT_FW_N_READINGS + N_REF)) return ends_early("row", k);
         for (i = 0; i < BALLBOT_FW_N_READINGS; ++i) meas[i] = (ballbot_fw_real)buf[i];
         for (i = 0; i < 4; ++i) {
