@@ -104,3 +104,14 @@ def test_a_logged_line_holds_the_child_cpu_and_wall_seconds_to_the_millisecond(t
     assert entry["tool"] == "gcc" and entry["what"] == "compiling m"
     assert entry["flags"] == ["-c", "-O3"]  # include and output flags left out
     assert entry["sources"] == {"m.c": hashlib.sha256(b"int m;\n").hexdigest()[:16]}
+
+
+def test_the_log_may_name_a_folder_not_made_yet(tmp_path, monkeypatch):
+    """``$BALLBOT_BUILD_LOG`` in folders that do not exist yet: they are made, and a second
+    run appends to the same file."""
+    log = tmp_path / "new" / "deeper" / "builds.jsonl"
+    monkeypatch.setenv("BALLBOT_BUILD_LOG", str(log))
+    tc.run_tool(["true", "-v"], "probing")
+    tc.run_tool(["true"], "probing again")
+    assert [(e["what"], e["tool"], e["flags"]) for e in _entries(log)] == [
+        ("probing", "true", ["-v"]), ("probing again", "true", [])]
