@@ -139,7 +139,7 @@ def test_gauss_seidel_master_equals_the_compiled_mission(work):
 
 def test_container_fmu_runs_in_fmpy_with_the_libcosim_result(work, tmp_path):
     ssp = _ssp("full_sine", SINE_S, work)
-    fmu = build_container(ssp, tmp_path / "BallbotSILContainer.fmu")
+    fmu = build_container(ssp, tmp_path / "out" / "new" / "BallbotSILContainer.fmu")  # made
     assert validate_fmu(str(fmu)) == []
     names = [f"plant.{n}" for n in STATE.names] + [f"controller.tau{i}" for i in range(3)]
     res = simulate_fmu(str(fmu), stop_time=SINE_S, output_interval=0.005, output=names)

@@ -214,7 +214,7 @@ def test_the_reader_refuses_bad_times_with_the_attribute(tmp_path, old, new, tex
 
 def test_the_reader_takes_a_negative_start_and_reads_booleans_as_written(tmp_path):
     fa = _fmu(tmp_path, "Afmu")
-    p = write_ssp(tmp_path / "s.ssp", [SspComponent("a", fa, {"b": False})], [], name="s",
-                  stop=1.0, step=0.1, start=-0.5)
+    p = write_ssp(tmp_path / "new" / "deeper" / "s.ssp", [SspComponent("a", fa, {"b": False})],
+                  [], name="s", stop=1.0, step=0.1, start=-0.5)  # its folders are made
     s = read_ssp(p)
     assert s.start_time == -0.5 and s.parameters["a"]["b"] is False
