@@ -12,6 +12,7 @@ import pytest
 
 import casadi as ca
 
+import ballbot_casadi.bench as bench_mod
 from ballbot_casadi.bench import control as bench_control_mod
 from ballbot_casadi.bench import estimation as bench_estimation_mod
 from ballbot_casadi.bench.exports import control_bench_library
@@ -21,17 +22,35 @@ from ballbot_casadi.errors import BuildError
 pytestmark = pytest.mark.needs_cc
 
 FAKE_CLOCK = """#define _POSIX_C_SOURCE 199309L /* as the program defines it */
+#include <stdio.h>
 #include <time.h>
-static long long bench_fake_ns;
+#ifndef BENCH_FAKE_STEP_NS
+#define BENCH_FAKE_STEP_NS 1000000LL
+#endif
+static long long bench_fake_ns, bench_fake_reads;
+static void bench_fake_report(void) __attribute__((destructor));
+static void bench_fake_report(void) { fprintf(stderr, "clock reads %lld\\n", bench_fake_reads); }
 static inline int bench_fake_clock(clockid_t id, struct timespec *ts) {
   (void)id;
-  bench_fake_ns += 1000000;
+  ++bench_fake_reads;
+  bench_fake_ns += BENCH_FAKE_STEP_NS;
   ts->tv_sec = (time_t)(bench_fake_ns / 1000000000);
   ts->tv_nsec = (long)(bench_fake_ns % 1000000000);
   return 0;
 }
 #define clock_gettime bench_fake_clock
 """
+
+#: Each timed section is the best of this many repetitions (the programs' documented count).
+REPEATS = 5
+
+
+def _clock_reads(res: subprocess.CompletedProcess) -> int:
+    """The stand-in clock's reading count, printed by it at the program's exit."""
+    assert res.returncode == 0, res.stderr
+    line = res.stderr.strip().splitlines()[-1]
+    assert line.startswith("clock reads "), res.stderr
+    return int(line.split()[-1])
 
 
 @pytest.mark.parametrize("n_calls", [50, 8])
@@ -46,6 +65,11 @@ def test_control_bench_program_reports_its_sections_in_microseconds(monkeypatch,
     assert data == pytest.approx({"control_step_us": per_call, "control_step_smc_us": per_call,
                                   "cl_period_us": per_call, "cl_chunk_period_us": 1e6 / 200 / 1000.0},
                                  rel=0, abs=5e-5)  # printed with 4 decimals
+    # best of REPEATS: a start and a stop reading per repetition of the chunk and of each of
+    # the three per-call sections
+    exe, inp = tmp_path / "bench" / "bench_control", tmp_path / "bench" / "bench_control_input.txt"
+    res = subprocess.run([str(exe), str(n_calls), str(inp)], capture_output=True, text=True)
+    assert _clock_reads(res) == 2 * REPEATS * (1 + 3)
 
 
 @pytest.mark.parametrize("n_calls", [1, 40])
@@ -61,6 +85,30 @@ def test_function_bench_program_reports_microseconds_per_call_down_to_one_call(m
     monkeypatch.setattr(bench_estimation_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
     us = bench_estimation_mod.c_function_us(lib, f, [[1.5, -2.0], 3.0], n_calls)
     assert us == pytest.approx(1e6 / n_calls / 1000.0, rel=0, abs=5e-5)
+    exe = tmp_path / "bench" / f"bench_{f.name()}_{lib.digest}"
+    res = subprocess.run([str(exe), str(n_calls), str(tmp_path / "bench" / f"bench_{f.name()}_input.txt")],
+                         capture_output=True, text=True)
+    assert _clock_reads(res) == 2 * REPEATS  # best of REPEATS
+
+
+@pytest.mark.parametrize("n_calls", [3, 40])
+def test_model_bench_program_reports_nanoseconds_per_call(monkeypatch, tmp_path, n_calls):
+    """``bench_model.c``: the ODE timed over N calls, the Jacobian over N / 4 + 1, each the
+    best of REPEATS; a reading step of 1.25 s carries the seconds into the nanoseconds."""
+    header = tmp_path / "fake_clock.h"
+    header.write_text("#define BENCH_FAKE_STEP_NS 1250000000LL\n" + FAKE_CLOCK)
+    monkeypatch.setattr(bench_mod, "build_root", lambda: tmp_path)
+    monkeypatch.setattr(bench_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
+    monkeypatch.setattr(bench_mod, "_python_call_ns", lambda: 7.0)  # not timed here
+    data = bench_mod.bench_model(n_calls)
+    assert data["ode_ns"] == pytest.approx(1.25e9 / n_calls, rel=0, abs=0.005)  # 2 decimals
+    assert data["jac_ns"] == pytest.approx(1.25e9 / (n_calls // 4 + 1), rel=0, abs=0.005)
+    assert data["python_over_c_ratio"] == pytest.approx(7.0 / data["ode_ns"], rel=1e-12)
+    exe = tmp_path / "bench" / "bench_model"
+    args = [repr(float(v)) for v in (*bench_mod.BENCH_STATE, *bench_mod.BENCH_TAU,
+                                      *bench_mod.load_params().to_vector())]
+    res = subprocess.run([str(exe), str(n_calls), *args], capture_output=True, text=True)
+    assert _clock_reads(res) == 2 * REPEATS * 2  # the ODE's and the Jacobian's sections
 
 
 def test_control_bench_program_reads_at_most_its_buffers_and_refuses_the_rest(monkeypatch, tmp_path):
