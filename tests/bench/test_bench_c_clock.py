@@ -1,8 +1,9 @@
 """The benchmarks' C programs against a stand-in clock: compiled with a header that
-replaces ``clock_gettime`` by a counter advancing 1 ms per reading, every timed section
-lasts exactly 1 ms, so the printed figures are the program's own arithmetic: 1 ms over N
-calls in microseconds, and 1 ms over the 200-period chunk (the ns -> us conversion, the
-divisions by N and by the chunk, which result goes to which key)."""
+replaces ``clock_gettime`` by a counter advancing one step per reading (1 ms, or 1.25 s to
+carry seconds into nanoseconds) and counting its readings, every timed section lasts exactly
+one step, so the printed figures are the program's own arithmetic: a step over N calls in
+microseconds, and a step over the 200-period chunk (the ns -> us conversion, the divisions by
+N and by the chunk, which result goes to which key), each section the best of five."""
 
 from __future__ import annotations
 
@@ -53,17 +54,19 @@ def _clock_reads(res: subprocess.CompletedProcess) -> int:
     return int(line.split()[-1])
 
 
-@pytest.mark.parametrize("n_calls", [50, 8])
-def test_control_bench_program_reports_its_sections_in_microseconds(monkeypatch, tmp_path, n_calls):
+# a reading step of 1 ms, or of 1.25 s (the seconds carried into the nanoseconds)
+@pytest.mark.parametrize("n_calls, step_ns", [(50, 1e6), (8, 1e6), (8, 1.25e9)])
+def test_control_bench_program_reports_its_sections_in_microseconds(monkeypatch, tmp_path, n_calls,
+                                                                   step_ns):
     header = tmp_path / "fake_clock.h"
-    header.write_text(FAKE_CLOCK)
+    header.write_text(f"#define BENCH_FAKE_STEP_NS {int(step_ns)}LL\n" + FAKE_CLOCK)
     monkeypatch.setattr(bench_control_mod, "build_root", lambda: tmp_path)  # not the real bench's binary
     monkeypatch.setattr(bench_control_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
     _, inputs = bench_control_mod.mission_inputs(0.1)
     data = bench_control_mod._c_bench(control_bench_library(), inputs, n_calls)
-    per_call = 1e6 / n_calls / 1000.0
+    per_call = step_ns / n_calls / 1000.0
     assert data == pytest.approx({"control_step_us": per_call, "control_step_smc_us": per_call,
-                                  "cl_period_us": per_call, "cl_chunk_period_us": 1e6 / 200 / 1000.0},
+                                  "cl_period_us": per_call, "cl_chunk_period_us": step_ns / 200 / 1000.0},
                                  rel=0, abs=5e-5)  # printed with 4 decimals
     # best of REPEATS: a start and a stop reading per repetition of the chunk and of each of
     # the three per-call sections
@@ -72,19 +75,20 @@ def test_control_bench_program_reports_its_sections_in_microseconds(monkeypatch,
     assert _clock_reads(res) == 2 * REPEATS * (1 + 3)
 
 
-@pytest.mark.parametrize("n_calls", [1, 40])
-def test_function_bench_program_reports_microseconds_per_call_down_to_one_call(monkeypatch, tmp_path, n_calls):
-    """``bench_function.c`` on a small Function: 1 ms over N calls, in microseconds; a
-    single call is a valid run (N >= 1)."""
+@pytest.mark.parametrize("n_calls, step_ns", [(1, 1e6), (40, 1e6), (40, 1.25e9)])
+def test_function_bench_program_reports_microseconds_per_call_down_to_one_call(monkeypatch, tmp_path, n_calls,
+                                                                               step_ns):
+    """``bench_function.c`` on a small Function: one reading step over N calls, in
+    microseconds; a single call is a valid run (N >= 1)."""
     header = tmp_path / "fake_clock.h"
-    header.write_text(FAKE_CLOCK)
+    header.write_text(f"#define BENCH_FAKE_STEP_NS {int(step_ns)}LL\n" + FAKE_CLOCK)
     x = ca.SX.sym("x", 2)
     f = ca.Function("bench_probe", [x, ca.SX.sym("k")], [ca.vertcat(x[0] * x[1], x[0] - x[1])])
     lib = build_library("bench_probe", [f], root=tmp_path / "lib")
     monkeypatch.setattr(bench_estimation_mod, "build_root", lambda: tmp_path)
     monkeypatch.setattr(bench_estimation_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
     us = bench_estimation_mod.c_function_us(lib, f, [[1.5, -2.0], 3.0], n_calls)
-    assert us == pytest.approx(1e6 / n_calls / 1000.0, rel=0, abs=5e-5)
+    assert us == pytest.approx(step_ns / n_calls / 1000.0, rel=0, abs=5e-5)
     exe = tmp_path / "bench" / f"bench_{f.name()}_{lib.digest}"
     res = subprocess.run([str(exe), str(n_calls), str(tmp_path / "bench" / f"bench_{f.name()}_input.txt")],
                          capture_output=True, text=True)
