@@ -12,11 +12,12 @@ statistics, the held values between samples, Model Exchange time events.
 from __future__ import annotations
 
 import math
-from ctypes import c_double
+from ctypes import byref, c_double
 
 import numpy as np
 import pytest
 from _fmu_support import ALL_STATES, NXW, SENSORS, X0_NAMES, Plant
+from fmpy.fmi2 import fmi2EventInfo
 
 from ballbot_casadi import load_params
 from ballbot_casadi.core.rng import NoiseStream
@@ -274,7 +275,30 @@ def test_steps_with_too_many_samples_are_refused():
     assert np.array_equal(p.state(), x0) and p.get_int("sensor_sample") == [0]
     p.step(1e-6)  # still usable (1000 samples)
     assert p.get_int("sensor_sample") == [1000]
+    # the count in the refusal is from the last sample taken (1000), not from the start
+    st = p.raw("fmi2DoStep", c_double(1e-6), c_double(0.005), 1)
+    assert st == 3 and p.errors()[-1].endswith(
+        "step 0.005 from t = 1e-06 spans 5e+06 sensor samples of Ts_sensor = 1e-09 (at most "
+        "1e+06 per step, sample index at most 2147483647)"), p.errors()[-1]
     p.free()
+
+
+def test_model_exchange_refuses_an_event_too_many_samples_on():
+    """At an event, the samples due since the last one taken are bounded as a step's are
+    (MAX_SAMPLES); the refusal counts them from that sample."""
+    m = Plant("me")
+    m.init(Ts_sensor=1e-9)
+    m.fmu.setTime(1e-6)
+    m.fmu.enterEventMode()
+    assert m.raw("fmi2NewDiscreteStates", byref(fmi2EventInfo())) == 1  # a warning: late
+    assert m.get_int("sensor_sample") == [1000]
+    m.fmu.enterContinuousTimeMode()
+    m.fmu.setTime(0.005 + 1e-6)
+    m.fmu.enterEventMode()
+    assert m.raw("fmi2NewDiscreteStates", byref(fmi2EventInfo())) == 3
+    assert m.errors()[-1].endswith(
+        "time 0.005001 is 5e+06 sensor samples past the last one (at most 1e+06)"), m.errors()[-1]
+    m.free()
 
 
 def test_fmu_state_with_sensors_continues_bit_identically():
