@@ -22,8 +22,8 @@ def _log() -> SimulationLog:
 
 def test_save_and_load_round_trip_bit_for_bit(tmp_path):
     log = _log()
-    path = save_log(log, tmp_path / "sub" / "run")          # folder created, suffix added
-    assert path == tmp_path / "sub" / "run.npz" and path.is_file()
+    path = save_log(log, tmp_path / "sub" / "deeper" / "run")  # folders made, suffix added
+    assert path == tmp_path / "sub" / "deeper" / "run.npz" and path.is_file()
     back = load_log(path)
     assert back.keys() == log.keys()
     for k in log.keys():
