@@ -80,7 +80,7 @@ from ballbot_casadi.core.toolchain import Library, build_library, load_library
 from ballbot_casadi.errors import ScenarioError, ShapeError
 from ballbot_casadi.guidance.condensed import NU_MPC, NX_MPC, Condensed, condense
 from ballbot_casadi.guidance.paths import Path
-from ballbot_casadi.guidance.prediction import NXL, LoopModel
+from ballbot_casadi.guidance.prediction import LOOP_OUTPUTS, NXL, LoopModel
 from ballbot_casadi.guidance.qp_admm import admm_iterate, kkt_constant
 
 __all__ = ["MpcConfig", "MpcLayout", "PathMPC", "make_mpc", "make_mpc_parts", "mpc_library",
@@ -326,7 +326,7 @@ def _qp(model: LoopModel, cond: Condensed, config: MpcConfig, L: MpcLayout) -> d
 def _outputs(model: LoopModel) -> tuple[dict, dict]:
     """Output maps of the loop model on the 16-state MPC state (C) and on v_ref (D)."""
     out_C, out_D = {}, {}
-    for name in ("v", "tilt", "tilt_rate", "acc", "tilt_acc"):
+    for name in LOOP_OUTPUTS:
         Cp = np.zeros((2, NX_MPC))
         Cp[:, :NXL] = model.C[name]
         out_C[name], out_D[name] = ca.DM(Cp), ca.DM(model.D[name])

@@ -28,10 +28,13 @@ import scipy.linalg
 
 from ballbot_casadi.errors import ShapeError
 
-__all__ = ["LoopModel", "closed_velocity_loop", "open_loop_period", "NXL"]
+__all__ = ["LoopModel", "closed_velocity_loop", "open_loop_period", "NXL", "LOOP_OUTPUTS"]
 
 #: States of the closed velocity loop model: X (12) and position (2).
 NXL = 14
+#: The loop model's outputs (two rows each): velocity, tilt, tilt rate, ball acceleration,
+#: tilt-reference acceleration.
+LOOP_OUTPUTS = ("v", "tilt", "tilt_rate", "acc", "tilt_acc")
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,20 @@ class LoopModel:
     C: dict
     D: dict
     dt: float
+
+    def __post_init__(self) -> None:
+        shapes = {"A": (np.shape(self.A), (NXL, NXL)), "B": (np.shape(self.B), (NXL, 2))}
+        if set(self.C) != set(LOOP_OUTPUTS) or set(self.D) != set(LOOP_OUTPUTS):
+            raise ShapeError(f"the loop model's outputs must be {list(LOOP_OUTPUTS)}, got C "
+                             f"{sorted(self.C)}, D {sorted(self.D)}")
+        for name in LOOP_OUTPUTS:
+            shapes[f"C[{name!r}]"] = (np.shape(self.C[name]), (2, NXL))
+            shapes[f"D[{name!r}]"] = (np.shape(self.D[name]), (2, 2))
+        for what, (got, want) in shapes.items():
+            if got != want:
+                raise ShapeError(f"the loop model's {what} must be {want[0]}x{want[1]}, got {got}")
+        if not (np.isfinite(self.dt) and self.dt > 0):
+            raise ShapeError(f"the loop model's dt must be > 0 s, got {self.dt!r}")
 
     def simulate(self, x0: np.ndarray, v_ref: np.ndarray) -> np.ndarray:
         """States over a sequence of held references ``v_ref`` (M, 2): (M+1, NXL)."""
