@@ -70,3 +70,9 @@ def test_the_run_and_the_laws(recorded, latency):
 def test_bad_period_counts_refused(bad):
     with pytest.raises(ScenarioError, match="n_periods must be an int >= 1"):
         R.record_guided_log(bad)
+
+
+def test_one_period_is_the_shortest_recording(recorded):
+    rec = R.record_guided_log(1, path=line_path((0.0, 0.0), (2.0, 0.0), 0.5))
+    assert rec.n == 1 and recorded["run"][2] == pytest.approx(TS_CONTROL, rel=1e-12)
+    np.testing.assert_array_equal(rec.meas, np.arange(9.0).reshape(1, 9))
