@@ -18,6 +18,7 @@ def test_replay_scenario_is_the_documented_mission():
     assert sc.duration == pytest.approx(80 * TS_CONTROL, rel=1e-12)
     assert sc.seed == 7 and sc.controller == "flc" and sc.estimator == DEFAULT_ESTIMATOR
     assert R.replay_scenario(80, estimator="ukf").estimator == "ukf"  # the thesis's filters
+    assert R.replay_scenario(1).duration == pytest.approx(TS_CONTROL, rel=1e-12)  # the shortest
     assert sc.attitude["roll"] == {"type": "sine", "amplitude_deg": 3.0, "frequency_hz": 0.5}
     assert tuple(sc.sensor_dropouts) == ((0.3, 0.35, "gyro"),)
     for bad in (0, -3, 2.0, "10"):
