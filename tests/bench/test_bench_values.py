@@ -428,7 +428,8 @@ def test_run_benchmarks_merges_and_refuses_unknown_groups(monkeypatch, tmp_path)
     path.write_text(json.dumps({"old": 9.0, "y": 0.0}))
     assert bench.run_benchmarks(path) == {"old": 9.0, "x": 1.0, "y": 5.0, "z": 3.0}
     assert json.loads(path.read_text()) == {"old": 9.0, "x": 1.0, "y": 5.0, "z": 3.0}
-    assert path.read_text().index('"old"') < path.read_text().index('"x"')  # sorted keys
+    # keys sorted (not in the order run), two spaces of indent, one line per key, a final newline
+    assert path.read_text() == '{\n  "old": 9.0,\n  "x": 1.0,\n  "y": 5.0,\n  "z": 3.0\n}\n'
     path.write_text("{damaged")
     assert bench.run_benchmarks(path, only=["a"]) == {"x": 1.0, "y": 2.0}
     with pytest.raises(bench.BenchmarkError, match=r"unknown benchmark group\(s\) 'c'; valid "

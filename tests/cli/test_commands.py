@@ -87,6 +87,23 @@ def test_demo_runs_every_step_in_order_and_exits_with_a_failed_steps_code(tmp_pa
     assert main(["demo", "--out", str(out)]) == 0
 
 
+def test_demo_titles_come_before_what_a_steps_child_process_prints(tmp_path, monkeypatch, capfd):
+    """A step's compilers and engines write to the same stdout from child processes: each
+    title is flushed before its step starts, so the log reads in order."""
+    import subprocess
+    import sys
+
+    from ballbot_casadi.cli import commands
+
+    def step(out):
+        subprocess.run([sys.executable, "-c", "print('from the child')"], check=True)
+
+    monkeypatch.setattr(commands, "DEMO_STEPS", (("first", step), ("second", step)))
+    assert main(["demo", "--out", str(tmp_path / "d")]) == 0
+    lines = [line for line in capfd.readouterr().out.splitlines() if line]
+    assert lines[:4] == ["=== first ===", "from the child", "=== second ===", "from the child"]
+
+
 def test_bench_prints_each_result_sorted_and_where_it_wrote(tmp_path, monkeypatch, capsys):
     from ballbot_casadi.cli import commands
 
