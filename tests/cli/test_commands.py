@@ -90,6 +90,7 @@ def test_demo_runs_every_step_in_order_and_exits_with_a_failed_steps_code(tmp_pa
 def test_demo_titles_come_before_what_a_steps_child_process_prints(tmp_path):
     """A step's compilers and engines write to the same stdout from child processes: each
     title is flushed before its step starts, so a log piped to a file reads in order."""
+    import os
     import subprocess
     import sys
 
@@ -100,8 +101,9 @@ def test_demo_titles_come_before_what_a_steps_child_process_prints(tmp_path):
         "    subprocess.run([sys.executable, '-c', 'print(\"from the child\")'], check=True)\n"
         "commands.DEMO_STEPS = (('first', step), ('second', step))\n"
         "sys.exit(main(['demo', '--out', sys.argv[1]]))\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
     res = subprocess.run([sys.executable, "-c", driver, str(tmp_path / "d")], capture_output=True,
-                         text=True)  # stdout a pipe: block-buffered
+                         text=True, env=env)  # stdout a pipe: block-buffered
     assert res.returncode == 0, res.stderr
     lines = [line for line in res.stdout.splitlines() if line]
     assert lines[:4] == ["=== first ===", "from the child", "=== second ===", "from the child"]
