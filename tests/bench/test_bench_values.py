@@ -603,3 +603,19 @@ def test_python_loop_period_is_the_best_block_per_period(monkeypatch):
     assert [s[1] for s in seen] == [1.0, 3.0, 5.0, 7.0, 9.0, 11.0]
     for k, (_, _, seq) in enumerate(seen):
         assert set(seq) == set(PERIOD_SEQUENCES) and all(v == float(k) for v in seq.values())
+
+
+def test_the_benchmark_mission_is_the_cascade_following_fig_9_3():
+    """The timed mission (``mission_100s_s``): FLC in cascade with the velocity LQR from
+    roll 2 deg, pitch -1 deg, following the Fig. 9.3-like velocity profile, which a run of
+    20 s or less leaves out."""
+    from ballbot_casadi.sim import references as R
+    from ballbot_casadi.sim.scenario import initial_state
+
+    sc, inp = bench_control_mod.mission_inputs(100.0)
+    assert (sc.controller, sc.cascade, sc.duration) == ("flc", True, 100.0)
+    assert tuple(sc.velocity_keyframes) == tuple(R.FIG93_KEYFRAMES)
+    np.testing.assert_array_equal(sc.x0, initial_state(2.0, -1.0, 0.0))
+    assert np.abs(inp["v_ref"]).max() > 0.0
+    short, _ = bench_control_mod.mission_inputs(20.0)
+    assert short.cascade and tuple(short.velocity_keyframes) == ()
