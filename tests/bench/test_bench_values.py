@@ -540,6 +540,7 @@ def test_control_group_figures_by_hand_on_a_stand_in_clock(monkeypatch):
     class Loop:
         def __init__(self, compiled, use_driver=True):
             self.driver = use_driver
+            calls.append(("loop", compiled, use_driver))
 
         def mission(self, ctrl, n):
             calls.append(("mission", self.driver, ctrl, n))
@@ -564,8 +565,9 @@ def test_control_group_figures_by_hand_on_a_stand_in_clock(monkeypatch):
     assert out["mission_period_us"] == pytest.approx(3.0 / 20000 * 1e6, rel=1e-12)
     assert out["python_loop_ratio"] == pytest.approx(6e-5 / (3.0 / 20000), rel=1e-12)
     assert (out["control_step_target_us"], out["mission_100s_target_s"]) == (5.0, 0.5)
-    assert calls == [("mission", True, "flc", 20000), ("simulate", True, "flc"), ("simulate", True, "flc"),
-                     ("mission", False, "flc", 20000), ("simulate", False, "flc")]
+    assert calls == [("loop", True, True), ("mission", True, "flc", 20000), ("simulate", True, "flc"),
+                     ("simulate", True, "flc"), ("loop", True, False), ("mission", False, "flc", 20000),
+                     ("simulate", False, "flc")]  # both compiled: the driver against the Function call
 
 
 def test_python_call_time_is_the_best_block_per_call(monkeypatch):
