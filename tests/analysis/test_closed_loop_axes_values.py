@@ -40,6 +40,9 @@ def test_both_axes_of_both_loops_are_reported_and_the_smaller_one_counts(result)
         resp = d["frequency_response"][key]
         assert len(resp["omega"]) == len(resp["mag"]) == len(resp["phase_deg"]) == 600
         assert resp["mag"][0] == pytest.approx(loop["dc_gain"][0], rel=1e-15)
+        # the stored response is the x axis' tracking (|H| ~ 1, a small lag at 0.01 rad/s),
+        # magnitude and phase of the same entry
+        assert -1.0 < resp["phase_deg"][0] < 0.0 and abs(resp["mag"][0] - 1.0) < 1e-3, key
     w = np.asarray(d["frequency_response"]["inner"]["omega"])
     assert w[0] == pytest.approx(0.01, rel=1e-12) and w[-1] == pytest.approx(np.pi / TS_CONTROL, rel=1e-12)
     assert np.all(np.diff(np.log10(w)) == pytest.approx(np.log10(np.pi / TS_CONTROL / 0.01) / 599, rel=1e-9))
