@@ -126,7 +126,9 @@ def test_com_plot_draws_distance_com_error_and_inclination_with_the_spec_limits(
     assert hlines(com_ax) == [specs["observer_true_com_estimate_error_max_mm"]]
     assert hlines(inc_ax) == [specs["observer_true_standing_tilt_error_deg"]]
     assert com_ax["yscale"] == inc_ax["yscale"] == "log"
+    assert dist["ylabel"] == "distance from start (m)"
     assert com_ax["ylabel"] == "|COM estimate - observable| (mm)"
     assert inc_ax["ylabel"] == "inclination error vs ref (deg)"
+    assert (dist["xlabel"], com_ax["xlabel"], inc_ax["xlabel"]) == ("", "", "time (s)")
     assert f"{COM.WINDOW_S:g} s" in inc_ax["title"]
     assert_style(saved, "com_observer.png")
