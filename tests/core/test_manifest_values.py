@@ -22,6 +22,10 @@ def test_manifest_records_size_and_sha256_of_each_named_file(tmp_path):
         n: {"size": len(blobs[n]), "sha256": hashlib.sha256(blobs[n]).hexdigest()}
         for n in ("a.so", "b.h")}}
     assert F.sha256_file(tmp_path / "a.so") == hashlib.sha256(blobs["a.so"]).hexdigest()
+    # the text does not depend on the order the files are named in: keys sorted, indent 1
+    again = F.write_manifest(tmp_path, ["a.so", "b.h"], "M2.json", extra={"key": "flags -O2"})
+    assert again.read_bytes() == path.read_bytes()
+    assert path.read_text().startswith('{\n "extra": {\n  "key": "flags -O2"\n },\n "files": {\n  "a.so": {')
     # without extra: no "extra" key at all
     doc2 = json.loads(F.write_manifest(tmp_path, ["b.h"], "N.json").read_text())
     assert set(doc2) == {"format", "files"}
