@@ -109,7 +109,10 @@ def test_estimation_inputs_are_passed_by_name(monkeypatch):
 def test_estimation_group(monkeypatch):
     orig = bench_estimation_mod._full_scenario
     monkeypatch.setattr(bench_estimation_mod, "_full_scenario", lambda: orig().replace(duration=0.5))
+    real_loop, loops = bench_estimation_mod.ClosedLoop, []
+    monkeypatch.setattr(bench_estimation_mod, "ClosedLoop", lambda **kw: loops.append(kw) or real_loop(**kw))
     data = bench_estimation_mod.bench_estimation(n_calls=50, repeats=1)
+    assert loops == [{"compiled": True}]  # the compiled mission is what is timed
     _check(data,
            {"mission_full_100s_s", "mission_full_100s_with_inputs_s", "mission_full_100s_target_s",
             "qukf_step_us", "vukf_step_us", "tilt_correction_step_us", "com_observer_step_us",
