@@ -128,6 +128,8 @@ def test_output_dependencies_states_held_outputs_and_continuous_ones():
     (dict(name="a", kind="parameter", description="", start=1.0, bounds=(0, 1)), "bounds are"),
     (dict(name="a", kind="parameter", description="", type="Integer", start=1, fixed="w"),
      "only a Real parameter with a finite start"),
+    (dict(name="a", kind="input", description="", start=1.0, fixed="w"),
+     "only a Real parameter with a finite start"),
     (dict(name="a", kind="output", description="", missing=True), "may accept NaN"),
     (dict(name="a", kind="parameter", description=""), "'parameter' needs a start value"),
     (dict(name="a", kind="output", description="", start=1.0), "'output' must not have"),
