@@ -54,6 +54,8 @@ def test_qemu_double_equals_host(fw_double, rec, host):
     assert q.rc.min() == 0
     # the instruction-count calibration: SysTick at 25 MHz, 1 instruction per ns
     assert q.instructions_per_tick == pytest.approx(40.0, rel=1e-3)
+    # the step's stack high-water mark: some hundreds of bytes, inside the linker's 64 KiB
+    assert 256 <= q.stack_bytes < 64 * 1024, q.stack_bytes
 
 
 def test_qemu_single_within_tolerance(rec, host):
