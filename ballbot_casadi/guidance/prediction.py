@@ -43,7 +43,13 @@ class LoopModel:
 
     ``x = [v(2), theta(2), dtheta(2), theta_r(2), dtheta_r(2), p_e(2), p(2)]``.  Outputs
     ``y = C[name] x + D[name] v_ref`` for ``name`` in ``v``, ``tilt``, ``tilt_rate``,
-    ``acc``, ``tilt_acc`` (each 2 rows).
+    ``acc``, ``tilt_acc`` (each 2 rows, :data:`LOOP_OUTPUTS`).
+
+    Raises
+    ------
+    ShapeError
+        ``A`` not 14 x 14, ``B`` not 14 x 2, an output missing or extra, a ``C`` map not
+        2 x 14, a ``D`` map not 2 x 2, or ``dt`` not a positive number (one line naming it).
     """
 
     A: np.ndarray
