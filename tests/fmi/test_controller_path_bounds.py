@@ -103,6 +103,8 @@ def test_the_nearest_value_beyond_a_limit_is_refused(unzipped, over, needle):
     if over.get("path_t5_x") == "2tol":
         f = 1 + 2 * TANGENT_TOL
         over.update(path_t5_x=f * v["path_t5_x"], path_t5_y=f * v["path_t5_y"])
+        needle = "path_t5 = [%g, %g] must be a unit vector (norm 1 within %g)" % (
+            over["path_t5_x"], over["path_t5_y"], TANGENT_TOL)  # C's %g: the sample's own x, y
     if over.get("obstacle1_x") == "p0+0.05":  # the disc's edge 5 cm beyond the start
         over.update(obstacle1_x=v["path_p0_x"] + 0.05, obstacle1_y=v["path_p0_y"])
     errors = _init(unzipped, **over)
