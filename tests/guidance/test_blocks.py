@@ -66,6 +66,9 @@ def test_mpc_sample_equals_path_mpc_with_an_obstacle_beside_the_path(path, model
     assert any(np.any(np.asarray(p["w_lat"]) < 1.0) for p in params)
     assert len(mpc.solve_s) == 5 + 5  # the cold first sample re-linearises 5 times
     assert mpc.failures == 0
+    # a solve's CPU seconds (the calling thread's, differenced) never above its wall seconds
+    cpu, wall = np.array(mpc.solve_cpu_s), np.array(mpc.solve_s)
+    assert cpu.size == wall.size and np.all(cpu >= 0.0) and np.all(cpu <= wall + 1e-3)
 
 
 def test_failed_qp_in_the_sample_keeps_the_shifted_plan(path, model):
