@@ -46,6 +46,15 @@ static inline int bench_fake_clock(clockid_t id, struct timespec *ts) {
 REPEATS = 5
 
 
+def _fake_clock(monkeypatch, module, tmp_path, step_ns: float) -> None:
+    """Build ``module``'s benchmark program under ``tmp_path`` on the stand-in clock of
+    reading step ``step_ns``."""
+    header = tmp_path / "fake_clock.h"
+    header.write_text(f"#define BENCH_FAKE_STEP_NS {int(step_ns)}LL\n" + FAKE_CLOCK)
+    monkeypatch.setattr(module, "build_root", lambda: tmp_path)  # not the real bench's binary
+    monkeypatch.setattr(module, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
+
+
 def _clock_reads(res: subprocess.CompletedProcess) -> int:
     """The stand-in clock's reading count, printed by it at the program's exit."""
     assert res.returncode == 0, res.stderr
@@ -58,10 +67,7 @@ def _clock_reads(res: subprocess.CompletedProcess) -> int:
 @pytest.mark.parametrize("n_calls, step_ns", [(50, 1e6), (8, 1e6), (8, 1.25e9)])
 def test_control_bench_program_reports_its_sections_in_microseconds(monkeypatch, tmp_path, n_calls,
                                                                    step_ns):
-    header = tmp_path / "fake_clock.h"
-    header.write_text(f"#define BENCH_FAKE_STEP_NS {int(step_ns)}LL\n" + FAKE_CLOCK)
-    monkeypatch.setattr(bench_control_mod, "build_root", lambda: tmp_path)  # not the real bench's binary
-    monkeypatch.setattr(bench_control_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
+    _fake_clock(monkeypatch, bench_control_mod, tmp_path, step_ns)
     _, inputs = bench_control_mod.mission_inputs(0.1)
     data = bench_control_mod._c_bench(control_bench_library(), inputs, n_calls)
     per_call = step_ns / n_calls / 1000.0
@@ -80,13 +86,10 @@ def test_function_bench_program_reports_microseconds_per_call_down_to_one_call(m
                                                                                step_ns):
     """``bench_function.c`` on a small Function: one reading step over N calls, in
     microseconds; a single call is a valid run (N >= 1)."""
-    header = tmp_path / "fake_clock.h"
-    header.write_text(f"#define BENCH_FAKE_STEP_NS {int(step_ns)}LL\n" + FAKE_CLOCK)
     x = ca.SX.sym("x", 2)
     f = ca.Function("bench_probe", [x, ca.SX.sym("k")], [ca.vertcat(x[0] * x[1], x[0] - x[1])])
     lib = build_library("bench_probe", [f], root=tmp_path / "lib")
-    monkeypatch.setattr(bench_estimation_mod, "build_root", lambda: tmp_path)
-    monkeypatch.setattr(bench_estimation_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
+    _fake_clock(monkeypatch, bench_estimation_mod, tmp_path, step_ns)
     us = bench_estimation_mod.c_function_us(lib, f, [[1.5, -2.0], 3.0], n_calls)
     assert us == pytest.approx(step_ns / n_calls / 1000.0, rel=0, abs=5e-5)
     exe = tmp_path / "bench" / f"bench_{f.name()}_{lib.digest}"
@@ -99,10 +102,7 @@ def test_function_bench_program_reports_microseconds_per_call_down_to_one_call(m
 def test_model_bench_program_reports_nanoseconds_per_call(monkeypatch, tmp_path, n_calls):
     """``bench_model.c``: the ODE timed over N calls, the Jacobian over N / 4 + 1, each the
     best of REPEATS; a reading step of 1.25 s carries the seconds into the nanoseconds."""
-    header = tmp_path / "fake_clock.h"
-    header.write_text("#define BENCH_FAKE_STEP_NS 1250000000LL\n" + FAKE_CLOCK)
-    monkeypatch.setattr(bench_mod, "build_root", lambda: tmp_path)
-    monkeypatch.setattr(bench_mod, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
+    _fake_clock(monkeypatch, bench_mod, tmp_path, 1.25e9)
     monkeypatch.setattr(bench_mod, "_python_call_ns", lambda: 7.0)  # not timed here
     data = bench_mod.bench_model(n_calls)
     assert data["ode_ns"] == pytest.approx(1.25e9 / n_calls, rel=0, abs=0.005)  # 2 decimals

@@ -4,6 +4,8 @@ give 14 x 14 / 14 x 2 dynamics and two rows per output."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -38,7 +40,7 @@ def test_a_wrong_shape_is_refused_by_name(which, key, shape, text):
         parts[which] = np.zeros(shape)
     else:
         parts[which][key] = np.zeros(shape)
-    with pytest.raises(ShapeError, match=rf"^the loop model's {__import__('re').escape(text)}$"):
+    with pytest.raises(ShapeError, match=rf"^the loop model's {re.escape(text)}$"):
         LoopModel(parts["A"], parts["B"], parts["C"], parts["D"], 0.1)
 
 
