@@ -1,11 +1,13 @@
 """Shared fixtures: reference data, default parameters, model Functions (built once), a
-forked child for loads that may kill the process."""
+forked child for loads that may kill the process, a stand-in for ``subprocess.run``."""
 
 from __future__ import annotations
 
 import json
 import os
+import subprocess
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
@@ -96,6 +98,27 @@ def _run_in_fork(fn: Callable[[], object]) -> tuple[int, str]:
 def in_fork() -> Callable[[Callable[[], object]], tuple[int, str]]:
     """:func:`_run_in_fork`: ``in_fork(fn) -> (exit code or -signal, str(fn()))``."""
     return _run_in_fork
+
+
+def _fake_run(reply: Callable[[list[str]], str], calls: list, returncode: int = 0):
+    """A stand-in for ``subprocess.run`` answering ``reply(cmd)``, as the real one would:
+    the output reaches the caller only when captured (``str`` with ``text=True``, else
+    ``bytes``), ``check=True`` raises on a non-zero code; each call appends ``(cmd, kw)``."""
+    def run(cmd, capture_output=False, text=False, check=False, **kw):
+        calls.append((list(cmd), {"capture_output": capture_output, "text": text,
+                                  "check": check, **kw}))
+        out = reply(list(cmd))
+        if check and returncode != 0:
+            raise subprocess.CalledProcessError(returncode, cmd, out)
+        stdout = (out if text else out.encode()) if capture_output else None
+        return SimpleNamespace(stdout=stdout, stderr="" if text else b"", returncode=returncode)
+    return run
+
+
+@pytest.fixture()
+def fake_run() -> Callable[..., object]:
+    """:func:`_fake_run`: ``fake_run(reply, calls, returncode=0) -> run``."""
+    return _fake_run
 
 
 @pytest.fixture(scope="session")

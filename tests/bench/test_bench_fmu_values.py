@@ -20,13 +20,12 @@ from ballbot_casadi.model.dynamics import STATE_NAMES
 from ballbot_casadi.model.numeric import make_state
 
 
-def test_fmu_group_by_hand(monkeypatch):
+def test_fmu_group_by_hand(monkeypatch, fake_run):
     plant = SimpleNamespace(binary=Path("/b/plant.so"), guid="{g}", fmu=Path("/b/plant.fmu"))
     monkeypatch.setattr(bfm, "build_fmu", lambda: plant)
     monkeypatch.setattr(bfm, "build_tool", lambda b, name: f"/t/{name}")
-    runs = []
-    monkeypatch.setattr(bfm.subprocess, "run", lambda cmd, **kw: runs.append(cmd) or SimpleNamespace(
-        stdout=json.dumps({"step_us": 3.5})))
+    calls = []
+    monkeypatch.setattr(bfm.subprocess, "run", fake_run(lambda cmd: json.dumps({"step_us": 3.5}), calls))
     monkeypatch.setattr(bfm, "build_pythonfmu", lambda out: Path("/p/py.fmu"))
     xn = np.arange(24.0).reshape(2, 12)
     xp = xn.copy()
@@ -42,8 +41,9 @@ def test_fmu_group_by_hand(monkeypatch):
     monkeypatch.setattr(bfm, "bench_sil", lambda: {"sil_100s_s": 2.0})
     monkeypatch.setattr(bfm, "bench_fmu3_vs_casadi", lambda: {"fmu3_vs_casadi_export_ratio": 0.9})
     out = bfm.bench_fmu()
-    assert runs == [["/t/host", "/b/plant.so", "{g}", "2000", "0.005", "0.02", "-0.01", "0.005",
-                     "0.002", "5"]]
+    assert [c for c, _ in calls] == [["/t/host", "/b/plant.so", "{g}", "2000", "0.005", "0.02",
+                                      "-0.01", "0.005", "0.002", "5"]]
+    assert calls[0][1]["check"] is True
     taus = {"tau0": 0.02, "tau1": -0.01, "tau2": 0.005}
     x0 = dict(zip((X0_PREFIX + n for n in STATE_NAMES), make_state(roll=0.002).tolist()))
     assert timed[plant.fmu] == ({**taus, **x0}, 3)
@@ -69,17 +69,17 @@ def test_fmpy_time_columns_are_the_states_in_order(monkeypatch):
                     "output": list(STATE_NAMES)}
 
 
-def test_controller_fmu_group_by_hand(monkeypatch):
+def test_controller_fmu_group_by_hand(monkeypatch, fake_run):
     monkeypatch.setattr(bfm, "controller_spec", lambda: "spec")
     monkeypatch.setattr(bfm, "build_fmu_from_spec", lambda spec: SimpleNamespace(
         binary=Path(f"/c/{spec}.so"), guid="{c}"))
     monkeypatch.setattr(bfm, "build_tool", lambda b, name: f"/t/{name}")
-    runs = []
-    monkeypatch.setattr(bfm.subprocess, "run", lambda cmd, **kw: runs.append(cmd) or SimpleNamespace(
-        stdout='{"step_us": 4.25}'))
+    calls = []
+    monkeypatch.setattr(bfm.subprocess, "run", fake_run(lambda cmd: '{"step_us": 4.25}', calls))
     assert bfm.bench_controller_fmu() == {"fmu_controller_step_us": 4.25,
                                           "fmu_controller_step_target_us": 15.0}
-    assert runs == [["/t/controller_host", "/c/spec.so", "{c}", "2000", "5"]]
+    assert [c for c, _ in calls] == [["/t/controller_host", "/c/spec.so", "{c}", "2000", "5"]]
+    assert calls[0][1]["check"] is True
 
 
 def _fake_libcosim(monkeypatch, ok=True):

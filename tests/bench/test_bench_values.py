@@ -383,12 +383,12 @@ def test_montecarlo_group_reports_a_dask_difference(monkeypatch):
     assert bm.bench_montecarlo(n_runs=4, duration=0.1)["montecarlo_dask_equals_serial"] == 0.0
 
 
-def test_model_group_by_hand(monkeypatch, tmp_path):
+def test_model_group_by_hand(monkeypatch, tmp_path, fake_run):
     lib = SimpleNamespace(header=tmp_path / "inc" / "m.h", static=tmp_path / "libm.a")
     monkeypatch.setattr(bench, "model_library", lambda: lib)
     monkeypatch.setattr(bench, "build_root", lambda: tmp_path)
     monkeypatch.setattr(bench, "run_tool", lambda cmd, what: open(cmd[cmd.index("-o") + 1], "w").close())
-    seen = {}
+    calls = []
 
     p = bench.load_params().to_vector()
     fns = {f.name(): f for f in model_functions_list()}
@@ -400,15 +400,13 @@ def test_model_group_by_hand(monkeypatch, tmp_path):
             "check_jac": [A.tolist(), B.tolist()]}
     printed = [good]
 
-    def run(cmd, **kw):
-        seen["cmd"] = cmd
-        return SimpleNamespace(stdout=json.dumps(printed[0]))
-    monkeypatch.setattr(bench.subprocess, "run", run)
+    monkeypatch.setattr(bench.subprocess, "run", fake_run(lambda cmd: json.dumps(printed[0]), calls))
     monkeypatch.setattr(bench, "_python_call_ns", lambda: 10000.0)
     out = bench.bench_model(n_calls=77)
-    assert seen["cmd"][0] == str(tmp_path / "bench" / "bench_model") and seen["cmd"][1] == "77"
+    cmd, kw = calls[0]
+    assert cmd[0] == str(tmp_path / "bench" / "bench_model") and cmd[1] == "77" and kw["check"]
     # the operating point, then the parameters, all as the C program reads them
-    assert [float(v) for v in seen["cmd"][2:]] == [*x, *tau, *p]
+    assert [float(v) for v in cmd[2:]] == [*x, *tau, *p]
     assert out == {"ode_ns": 250.0, "jac_ns": 1200.0, "python_call_ns": 10000.0,
                    "python_over_c_ratio": 40.0, "ode_target_ns": 500.0, "jac_target_ns": 3000.0}
     # outputs that are not the Functions' at that point: the benchmark timed something else

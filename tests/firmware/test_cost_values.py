@@ -8,7 +8,6 @@ time conversions are checked against hand arithmetic.
 from __future__ import annotations
 
 import subprocess
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -33,15 +32,13 @@ Total               31776
 """
 
 
-def _fake_run(outputs):
-    def run(cmd, **kw):
-        key = "-A" if "-A" in cmd else "plain"
-        return SimpleNamespace(stdout=outputs[key], returncode=0)
-    return run
+def _size_tool(fake_run, outputs):
+    """``arm-none-eabi-size`` answering ``outputs['-A']`` or ``outputs['plain']``."""
+    return fake_run(lambda cmd: outputs["-A" if "-A" in cmd else "plain"], [])
 
 
-def test_size_parsers_sum_rows_and_read_sections(monkeypatch):
-    monkeypatch.setattr(cost.subprocess, "run", _fake_run({"plain": BERKELEY, "-A": SYSV}))
+def test_size_parsers_sum_rows_and_read_sections(monkeypatch, fake_run):
+    monkeypatch.setattr(cost.subprocess, "run", _size_tool(fake_run, {"plain": BERKELEY, "-A": SYSV}))
     assert cost.size_text_data("lib.a") == (1500, 8 + 16 + 0 + 4)
     sec = cost.section_sizes("example.elf")
     assert sec[".text"] == 20000 and sec[".data"] == 512 and sec[".bss"] == 3072
@@ -88,11 +85,11 @@ def _replay(ticks, stack=1200, ctx=40000):
                         bg_ticks=np.zeros(n))
 
 
-def test_firmware_cost_from_sizes_and_a_replay(monkeypatch, tmp_path):
+def test_firmware_cost_from_sizes_and_a_replay(monkeypatch, tmp_path, fake_run):
     build = _build(tmp_path)
     sizes = {str(build.library): (1500, 0), str(build.example_elf): (22000, 600)}
     monkeypatch.setattr(cost, "size_text_data", lambda p: sizes[str(p)])
-    monkeypatch.setattr(cost.subprocess, "run", _fake_run({"-A": SYSV, "plain": ""}))
+    monkeypatch.setattr(cost.subprocess, "run", _size_tool(fake_run, {"-A": SYSV, "plain": ""}))
     rep = _replay([100.0, 300.0, 200.0, 250.0, 150.0])
     ipt = 200000.0 / 5000.0  # 40 instructions per tick
     assert rep.instructions_per_tick == pytest.approx(ipt)
