@@ -146,3 +146,19 @@ def test_pure_pursuit_at_the_end_of_an_open_path_commands_exactly_zero_without_w
         v = pp.step(x)
     np.testing.assert_array_equal(v, [0.0, 0.0])
     assert pp.progress() == pytest.approx(2.0, abs=1e-9)
+
+
+def test_a_wide_projection_window_is_searched_as_finely_as_a_narrow_one():
+    # a wave of 1.5 m wavelength: a window searched with fewer points per metre than the
+    # path's _DENSITY (e.g. spaced by the reach) lands on another wave's local minimum
+    x = np.linspace(0.0, 12.0, 97)
+    path = waypoint_path(np.c_[x, 0.4 * np.sin(2 * np.pi * x / 1.5)])
+    s_all = np.linspace(0.0, path.length, 200001)
+    pts = path.point(s_all)
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        p = path.point(rng.uniform(0.0, path.length)) + rng.normal(0.0, 0.05, 2)
+        nearest = s_all[np.argmin(np.sum((pts - p) ** 2, axis=1))]
+        s = path.project(p, s_guess=rng.uniform(0.0, path.length), reach=30.0)  # the whole path
+        assert s == pytest.approx(nearest, abs=2e-4)
+        assert s == pytest.approx(path.project(p), abs=1e-9)
