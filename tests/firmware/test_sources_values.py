@@ -10,7 +10,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ballbot_casadi.errors import ScenarioError
+from ballbot_casadi.errors import BuildError, ScenarioError
 from ballbot_casadi.firmware import replay as R
 from ballbot_casadi.firmware.build import default_scenario
 from ballbot_casadi.firmware.sources import (
@@ -60,6 +60,30 @@ def test_single_precision_constants_are_clamped_into_floats_range_and_zero_stays
         "a = 0.0e+00; b = 1.1754943508222875e-38; c = -1.1754943508222875e-38; "
         "d = 3.4028234663852886e+38; e = 2.5e-03; f = sqrtf(x) + cosf(y); g = 1.2e-38; "
         "h = 3.4028234663852886e+38; i = 3.4e+38;")
+
+
+def _reshaped(f: ca.Function, name: str, shape: tuple[int, int]) -> ca.Function:
+    """``f`` with input ``name`` declared as ``shape``: column-major, its first entries used."""
+    ins = [ca.MX.sym(n, *(shape if n == name else f.size_in(i))) for i, n in enumerate(f.name_in())]
+    args = [ca.vec(a)[:f.numel_in(i)] if n == name else a
+            for i, (a, n) in enumerate(zip(ins, f.name_in()))]
+    return ca.Function(f.name(), ins, f.call(args), f.name_in(), f.name_out())
+
+
+def test_parameter_inputs_are_matched_by_their_number_of_entries(generated):
+    """A parameter input declared as a matrix (a covariance 6 x 6) takes the scenario's
+    values column-major, as the flat layout; an input of another number of entries is
+    refused naming it and both counts."""
+    f, vals, _ = generated
+    sc = default_scenario()
+    m = scenario_values(_reshaped(f, "Qa", (6, 6)), sc)
+    assert m.params.keys() == vals.params.keys()
+    for n, v in vals.params.items():
+        np.testing.assert_array_equal(m.params[n], v, err_msg=n)
+    np.testing.assert_array_equal(m.c0, vals.c0)
+    with pytest.raises(BuildError, match=rf"^{f.name()}: input Qv has 50 entries, the scenario "
+                                         r"gives 49$"):
+        scenario_values(_reshaped(f, "Qv", (50, 1)), sc)
 
 
 def _defines(text: str) -> dict[str, str]:

@@ -42,3 +42,18 @@ def test_the_wheel_angle_model_needs_matching_functions():
         make_wheel_angle_ode(ode, _f([12, ode.size1_in(2) + 1], 3))
     f = make_wheel_angle_ode(ode, ws)
     assert (f.size1_in(0), f.size1_out(0)) == (15, 15)
+
+
+def _ws(n_p, extra_in=0, n_out=1, nx=12, n_dphi=3):
+    x, p = ca.SX.sym("x", nx), ca.SX.sym("p", n_p)
+    more = [ca.SX.sym(f"e{i}") for i in range(extra_in)]
+    return ca.Function("ws", [x, p, *more], [ca.SX.zeros(n_dphi) + ca.sum1(x)] * n_out)
+
+
+@pytest.mark.parametrize("change", [{"extra_in": 1}, {"n_out": 2}, {"nx": 13}, {"n_dphi": 4}])
+def test_each_wrong_part_of_a_wheel_speed_map_is_refused_on_its_own(change):
+    ode = make_ode()
+    with pytest.raises(BallbotTypeError, match=r"^wheel_speeds must be a CasADi Function \(x \(12\), "
+                                               r"p\) -> dphi \(3\), e\.g\. make_model_functions"):
+        make_wheel_angle_ode(ode, _ws(ode.size1_in(2), **change))
+    assert make_wheel_angle_ode(ode, _ws(ode.size1_in(2))).size1_out(0) == 15
