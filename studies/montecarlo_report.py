@@ -47,7 +47,7 @@ from ballbot_casadi.sim.scenario import (
     set_value,
 )
 from ballbot_casadi.sim.scenario.dispersions import draw_runs
-from ballbot_casadi.studies.formatting import fmt
+from ballbot_casadi.studies.formatting import fmt, md_cell
 from ballbot_casadi.studies.montecarlo_runner import run_dask, run_serial
 from ballbot_casadi.studies.registry import resolve_scenario
 from ballbot_casadi.studies.study import jsonable
@@ -345,7 +345,7 @@ def _failed_cell(doc: dict[str, Any], run: dict[str, Any]) -> str:
     evaluated, so it has no metrics to judge), a fall or NaN run says why, then the specs
     its metrics miss."""
     if run.get("error"):
-        return "**error**: " + str(run["error"]).replace("|", "\\|").replace("\n", " ")
+        return "**error**: " + md_cell(run["error"])
     failed = ", ".join(s["metric"] for s, ok in zip(doc["specs"], _spec_oks(doc, run)) if not ok) or "none"
     return f"**{run['failure']}**; {failed}" if run.get("failure") else failed
 

@@ -128,7 +128,8 @@ def sta_noise_report_lines(m: dict[str, Any]) -> list[str]:
              f"measured after {m['after_s']} s (per axis roll, pitch, yaw; RMS averaged, max over "
              "seeds).  `S_hat`: the sliding variable the controller sees (on the estimate); `S`: "
              "on the true state; `e_S = S_hat - S`: its estimation error.", "",
-             "| L scale | |S_hat| RMS | |S_hat| max | |S| RMS | |S| max | e_S RMS | torque TV (N m/s) |",
+             "| L scale | \\|S_hat\\| RMS | \\|S_hat\\| max | \\|S\\| RMS | \\|S\\| max | e_S RMS | "
+             "torque TV (N m/s) |",
              "|---|---|---|---|---|---|---|"]
     for r in m["rows"]:
         lines.append(f"| {r['L_scale']:.3g} | {_v(r['S_hat_rms'])} | {r['S_hat_max']:.2g} | "

@@ -24,7 +24,7 @@ from typing import Any, Mapping, Sequence
 
 from ballbot_casadi.core.specs import spec_ok
 from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
-from ballbot_casadi.studies.formatting import fmt
+from ballbot_casadi.studies.formatting import fmt, md_cell
 
 __all__ = ["Col", "Ratio", "ThesisResult", "THESIS_RESULTS", "VERDICTS", "needed_runs", "lookup",
            "thesis_table", "study_rows", "table_lines", "CHAPTERS"]
@@ -372,7 +372,9 @@ def table_lines(rows: Sequence[Mapping[str, Any]], title: str = "## Thesis resul
         x = "x" if r.get("target") is None else f"x − ({fmt(r['target'])})"
         judge = "" if r["threshold"] is None else (f"\\|{x}\\| <= {fmt(r['threshold'])}" if r["op"] == "abs<="
                                                    else f"{x} {r['op']} {fmt(r['threshold'])}")
-        lines.append(f"| {mark[r['verdict']]} | {r['section']} | {r['claim']} | {r['thesis']} | "
+        lines.append(f"| {mark[r['verdict']]} | {r['section']} | {md_cell(r['claim'])} | "
+                     f"{md_cell(r['thesis'])} | "
                      f"{fmt(r['thesis_setup']) if r['thesis_setup'] is not None else '—'} | "
-                     f"{fmt(r['ours']) if r['ours'] is not None else '—'} | {judge} | {r['why']} |")
+                     f"{fmt(r['ours']) if r['ours'] is not None else '—'} | {judge} | "
+                     f"{md_cell(r['why'])} |")
     return lines + [""]

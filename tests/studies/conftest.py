@@ -1,12 +1,70 @@
-"""Fixtures of the study tests: what the plots draw, read back when they are saved."""
+"""Fixtures of the study tests: what the plots draw, read back when they are saved; every
+Markdown table a report function returns or a test writes is checked well formed."""
 
 from __future__ import annotations
 
+import functools
+import re
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
+
+
+_DELIMITER = re.compile(r"^:?-{3,}:?$")
+
+
+def _cells(line: str) -> list[str]:
+    """A table row's cells (a pipe inside a cell is written ``\\|``)."""
+    return [c.strip() for c in re.split(r"(?<!\\)\|", line.strip()[1:-1])]
+
+
+def check_markdown_tables(text: str, where: str = "report") -> None:
+    """Each table (a run of lines starting with ``|``): a header, a delimiter row of
+    ``---`` cells, then rows, all with the header's number of cells."""
+    lines = text.split("\n")
+    i = 0
+    while i < len(lines):
+        if not lines[i].startswith("|"):
+            i += 1
+            continue
+        j = i
+        while j < len(lines) and lines[j].startswith("|"):
+            j += 1
+        block = lines[i:j]
+        n = len(_cells(block[0]))
+        assert len(block) >= 2 and all(_DELIMITER.match(c) for c in _cells(block[1])), \
+            f"{where}: table without a delimiter row at {block[0]!r}"
+        for row in block[1:]:
+            assert row.endswith("|") and len(_cells(row)) == n, \
+                f"{where}: {len(_cells(row))} cells where the header {block[0]!r} has {n}: {row!r}"
+        i = j
+
+
+@pytest.fixture(autouse=True)
+def _tables_well_formed(monkeypatch):
+    """Wraps the studies' report functions (``*report_lines``, ``table_lines``) and
+    ``Path.write_text`` of ``.md`` files with :func:`check_markdown_tables`."""
+    for name, mod in list(sys.modules.items()):
+        if not name.startswith(("studies.", "ballbot_casadi.studies.")) or mod is None:
+            continue
+        for attr, fn in list(vars(mod).items()):
+            if callable(fn) and (attr.endswith("report_lines") or attr == "table_lines") \
+                    and getattr(fn, "__module__", None) == name:
+                def checked(*a, _fn=fn, _where=f"{name}.{attr}", **k):
+                    out = _fn(*a, **k)
+                    check_markdown_tables("\n".join(out), _where)
+                    return out
+                monkeypatch.setattr(mod, attr, functools.wraps(fn)(checked))
+    real = Path.write_text
+
+    def write_text(self, data, *a, **k):
+        if self.suffix == ".md":
+            check_markdown_tables(data, str(self.name))
+        return real(self, data, *a, **k)
+    monkeypatch.setattr(Path, "write_text", write_text)
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ballbot_casadi.studies.formatting import fmt
+from ballbot_casadi.studies.formatting import fmt, md_cell
 
 
 @pytest.mark.parametrize("value, text", [
@@ -16,3 +16,12 @@ from ballbot_casadi.studies.formatting import fmt
 ])
 def test_fmt(value, text):
     assert fmt(value) == text
+
+
+@pytest.mark.parametrize("text, cell", [
+    ("pass if |drift| <= 5x", "pass if \\|drift\\| <= 5x"),
+    ("already \\|x\\| escaped", "already \\|x\\| escaped"),   # not escaped twice
+    ("two\nlines", "two lines"), (0.5, "0.5"), ("plain", "plain"),
+])
+def test_md_cell_escapes_pipes_once_and_joins_lines(text, cell):
+    assert md_cell(text) == cell
