@@ -115,7 +115,8 @@ def _style(fig, dpi) -> dict:
     resolution) and, for a straight horizontal or vertical line (a limit, a threshold), its
     level; the scatter sets' sizes, colours and counts; the patches' colours; the legend's,
     title's and axis labels' font sizes; the axis scales and the limits set on purpose (not
-    autoscaled); where the axes sits in its grid with the grid's height and width ratios,
+    autoscaled); the grid lines drawn (visible, alpha, style per axis); where the axes sits
+    in its grid with the grid's height and width ratios,
     and whether it shares its x axis with the first axes (compared with a pinned copy by
     ``_figures.assert_style``)."""
     from matplotlib.colors import to_hex
@@ -151,6 +152,13 @@ def _style(fig, dpi) -> dict:
         return [len(c.get_offsets()), [float(v) for v in c.get_sizes()[:1]],
                 to_hex(fc[0], keep_alpha=True) if len(fc) else None]
 
+    def gridlines(ax):  # per axis: the first major grid line's visibility, alpha and style
+        out = []
+        for a in (ax.xaxis, ax.yaxis):
+            gl = a.get_gridlines()
+            out.append([gl[0].get_visible(), gl[0].get_alpha(), gl[0].get_linestyle()] if len(gl) else None)
+        return out
+
     def limits(ax):
         return {"x": None if ax.get_autoscalex_on() else [float(f"{v:.6g}") for v in ax.get_xlim()],
                 "y": None if ax.get_autoscaley_on() else [float(f"{v:.6g}") for v in ax.get_ylim()]}
@@ -162,5 +170,6 @@ def _style(fig, dpi) -> dict:
                       "legend": legend(ax), "title_size": ax.title.get_fontsize(),
                       "label_sizes": [ax.xaxis.label.get_fontsize(), ax.yaxis.label.get_fontsize()],
                       "scales": [ax.get_xscale(), ax.get_yscale()], "limits": limits(ax), "grid": grid(ax),
+                      "gridlines": gridlines(ax),
                       "shares_x_with_first": bool(ax.get_shared_x_axes().joined(ax, fig.axes[0]))}
                      for ax in fig.axes]}
