@@ -45,3 +45,20 @@ def test_speed_ramps_down_before_the_end_of_an_open_path():
     np.testing.assert_allclose(v, [math.sqrt(0.1), 0.0], rtol=0, atol=1e-6)
     with pytest.raises(ScenarioError, match="lookahead"):
         PurePursuit(path, lookahead=0.0)
+
+
+def test_a_look_ahead_point_on_the_robot_gives_no_direction():
+    # a closed circle as long as the look-ahead: the target is the robot's own projection
+    from ballbot_casadi.guidance.paths import arc_path
+
+    circle = arc_path((0.0, 0.0), 1.0, 0.0, 2 * math.pi)
+    for off, pulled in ((7e-10, True), (2e-9, False)):  # within 1e-9 m: lateral pull only
+        pp = PurePursuit(circle, lookahead=circle.length, k_lat=1.0)
+        tx, ty = circle.tangent(0.7)
+        p = circle.point(0.7) + off * np.array([ty, -tx])  # off the path, outwards
+        v = pp.step(np.r_[np.zeros(12), p])
+        if pulled:
+            assert np.linalg.norm(v) == pytest.approx(off, rel=1e-3)
+        else:  # the direction to the target: the full reference speed, towards the path
+            assert np.linalg.norm(v) == pytest.approx(circle.speed, rel=1e-6)
+            assert v @ np.array([ty, -tx]) == pytest.approx(-circle.speed, rel=1e-6)
