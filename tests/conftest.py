@@ -110,8 +110,8 @@ def _fake_run(reply: Callable[[list[str]], str], calls: list, returncode: int = 
         out = reply(list(cmd))
         if check and returncode != 0:
             raise subprocess.CalledProcessError(returncode, cmd, out)
-        stdout = (out if text else out.encode()) if capture_output else None
-        return SimpleNamespace(stdout=stdout, stderr="" if text else b"", returncode=returncode)
+        stdout, stderr = ((out, "") if text else (out.encode(), b"")) if capture_output else (None, None)
+        return SimpleNamespace(stdout=stdout, stderr=stderr, returncode=returncode)
     return run
 
 
