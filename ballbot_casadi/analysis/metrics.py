@@ -220,13 +220,17 @@ def transition_metrics(log: Any, axis: str = "roll", level: float = 0.5) -> dict
     """Tracking lag of a step or ramp reference on ``axis`` (thesis §7.2 item 4: < 0.1 s;
     item 5: < 1 s without a rate reference): ``roll_lag_s`` is the time by which the
     angle reaches ``level`` (50 %) of the transition after the reference does
-    (:func:`crossing_lag`; for a ramp that settles into tracking, its steady delay)."""
+    (:func:`crossing_lag`; for a ramp that settles into tracking, its steady delay).  A
+    reference that ends where it starts has no transition to time: its lag is ``nan``
+    (undefined, so a spec on it fails)."""
     a = _arrays(log)
     n = a["q_ref"].shape[0]
     t = a["time"][:n]
     i = ("roll", "pitch", "yaw").index(axis)
     ang = rpy_deg(a["state"][:n, STATE["q"]])[:, i]
     ref = rpy_deg(a["q_ref"])[:, i]
+    if ref[-1] == ref[0]:
+        return {f"{axis}_lag_s": math.nan}
     sign = 1.0 if ref[-1] >= ref[0] else -1.0
     lvl = sign * (ref[0] + level * (ref[-1] - ref[0]))
     return {f"{axis}_lag_s": crossing_lag(t, sign * ang, sign * ref, lvl)}

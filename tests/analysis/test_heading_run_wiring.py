@@ -82,3 +82,11 @@ def test_heading_run_wiring(monkeypatch, aided):
                                    rtol=0, atol=1e-9)
     else:
         assert np.all(np.isnan(run.bias_hat))
+
+
+def test_heading_run_keeps_every_period_with_log_every_one(monkeypatch):
+    """The smallest logging step is allowed and keeps each period, in order."""
+    monkeypatch.setattr(H, "_chunk", _stand_in([]))
+    run = H.heading_run(0.5 * N * TS, seed=4, aided=True, log_every=1, Ts=TS)
+    np.testing.assert_allclose(run.time, np.arange(N) * TS, rtol=0, atol=1e-12)
+    assert run.yaw.shape == run.bias.shape == (N,)

@@ -45,6 +45,7 @@ def test_sine_lag_recovers_delay():
 def test_total_variation():
     assert total_variation(np.array([[0.0, 1.0], [1.0, 1.0], [0.5, 0.0]])) == pytest.approx(2.5, abs=1e-15)
     assert total_variation(np.zeros((1, 3))) == 0.0
+    assert total_variation(np.array([[1.0, -2.0], [0.5, 1.0]])) == pytest.approx(3.5, abs=1e-15)  # two samples
 
 
 def _sine_log(chatter: float) -> dict:

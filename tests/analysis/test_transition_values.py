@@ -45,3 +45,17 @@ def test_transition_lag_up_and_down(start, end):
     roll = start + frac * (end - start)
     m = transition_metrics(_log(ref.astype(float), roll), "roll")
     assert m["roll_lag_s"] == pytest.approx(14 * TS, abs=1e-9)
+
+
+@pytest.mark.parametrize("ref_deg", [np.full(80, 1.5),                                  # no step
+                                     np.where((np.arange(80) >= 10) & (np.arange(80) < 50), 2.0, 0.0)])
+def test_a_reference_ending_where_it_starts_has_no_lag(ref_deg):
+    """No transition to time: the lag is undefined (nan), whichever way the angle moves,
+    and a spec on it fails rather than passing on a made-up number."""
+    from ballbot_casadi.core.specs import spec_ok
+
+    k = np.arange(80)
+    for roll in (np.clip((k - 14) / 20.0, 0.0, 1.0) * 3.0, -np.clip((k - 14) / 20.0, 0.0, 1.0) * 3.0):
+        lag = transition_metrics(_log(ref_deg, roll), "roll")["roll_lag_s"]
+        assert math.isnan(lag)
+        assert not spec_ok(lag, "<=", 0.1)
