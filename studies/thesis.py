@@ -370,8 +370,8 @@ def table_lines(rows: Sequence[Mapping[str, Any]], title: str = "## Thesis resul
              "judged by | why |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         x = "x" if r.get("target") is None else f"x − ({fmt(r['target'])})"
-        judge = "" if r["threshold"] is None else (f"\\|{x}\\| <= {fmt(r['threshold'])}" if r["op"] == "abs<="
-                                                   else f"{x} {r['op']} {fmt(r['threshold'])}")
+        judge = "" if r["threshold"] is None else md_cell(f"|{x}| <= {fmt(r['threshold'])}" if r["op"] == "abs<="
+                                                          else f"{x} {r['op']} {fmt(r['threshold'])}")
         lines.append(f"| {mark[r['verdict']]} | {r['section']} | {md_cell(r['claim'])} | "
                      f"{md_cell(r['thesis'])} | "
                      f"{fmt(r['thesis_setup']) if r['thesis_setup'] is not None else '—'} | "
