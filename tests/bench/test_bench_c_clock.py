@@ -34,7 +34,11 @@ static void bench_fake_report(void) { fprintf(stderr, "clock reads %lld\\n", ben
 static inline int bench_fake_clock(clockid_t id, struct timespec *ts) {
   (void)id;
   ++bench_fake_reads;
+#ifdef BENCH_FAKE_GROW /* the n-th reading advances by n steps: each section its own length */
+  bench_fake_ns += BENCH_FAKE_STEP_NS * bench_fake_reads;
+#else
   bench_fake_ns += BENCH_FAKE_STEP_NS;
+#endif
   ts->tv_sec = (time_t)(bench_fake_ns / 1000000000);
   ts->tv_nsec = (long)(bench_fake_ns % 1000000000);
   return 0;
@@ -46,11 +50,13 @@ static inline int bench_fake_clock(clockid_t id, struct timespec *ts) {
 REPEATS = 5
 
 
-def _fake_clock(monkeypatch, module, tmp_path, step_ns: float) -> None:
+def _fake_clock(monkeypatch, module, tmp_path, step_ns: float, grow: bool = False) -> None:
     """Build ``module``'s benchmark program under ``tmp_path`` on the stand-in clock of
-    reading step ``step_ns``."""
+    reading step ``step_ns`` (with ``grow``, the n-th reading advances by n steps, so a
+    section timed between readings n - 1 and n lasts n steps)."""
     header = tmp_path / "fake_clock.h"
-    header.write_text(f"#define BENCH_FAKE_STEP_NS {int(step_ns)}LL\n" + FAKE_CLOCK)
+    header.write_text(("#define BENCH_FAKE_GROW\n" if grow else "")
+                      + f"#define BENCH_FAKE_STEP_NS {int(step_ns)}LL\n" + FAKE_CLOCK)
     monkeypatch.setattr(module, "build_root", lambda: tmp_path)  # not the real bench's binary
     monkeypatch.setattr(module, "compiler_command", lambda: [*compiler_command(), "-include", str(header)])
 
@@ -79,6 +85,23 @@ def test_control_bench_program_reports_its_sections_in_microseconds(monkeypatch,
     exe, inp = tmp_path / "bench" / "bench_control", tmp_path / "bench" / "bench_control_input.txt"
     res = subprocess.run([str(exe), str(n_calls), str(inp)], capture_output=True, text=True)
     assert _clock_reads(res) == 2 * REPEATS * (1 + 3)
+
+
+@pytest.mark.parametrize("n_calls", [8, 50])
+def test_control_bench_program_gives_each_section_its_own_key(monkeypatch, tmp_path, n_calls):
+    """On a clock whose n-th reading advances n steps, each timed section lasts its stop
+    reading's number of steps, so the keys tell the sections apart: the chunk's five
+    repetitions take readings 1-10, then each repetition times the FLC step, the SMC step and
+    the closed-loop period in turn (readings 11-12, 13-14, 15-16 the first time); the best of
+    five is each section's first repetition."""
+    step_ns = 1e6
+    _fake_clock(monkeypatch, bench_control_mod, tmp_path, step_ns, grow=True)
+    _, inputs = bench_control_mod.mission_inputs(0.1)
+    data = bench_control_mod._c_bench(control_bench_library(), inputs, n_calls)
+    us = step_ns / 1000.0
+    assert data == pytest.approx({"control_step_us": 12 * us / n_calls, "control_step_smc_us": 14 * us / n_calls,
+                                  "cl_period_us": 16 * us / n_calls, "cl_chunk_period_us": 2 * us / 200},
+                                 rel=0, abs=5e-5)  # printed with 4 decimals
 
 
 @pytest.mark.parametrize("n_calls, step_ns", [(1, 1e6), (40, 1e6), (40, 1.25e9)])
