@@ -1,4 +1,5 @@
-"""The shared-object check on a hand-built 64-bit ELF image: complete, then cut one byte
+"""The shared-object check on hand-built 64-bit and 32-bit ELF images (every program-header
+field its own value, so a misread neighbour shows): complete, then cut one byte
 short of each table and segment it must hold (issue 23: a check that read one program
 header where it must read all of them survived)."""
 
@@ -21,8 +22,11 @@ def _elf(segment_end: int) -> bytearray:
     struct.pack_into("<Q", data, 0x28, 0)         # e_shoff (no section headers)
     struct.pack_into("<HHHH", data, 0x36, PH, N_PH, 64, 0)
     for i in range(N_PH):
-        struct.pack_into("<QQ", data, 64 + i * PH + 8, 0, 0)
-        struct.pack_into("<Q", data, 64 + i * PH + 32, segment_end)
+        # p_type PT_LOAD, p_flags R+X, p_offset, p_vaddr, p_paddr, p_filesz, p_memsz: every
+        # field its own value, so reading a neighbour of p_offset or p_filesz changes the end
+        off = 8 * (i + 1)
+        struct.pack_into("<IIQQQQQ", data, 64 + i * PH, 1, 5, off, 0x400000 + off, 0x400000 + off,
+                         segment_end - off, segment_end - off + 0x1000)
     return data
 
 
@@ -45,9 +49,9 @@ def test_every_segment_must_lie_inside(extra):
 
 
 def test_no_program_header_is_refused():
-    data = _elf(0)
+    data = _elf(64 + N_PH * PH)
     struct.pack_into("<H", data, 0x38, 0)
-    assert "truncated" in shared_object_problem(bytes(data))
+    assert shared_object_problem(bytes(data)) == "truncated: program headers end at 64, file has 232 bytes"
 
 
 @pytest.mark.parametrize("shoff, problem", [
@@ -78,8 +82,10 @@ def _elf32_big(segment_end: int) -> bytearray:
     struct.pack_into(">II", data, 0x1C, 64, 0)     # e_phoff, e_shoff
     struct.pack_into(">HHHH", data, 0x2A, 32, 2, 40, 0)
     for i in range(2):
-        struct.pack_into(">II", data, 64 + i * 32 + 4, 0, 0)
-        struct.pack_into(">I", data, 64 + i * 32 + 16, segment_end)
+        # p_type, p_offset, p_vaddr, p_paddr, p_filesz, p_memsz, p_flags: each its own value
+        off = 8 * (i + 1)
+        struct.pack_into(">IIIIIII", data, 64 + i * 32, 1, off, 0x10000 + off, 0x10000 + off,
+                         segment_end - off, segment_end - off + 0x1000, 5)
     return data
 
 
