@@ -81,6 +81,15 @@ def test_standing_tilt_errors_by_hand(log):
     assert m["standing_tilt_error_est_deg"] == pytest.approx(0.2, rel=1e-9)
 
 
+def test_an_estimate_within_tolerance_from_the_standstill_on_settles_at_once(log):
+    """Outside the tolerance only while moving (before 3 s): settled at the command, 0 s."""
+    a = dict(log.arrays)
+    a["com_hat"] = log.arrays["com_hat"].copy()
+    a["com_hat"][30:, 0] = log.arrays["com_hat"][-1, 0]    # 1 mm off from the standstill on
+    m = com_observer_metrics(SimpleNamespace(**{**vars(log), "arrays": a}))
+    assert m["com_estimate_settle_s"] == 0.0
+
+
 def test_an_estimate_that_never_settles_and_a_short_run(log):
     a = dict(log.arrays)
     a["com_hat"] = log.arrays["com_hat"].copy()
