@@ -28,6 +28,16 @@ def test_an_obstacle_over_a_waypoint_moves_radially_to_r_plus_the_margin():
     assert np.hypot(o["x"], o["y"]) == pytest.approx(0.35, abs=1e-12)
 
 
+def test_an_obstacle_off_axis_moves_along_its_own_direction():
+    """Centre 0.1 m from the waypoint along (0.6, -0.8): moved to 0.25 m along it."""
+    table = {"initial": {"x_m": -5.0, "y_m": 0.0},
+             "path": {"type": "waypoints", "waypoints": [[1.0, 0.22]]},
+             "obstacle": [{"x": 1.06, "y": 0.14, "r": 0.2}]}
+    _clear_waypoints(table, margin=0.05)
+    o = table["obstacle"][0]
+    assert (o["x"], o["y"]) == pytest.approx((1.0 + 0.15, 0.22 - 0.2), abs=1e-12)
+
+
 def test_a_seed_without_dispersion_rows_keeps_the_seed_and_the_default_set():
     sf = parse_scenario({"name": "m", "duration_s": 0.1, "montecarlo": {"seed": 11}}, "m.toml")
     dispersions, seed = dispersions_of(sf)
