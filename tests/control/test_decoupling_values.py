@@ -127,6 +127,17 @@ def test_damping_keeps_an_exactly_singular_error_finite():
     assert singular == 1.0
 
 
+def test_damping_floor_keeps_a_vanishing_error_matrix_a_descent_step():
+    """||E||_F^2 far below the 1e-12 floor, fully damped (q_e0 = 0): lambda^2 keeps its
+    floor, so E^T E + lambda^2 I stays positive definite and tau points along E^T rhs."""
+    E = 1e-8 * E0
+    tau, singular, margin = _damped(E, RHS, 0.0, np.eye(3))
+    assert margin == 0.0 and singular == 1.0
+    lam2 = dc.DAMPING_MU**2 * (np.sum(E**2) + 1e-12)
+    np.testing.assert_allclose(tau, np.linalg.solve(E.T @ E + lam2 * np.eye(3), E.T @ RHS), rtol=1e-9)
+    assert tau @ (E.T @ RHS) > 0
+
+
 def test_custom_thresholds_are_used():
     inv = dc.DampedInverse(qe0_min=0.5, rcond_min=0.01, mu=0.3)
     tau, singular, margin = _damped(E0, RHS, 0.4, np.eye(3), inv)
