@@ -79,6 +79,10 @@ def test_a_run_to_the_end_of_an_open_path_is_completed():
     hit = path_metrics(_log(xy, t, LINE, obstacles=[(2.75, 0.05, 0.1)]))  # x = 2.75 at 5 s
     assert hit["path_min_clearance_m"] == pytest.approx(-0.05, abs=1e-9)
     assert hit["path_collision"] == 1.0
+    # touching counts: an obstacle whose edge the ball centre meets exactly (clearance 0)
+    k = int(np.argmin(np.abs(t - 5.0)))
+    touch = path_metrics(_log(xy, t, LINE, obstacles=[(xy[k, 0], 0.25, 0.25)]))
+    assert touch["path_min_clearance_m"] == 0.0 and touch["path_collision"] == 1.0
 
 
 def test_a_decimated_log_gives_the_same_metrics():
