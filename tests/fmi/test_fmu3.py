@@ -247,7 +247,7 @@ def test_the_fmi3_logger_receives_each_refusal_with_its_status_and_unescaped_tex
     """Messages reach the FMI 3.0 ``logMessage`` callback (through the FMI 2.0 layer's
     logger) with their status and category, and the layer's '#' -> '##' escape undone
     (FMI 3.0 messages have no value-reference syntax): a call out of order and a wrong
-    instantiation token holding '#'."""
+    instantiation token holding '#' alone, twice in a row and first."""
     b = plant3()
     got = []
 
@@ -262,11 +262,12 @@ def test_the_fmi3_logger_receives_each_refusal_with_its_status_and_unescaped_tex
     assert got[-1] == (3, "logStatusError", "fmi2ExitInitializationMode: not allowed in state instantiated")
     m.freeInstance()
     got.clear()
-    bad = FMU3Model(guid="bad#token", unzipDirectory=str(b.unzipped),
+    token = "#bad##to#ken"  # a leading '#', a run of two and a single one
+    bad = FMU3Model(guid=token, unzipDirectory=str(b.unzipped),
                     modelIdentifier=b.model_identifier, instanceName="wrong")
     with pytest.raises(Exception, match="Failed to instantiate"):
         bad.instantiate(logMessage=log)
-    assert got == [(3, "logStatusError", f"fmi2Instantiate: wrong GUID 'bad#token', this binary of "
+    assert got == [(3, "logStatusError", f"fmi2Instantiate: wrong GUID '{token}', this binary of "
                                          f"{b.model_identifier} has GUID '{b.guid}'")]
 
 
