@@ -136,6 +136,13 @@ def test_model_bench_program_reports_nanoseconds_per_call(monkeypatch, tmp_path,
                                       *bench_mod.load_params().to_vector())]
     res = subprocess.run([str(exe), str(n_calls), *args], capture_output=True, text=True)
     assert _clock_reads(res) == 2 * REPEATS * 2  # the ODE's and the Jacobian's sections
+    # exactly the model's parameters: one fewer or one more is refused, not zero-filled or cut
+    n_p = bench_mod.load_params().to_vector().size
+    for given in (args[:-1], [*args, "1.0"]):
+        res = subprocess.run([str(exe), str(n_calls), *given], capture_output=True, text=True)
+        assert (res.returncode, res.stdout, res.stderr) == (
+            2, "", f"bench_model: expected {n_p} parameters, got {len(given) - 15}\n"
+                   "clock reads 0\n")  # refused before anything is timed (the stand-in's count)
 
 
 def test_control_bench_program_reads_at_most_its_buffers_and_refuses_the_rest(monkeypatch, tmp_path):

@@ -1,5 +1,5 @@
 /* Micro-benchmark of generated CasADi functions: ns per call, printed as JSON.
- * Usage: bench_model N_CALLS x[12] tau[3] p[...]
+ * Usage: bench_model N_CALLS x[12] tau[3] p[...]   (p: exactly the model's parameters)
  * Each entry point is called with the state, torques and parameters given; the work
  * vectors are allocated once, before timing (no malloc in the timed loop).  The outputs
  * of the timed calls (the inputs do not change) are printed for the caller to verify. */
@@ -66,14 +66,19 @@ int main(int argc, char **argv) {
   long n = argc > 1 ? atol(argv[1]) : 100000;
   static casadi_real x[12], tau[3], p[64], ode_out[4 * OUT_STRIDE], jac_out[4 * OUT_STRIDE];
   const casadi_real *arg[8];
-  int i;
+  int i, np_;
   if (argc < 17) {
     fprintf(stderr, "usage: bench_model N_CALLS x[12] tau[3] p[...]\n");
     return 2;
   }
   for (i = 0; i < 12; ++i) x[i] = atof(argv[2 + i]);
   for (i = 0; i < 3; ++i) tau[i] = atof(argv[14 + i]);
-  for (i = 17; i < argc && i - 17 < 64; ++i) p[i - 17] = atof(argv[i]);
+  np_ = (int)bench_nnz(ballbot_ode_sparsity_in(2));
+  if (np_ > 64 || argc - 17 != np_) {
+    fprintf(stderr, "bench_model: expected %d parameters, got %d\n", np_, argc - 17);
+    return 2;
+  }
+  for (i = 0; i < np_; ++i) p[i] = atof(argv[17 + i]);
   arg[0] = x; arg[1] = tau; arg[2] = p;
   arg[3] = arg[4] = arg[5] = arg[6] = arg[7] = 0;
   {
