@@ -92,3 +92,17 @@ def test_simulate_reproduces_a_glitch_from_a_file(tmp_path, capsys):
     assert int(log["rejections"].sum()) == 1
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["metrics"]["gate_rejections"] == 1
+
+
+@pytest.mark.parametrize("row", [(True, "gyro", "x", 1.0), (0.1, "gyro", "x", True), (0.1, "gyro", "x", "1e3"),
+                                 ("0.1", "gyro", "x", 1.0), (0.1, "gyro", "x", float("nan")),
+                                 (0.1, "gyro", "w", 1.0), (0.1, "mag", "x", 1.0), (1.0, "gyro", "x", 1.0),
+                                 (0.1, "gyro", "x")])
+def test_a_wrong_glitch_row_given_in_python_is_refused_by_its_row(row):
+    """Rows given to ``Scenario.replace`` directly (not from a file): a bool or a string
+    for the time or the value, a non-finite value, an unknown axis or sensor, a time at the
+    end, a short row: one ScenarioError keyed by the row, never a TypeError."""
+    sc = _rows()
+    with pytest.raises(ScenarioError, match=r"^scenario 'g': sensor glitch .* must be \(t, sensor, axis, value\)") as e:
+        sc.replace(sensor_glitches=(row,))
+    assert e.value.key == "sensor_glitch[0]"
