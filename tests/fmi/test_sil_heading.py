@@ -65,6 +65,15 @@ def test_the_plant_fmus_heading_reading_is_the_sensor_model_at_its_rate():
     assert load_sensor_params().heading_rate[0] == 10.0  # the default the mission uses
 
 
+@pytest.mark.parametrize("rate, every", [(2.5, 80), (1.0, 200)])
+def test_a_slow_heading_sensor_reads_at_its_own_rate(rate, every):
+    """At 2.5 Hz a reading every 80th sample (t = 0, 0.4 s); at 1 Hz (and below) only the
+    one at t = 0 within the 0.5 s run: a low rate is a rate, not "no sensor"."""
+    r = _plant_run(True, rate)
+    k = np.arange(r.size)
+    assert np.array_equal(np.flatnonzero(np.isfinite(r["sensor_heading"])), k[k % every == 0])
+
+
 @functools.lru_cache(maxsize=None)
 def _heading_scenario():
     """2 s of the velocity profile with noise, the QUKF with the heading reading + VUKF."""
