@@ -2,10 +2,10 @@
 
 Ts = 0.1 s, 200 periods.  The velocity command is (0.2, 0) m/s for the first 30 periods,
 so the standstill starts at 3 s and the commanded position is ``x0 + (0.6, 0)``.  The
-estimate is 10 mm off the observable offset until 6 s, then 1 mm; the robot stands 5 cm
-from the commanded position for the last 2 s (elsewhere before); the true roll alternates
-0.5 and 1.5 deg over the last 10 s (5 deg before) with a heading the reference does not
-have, the estimate reads 0.2 deg.
+estimate is 10 mm off the observable offset until 6 s, then 1 mm (and 3 mm off in y while
+moving); the robot stands 5 cm from the commanded position for the last 2 s (elsewhere
+before); the true roll alternates 0.5 and 1.5 deg over the last 10 s (5 deg before) with a
+heading the reference does not have, the estimate reads 0.2 deg.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ def log():
     com_obs = com_true * 0.32 / 0.4
     com_hat = np.tile(com_obs, (N, 1))
     com_hat[:, 0] += np.where(t[:N] < 6.0 - 1e-9, 0.01, 0.001)
+    com_hat[:30, 1] -= 0.003                         # y off while moving only (final value kept)
     x0 = np.zeros(12)
     x0[[0, 1]] = [1.0, 2.0]
     x0[2] = 1.0
