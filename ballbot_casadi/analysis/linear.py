@@ -49,6 +49,7 @@ __all__ = [
     "singular_values",
     "finite_gramian",
     "planar_reduction",
+    "unmatched_eigenvalues",
     "analyze_plant",
 ]
 
@@ -385,6 +386,17 @@ def _real_list(v: Sequence[complex]) -> list[float]:
     return sorted((float(np.real(z)) for z in v), reverse=True)
 
 
+def unmatched_eigenvalues(full: Sequence[complex], reduced: Sequence[complex]) -> list[complex]:
+    """The eigenvalues of ``full`` left after each of ``reduced`` takes its nearest remaining
+    one: the full (constrained) model's own constraint modes."""
+    rest = list(full)
+    if len(reduced) > len(rest):
+        raise ShapeError(f"{len(reduced)} reduced eigenvalues cannot be matched among {len(rest)}")
+    for lam in reduced:
+        rest.pop(int(np.argmin(np.abs(np.array(rest) - lam))))
+    return rest
+
+
 def analyze_plant(
     params: Params,
     x0: Any | None = None,
@@ -414,10 +426,7 @@ def analyze_plant(
         raise ParameterError("the linearised model is not finite for these parameters "
                              f"({_largest_parameters(params)})")
     ef, er = lin.eig_full(), lin.eig_reduced()
-    # constraint eigenvalues: those of the full model left after matching the reduced ones
-    rest = list(ef)
-    for lam in er:
-        rest.pop(int(np.argmin(np.abs(np.array(rest) - lam))))
+    rest = unmatched_eigenvalues(ef, er)
     unstable = sorted((float(z.real) for z in er if z.real > 1e-6), reverse=True)
     ctrb = controllability(lin, horizon=horizon)
     chans = {}

@@ -157,6 +157,27 @@ def test_mode_groups_pair_conjugates_and_repeated_eigenvalues():
     np.testing.assert_allclose(sorted(pair.imag), [-2.0, 2.0], atol=1e-12)
 
 
+def test_mode_groups_keep_mirrored_eigenvalues_apart():
+    """The upright tilt's +-sqrt(g/l) and a mirrored complex pair (1 +- 2j, -1 +- 2j) are
+    four groups: a group is a repeated value or a conjugate, never a negative."""
+    A = np.zeros((6, 6))
+    A[0, 0], A[1, 1] = 2.0, -2.0
+    A[2:4, 2:4] = [[1.0, 2.0], [-2.0, 1.0]]
+    A[4:6, 4:6] = [[-1.0, 2.0], [-2.0, -1.0]]
+    sizes = sorted((len(g), round(float(np.max(g.real)), 6)) for g in an.mode_groups(A))
+    assert sizes == [(1, -2.0), (1, 2.0), (2, -1.0), (2, 1.0)]
+
+
+def test_unmatched_eigenvalues_are_the_full_models_own():
+    """Each reduced eigenvalue takes its nearest full one (not its mirror): from a damped,
+    unsymmetric spectrum the constraint's -10 and the unmatched -2 are left, in order."""
+    full = [3.0, -2.0, -10.0, -1.0 + 1.5j, -1.0 - 1.5j, 2.0]
+    reduced = [2.0 + 1e-9, 3.0, -1.0 - 1.5j, -1.0 + 1.5j]
+    assert an.unmatched_eigenvalues(full, reduced) == [-2.0, -10.0]
+    with pytest.raises(ShapeError, match=r"^3 reduced eigenvalues cannot be matched among 2$"):
+        an.unmatched_eigenvalues([1.0, 2.0], [1.0, 2.0, 3.0])
+
+
 def test_singular_values_of_a_known_system():
     """G(s) = diag(1/(s+1), 2/(s+3)): singular values sorted, |G(jw)| per channel."""
     sys = control.ss(np.diag([-1.0, -3.0]), np.diag([1.0, 2.0]), np.eye(2), np.zeros((2, 2)))
