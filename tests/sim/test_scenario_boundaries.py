@@ -37,6 +37,11 @@ CASES = [
     ("roll 180", _table(initial={"roll_deg": 180.0}), None),
     ("roll 180.5", _table(initial={"roll_deg": 180.5}), "initial.roll_deg"),
     ("yaw -181", _table(initial={"yaw_deg": -181.0}), "initial.yaw_deg"),
+    ("roll -180", _table(initial={"roll_deg": -180.0}), None),
+    ("yaw -180", _table(initial={"yaw_deg": -180.0}), None),
+    ("yaw 180", _table(initial={"yaw_deg": 180.0}), None),
+    ("yaw 181", _table(initial={"yaw_deg": 181.0}), "initial.yaw_deg"),
+    ("roll -180.5", _table(initial={"roll_deg": -180.5}), "initial.roll_deg"),
     # the run: periods, sub-steps, control period
     # (at 1 ms: the period cap, not the 3600 s duration cap, is what refuses)
     ("max periods", _table(duration_s=MAX_PERIODS * 0.001, control_period_s=0.001), None),
