@@ -152,3 +152,15 @@ def test_a_closed_path_is_completed_only_with_the_progress_its_time_asks_for(rat
     m = path_metrics(_log(path.point(s), t, spec))
     assert m["path_completed"] == done
     assert m["path_progress_fraction"] == pytest.approx(rate * 16.0 / path.length, abs=1e-3)
+
+
+def test_path_errors_of_a_single_position_and_from_the_first_one():
+    """One position: its own projection (the search starts there); a second one 1.5 m on
+    along the line: followed on from the first."""
+    from ballbot_casadi.analysis.path_metrics import path_errors
+
+    line = path_from_spec(dict(LINE))
+    s, lat = path_errors(line, np.array([[1.5, -0.25]]))
+    assert s == pytest.approx([1.5], abs=1e-9) and lat == pytest.approx([0.25], abs=1e-9)
+    s, lat = path_errors(line, np.array([[1.5, -0.25], [3.0, 0.1]]))
+    assert s == pytest.approx([1.5, 3.0], abs=1e-9) and lat == pytest.approx([0.25, 0.1], abs=1e-9)
