@@ -9,7 +9,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ballbot_casadi.analysis.renormalisation import ATTITUDE_VARIANTS, attitude_variant, replay_attitude
+from ballbot_casadi.analysis.renormalisation import ATTITUDE_VARIANTS, attitude_variant, norm_probe_dev, replay_attitude
+from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.estimation.attitude import qekf_initial_covariance
 from ballbot_casadi.estimation.tuning import QUKF_P0
 from ballbot_casadi.sim.embedded import MEAS
@@ -53,3 +54,22 @@ def test_replay_feeds_acc_then_gyro_and_carries_state_and_covariance():
         Ps.append(2 * Ps[-1] + Qm - Rm)
     np.testing.assert_allclose(out, np.array(xs[1:]), rtol=1e-15, atol=1e-12)
     assert out.shape == (3, 7)
+
+
+def test_norm_probe_hands_the_documented_prior_and_reading():
+    """A stand-in filter that returns its prior and records its arguments: the probe's
+    prior is upright at norm 1 + eps, at rest, the reading is g on the accelerometer's z
+    and 0 on the gyroscope, and the deviation reported is the output's |norm - 1|."""
+    seen = []
+
+    def f(x, P0, z, Qn, R, dt, p):
+        seen.append((np.array(x), np.array(z), dt))
+        return [np.asarray(x) * (1.0 + 3e-6)]
+
+    p = np.arange(len(PARAM_NAMES), dtype=float) + 1.0
+    dev = norm_probe_dev(f, np.eye(6), np.eye(6), np.eye(6), p, 0.005, eps=1e-6)
+    x, z, dt = seen[0]
+    np.testing.assert_array_equal(x, [1.0 + 1e-6, 0, 0, 0, 0, 0, 0])
+    np.testing.assert_array_equal(z, [0, 0, PARAM_NAMES.index("g") + 1.0, 0, 0, 0])
+    assert dt == 0.005
+    assert dev == pytest.approx((1.0 + 1e-6) * (1.0 + 3e-6) - 1.0, rel=1e-9)
