@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from ballbot_casadi.control import default_balance_gains
 from ballbot_casadi.studies import chirp as CH
 
 PER_WHEEL = ("first_saturation_s", "first_saturation_motor", "cross_axis_onset_s", "cross_axis_onset_hz",
@@ -73,8 +72,10 @@ def test_without_a_fall_the_lead_runs_to_the_end_of_the_per_wheel_run(patched, m
 def test_the_thesis_mode_bandwidth_is_the_half_power_frequency(monkeypatch, axis, i):
     monkeypatch.setattr(CH.an, "analyze_plant", lambda p: (None, None))
     monkeypatch.setattr(CH.cla, "analyze_closed_loop", lambda p, lin: {"bandwidth_inner_hz": 0.6})
+    # gains distinct per axis (the defaults share roll's and pitch's): each axis its own
+    monkeypatch.setattr(CH, "default_balance_gains", lambda c: [90.0, 110.0, 25.0, 18.0, 22.0, 10.0])
     r = CH.linear_response("P", axis=axis)
-    k = np.asarray(default_balance_gains("flc"), float)
+    k = np.array([90.0, 110.0, 25.0, 18.0, 22.0, 10.0])
     kp, kd = k[i], k[3 + i]
     assert r["gains"] == {"Kp": kp, "Kd": kd}
 
