@@ -152,5 +152,6 @@ def test_a_path_run_shows_the_whole_course_with_a_margin():
         line = next(ln for ln in ax.lines if ln.get_gid() == PATH_GID)
         np.testing.assert_allclose(np.array(line.get_data_3d()[:2]).T, [[0, 0], [2, 1], [4, 0]])
         assert len([p for p in ax.patches if p.get_gid() == OBSTACLE_GID]) == 2
+        assert (ax.elev, ax.azim) == (40, -70)  # the course seen from above, at an angle
     finally:
         plt.close(fig)
