@@ -170,6 +170,21 @@ def test_toolchain_failure_is_one_line_and_exit_3(monkeypatch, capsys):
     assert "oops" not in err
 
 
+@pytest.mark.parametrize("message, printed", [
+    ("compiling x failed (gcc ...):\nx.c:1: error: oops", "compiling x failed (gcc ...): [more with --debug]"),
+    ("compiling x failed", "compiling x failed"),                      # nothing more to show
+    ("", "BuildError"),                                                # no message: its type
+])
+def test_a_ballbot_error_prints_its_first_line_and_says_when_there_is_more(monkeypatch, capsys, message,
+                                                                         printed):
+    def fail(*_a, **_k):
+        raise BuildError(message)
+
+    monkeypatch.setattr(cli_commands, "run_codegen", fail)
+    assert cli.main(["codegen"]) == 3
+    assert capsys.readouterr().err == f"ballbot codegen: error: {printed}\n"
+
+
 def test_interrupt_is_exit_130(monkeypatch, capsys):
     def interrupted(*_a, **_k):
         raise KeyboardInterrupt
