@@ -87,3 +87,17 @@ def test_cli_refuses_overflowing_parameters_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "'Mb'" in err and "10000 kg" in err and "Traceback" not in err
     assert not (tmp_path / "o").exists()
+
+
+def test_an_operating_point_where_the_model_overflows_names_the_largest_parameters(funcs):
+    """The refusal names the three parameters of largest magnitude, largest first, with
+    their values (API path: the command line bounds the operating point before)."""
+    params = load_params()
+    vals = params.as_dict()
+    top = sorted(vals, key=lambda k: -abs(float(vals[k])))[:3]
+    x = np.zeros(12)
+    x[2], x[6] = 1.0, 1e200
+    with pytest.raises(ParameterError) as e:
+        an.analyze_plant(params, x0=x, functions=funcs)
+    assert ("(largest: " + ", ".join(f"{k} = {float(vals[k]):g}" for k in top) + "):") in str(e.value)
+    assert str(e.value).startswith("the model evaluates to Inf/NaN at the operating point with these parameters")
