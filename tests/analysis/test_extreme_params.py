@@ -68,6 +68,19 @@ def test_fast_modes_shorten_the_gramian_horizon(funcs):
     assert default["controllability"]["gramian_horizon_s"] == 1.0
 
 
+def test_a_requested_horizon_is_kept_when_short_enough_and_shortened_when_not(funcs):
+    """The limit is on max|Re lambda| * T: with the 240 rad/s tilt mode, T = 0.05 s
+    (exponent 12) is kept and T = 0.5 s (exponent 120) is cut to 30 / max|Re lambda|."""
+    params = load_params(Mb=1e4, Jbx=1e-3, Jby=1e-3)
+    lin, short = an.analyze_plant(params, functions=funcs, horizon=0.05)
+    lam = max(abs(np.linalg.eigvals(an.state_scaling(lin)[0]).real))
+    assert 0.05 * lam < an._MAX_GRAMIAN_EXPONENT < 0.5 * lam
+    assert short["controllability"]["gramian_horizon_s"] == 0.05
+    _, long = an.analyze_plant(params, functions=funcs, horizon=0.5)
+    assert long["controllability"]["gramian_horizon_s"] == pytest.approx(
+        an._MAX_GRAMIAN_EXPONENT / lam, rel=1e-12)
+
+
 def test_cli_reports_the_skipped_closed_loop(tmp_path, capsys):
     pfile = tmp_path / "robot.toml"
     pfile.write_text("[environment]\ng = 0.0\n")

@@ -40,6 +40,10 @@ def test_sine_lag_recovers_delay():
     lag, ratio = sine_lag(t, 0.9 * np.sin(2 * np.pi * f * (t - 0.0123)), np.sin(2 * np.pi * f * t), f)
     assert lag == pytest.approx(0.0123, abs=1e-9)
     assert ratio == pytest.approx(0.9, abs=1e-9)
+    # the ratio is y's amplitude over the reference's, not their product
+    lag, ratio = sine_lag(t, 1.8 * np.sin(2 * np.pi * f * (t - 0.0123)), 2.0 * np.sin(2 * np.pi * f * t), f)
+    assert lag == pytest.approx(0.0123, abs=1e-9)
+    assert ratio == pytest.approx(0.9, abs=1e-9)
 
 
 def test_total_variation():

@@ -140,6 +140,15 @@ def test_an_angle_given_with_its_unit_gets_no_plain_number_hint(given):
     assert "plain numbers" not in msg and "did you mean" not in msg
 
 
+def test_a_non_angle_parameter_shows_its_value_without_radians_or_degrees():
+    """Only angles are shown as "x rad (y deg)": a bad mass is shown as given."""
+    with pytest.raises(ParameterError) as exc:
+        load_params(Mb=-2.0)
+    msg = str(exc.value)
+    assert msg.startswith("parameter 'Mb' = -2.0 is invalid: must be"), msg
+    assert "rad" not in msg and "deg" not in msg, msg
+
+
 def test_a_numpy_number_gets_the_plain_number_hint():
     with pytest.raises(ParameterError, match='plain numbers are radians: did you mean "60 deg"'):
         load_params(alpha=np.float32(60.0))
