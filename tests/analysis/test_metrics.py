@@ -34,14 +34,12 @@ def test_rpy_and_tilt_match_quaternion_module():
     np.testing.assert_allclose(tilt_deg(single), np.degrees(np.abs(rpy[:, 0])), rtol=0, atol=1e-6)
 
 
-def test_sine_lag_recovers_delay():
+@pytest.mark.parametrize("a_ref", [1.0, 2.0])  # 2: the ratio is a quotient, not a product
+def test_sine_lag_recovers_delay(a_ref):
     t = np.arange(0, 10, 0.005)
     f = 0.5
-    lag, ratio = sine_lag(t, 0.9 * np.sin(2 * np.pi * f * (t - 0.0123)), np.sin(2 * np.pi * f * t), f)
-    assert lag == pytest.approx(0.0123, abs=1e-9)
-    assert ratio == pytest.approx(0.9, abs=1e-9)
-    # the ratio is y's amplitude over the reference's, not their product
-    lag, ratio = sine_lag(t, 1.8 * np.sin(2 * np.pi * f * (t - 0.0123)), 2.0 * np.sin(2 * np.pi * f * t), f)
+    y = 0.9 * a_ref * np.sin(2 * np.pi * f * (t - 0.0123))
+    lag, ratio = sine_lag(t, y, a_ref * np.sin(2 * np.pi * f * t), f)
     assert lag == pytest.approx(0.0123, abs=1e-9)
     assert ratio == pytest.approx(0.9, abs=1e-9)
 
