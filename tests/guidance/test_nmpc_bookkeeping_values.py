@@ -30,12 +30,15 @@ class DecayLTV:
             B[12:14] += 0.1 * np.eye(2)            # the references move the ball
         self.C = [0.1 * rng.standard_normal((NY, NXL)) for _ in range(8)]
         self.D = [0.1 * rng.standard_normal((NY, 2)) for _ in range(8)]
+        # an affine output part of its own per step, so the offset of the wrong step shows
+        self.y0 = [0.02 * rng.standard_normal(NY) for _ in range(8)]
 
     def __call__(self, Xs, vs):
         Xs, vs = np.asarray(Xs, float), np.asarray(vs, float)
         N = Xs.shape[1]
         Xn = np.column_stack([self.A[k] @ Xs[:, k] + self.B[k] @ vs[:, k] for k in range(N)])
-        y = np.column_stack([self.C[k] @ Xs[:, k] + self.D[k] @ vs[:, k] for k in range(N)])
+        y = np.column_stack([self.C[k] @ Xs[:, k] + self.D[k] @ vs[:, k] + self.y0[k]
+                             for k in range(N)])
         return (Xn, np.hstack(self.A[:N]), np.hstack(self.B[:N]), y,
                 np.hstack(self.C[:N]), np.hstack(self.D[:N]))
 
