@@ -71,6 +71,7 @@ def _tables_well_formed(monkeypatch):
 def saved(monkeypatch):
     """file name -> list of axes, each {"lines": [(label, x, y)], "scatter": [(label, xy)],
     "circles": [(centre, r)], "spans": [(label, ymin, ymax)] (other patches, e.g. ``axhspan``),
+    "xspans": the same patches' [(label, xmin, xmax)],
     "xlabel", "ylabel", "title", "xscale", "yscale", "xlim", "ylim"}, plus the figure's
     suptitle under ``"<file name>:suptitle"`` and its look (:func:`_style`) under
     ``"<file name>:style"``; ``Figure.savefig`` is wrapped to record them."""
@@ -87,6 +88,8 @@ def saved(monkeypatch):
                                      for c in ax.patches if hasattr(c, "get_radius")],
                          "spans": [(c.get_label(), *_y_range(c)) for c in ax.patches
                                    if not hasattr(c, "get_radius")],
+                         "xspans": [(c.get_label(), *_x_range(c)) for c in ax.patches
+                                    if not hasattr(c, "get_radius")],
                          "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(), "title": ax.get_title(),
                          "yscale": ax.get_yscale(), "xscale": ax.get_xscale(),
                          "xlim": tuple(map(float, ax.get_xlim())), "ylim": tuple(map(float, ax.get_ylim()))})
@@ -107,6 +110,12 @@ def _y_range(patch) -> tuple[float, float]:
     """The data y range of a patch (a span's bounds)."""
     y = patch.get_path().transformed(patch.get_patch_transform()).vertices[:, 1]
     return float(y.min()), float(y.max())
+
+
+def _x_range(patch) -> tuple[float, float]:
+    """The data x range of a patch (an ``axvspan``'s bounds)."""
+    x = patch.get_path().transformed(patch.get_patch_transform()).vertices[:, 0]
+    return float(x.min()), float(x.max())
 
 
 def _style(fig, dpi) -> dict:

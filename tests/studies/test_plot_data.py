@@ -50,6 +50,14 @@ def test_pole_zero_and_singular_value_plots_draw_the_analysis(saved, tmp_path):
     assert pz["ylim"] == (-2.0, 2.0)
     assert hlines(pz) == [0.0] and vlines(pz) == [0.0]
     assert pz["title"] == "Pole-zero map at the operating point (shaded: right half-plane)"
+    # the shade starts at Re s = 0 and reaches past the mirror image of every point drawn, and
+    # the right half-plane is shown at least as wide as the left
+    (_, x0, x1), = pz["xspans"]
+    ef = np.array([complex(*z) for z in result["eigenvalues_full"]])
+    zeros = [complex(*v) for ch in result["channels"].values() for v in ch["zeros"]]
+    reach = np.max(np.abs(np.concatenate([ef, zeros]).real))
+    assert x0 == 0.0 and x1 > reach > 5.0
+    assert pz["xlim"][1] >= -pz["xlim"][0] > 0
 
     sv_axes = saved["singular_values.png"]
     assert len(sv_axes) == 3
