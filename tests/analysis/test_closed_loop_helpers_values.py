@@ -71,3 +71,20 @@ def test_discrete_stability_counts_neutral_modes():
     d = cla._discrete_stability(np.diag([1.0, 1.2]), 0.01)
     assert not d["stable_apart_from_neutral"]
     assert d["max_real_pole"] == pytest.approx(math.log(1.2) / 0.01, rel=1e-12)
+
+
+def test_a_response_that_only_touches_minus_3_db_has_no_bandwidth():
+    """The bandwidth is where |T| falls 3 dB below: a grid point exactly at db[0] - 3.0103
+    followed by a rise is no loss (None); followed by a fall, the crossing is that point."""
+    m1 = 0.1  # exactly -20 dB
+    target = 20 * np.log10(m1)
+    m0 = 10 ** ((target + 3.0103) / 20)
+    for _ in range(64):  # the nearest float whose dB value lies exactly 3.0103 above (this libm)
+        d = 20 * np.log10(m0) - 3.0103 - target
+        if d == 0:
+            break
+        m0 = np.nextafter(m0, -np.inf if d > 0 else np.inf)
+    assert 20 * np.log10(m0) - 3.0103 == target
+    grid = np.array([1.0, 10.0, 100.0])
+    assert cla.bandwidth_3db(grid, np.array([m0, m1, 0.5])) is None
+    assert cla.bandwidth_3db(grid, np.array([m0, m1, 0.01])) == pytest.approx(10.0, rel=1e-12)
