@@ -46,6 +46,7 @@ __all__ = [
     "mode_groups",
     "channel_system",
     "channel_poles_zeros",
+    "right_half_plane",
     "singular_values",
     "finite_gramian",
     "planar_reduction",
@@ -265,8 +266,15 @@ def channel_poles_zeros(lin: LinearModel, channel: str, tol: float = 1e-9) -> di
     msys = control.minreal(sys, tol=tol, verbose=False)
     poles = _sort_c(np.linalg.eigvals(msys.A)) if msys.nstates else np.array([], complex)
     zeros = _sort_c(msys.zeros()) if msys.nstates else np.array([], complex)
-    rhp = zeros[zeros.real > 1e-6 * np.maximum(1.0, np.abs(zeros))]
-    return {"order": int(msys.nstates), "poles": poles, "zeros": zeros, "rhp_zeros": rhp}
+    return {"order": int(msys.nstates), "poles": poles, "zeros": zeros,
+            "rhp_zeros": right_half_plane(zeros)}
+
+
+def right_half_plane(z: np.ndarray) -> np.ndarray:
+    """The entries of ``z`` with real part > ``1e-6 * max(1, |z|)``: relative to the
+    magnitude, so the round-off of a large zero on the imaginary axis is not counted."""
+    z = np.asarray(z, dtype=complex)
+    return z[z.real > 1e-6 * np.maximum(1.0, np.abs(z))]
 
 
 def _sort_c(v: Sequence[complex]) -> np.ndarray:

@@ -162,6 +162,13 @@ def test_one_real_unstable_pair_per_tilt_axis(default):
     assert result["unstable_poles"] == pytest.approx(sorted(unstable.real, reverse=True), rel=1e-12)
 
 
+def test_right_half_plane_is_relative_to_the_magnitude():
+    """Re z > 1e-6 max(1, |z|): 1e-5 + 100j is round-off on the imaginary axis (limit 1e-4),
+    2e-4 + 100j is not; small zeros use the absolute 1e-6."""
+    z = np.array([1e-5 + 100j, 2e-4 + 100j, 5e-7, 2e-6, -3.0, 0.5 + 0.1j])
+    np.testing.assert_array_equal(an.right_half_plane(z), [2e-4 + 100j, 2e-6, 0.5 + 0.1j])
+
+
 def test_position_channel_has_rhp_zeros_tilt_and_heading_do_not(default):
     params, lin, result = default
     assert len(result["rhp_zeros_position"]) == 2
