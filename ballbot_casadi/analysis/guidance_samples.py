@@ -95,9 +95,12 @@ def time_samples(f: ca.Function, log: Mapping[str, np.ndarray], p_ctrl: np.ndarr
                  k_guid: np.ndarray, Ts: float, every: int = GUIDANCE_EVERY) -> SampleTiming:
     """Call the guidance block ``f`` (``(x, v_ref, g, z, p, k_guid, Ts) -> (v_ref_out,
     g_next)``, e.g. :func:`guidance_library`) once at each sample period of ``log`` on
-    that period's logged inputs, timing each call."""
+    that period's logged inputs, timing each call (a log without a control period has no
+    sample: :class:`~ballbot_casadi.errors.ScenarioError`)."""
     n = np.asarray(log["guide"]).shape[0] - 1
     periods = sample_periods(n, every)
+    if periods.size == 0:
+        raise ScenarioError("time_samples: the log has no control period, so no guidance sample")
     p = ca.DM(np.asarray(p_ctrl, float))
     kg = ca.DM(np.asarray(k_guid, float))
     wall, cpu, g_next = [], [], []

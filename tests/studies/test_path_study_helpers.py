@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ballbot_casadi.analysis.guidance_samples import sample_residuals
-from ballbot_casadi.errors import SolverError
+from ballbot_casadi.errors import ScenarioError, SolverError
 from ballbot_casadi.sim.guided import GUIDANCE_EVERY, run_path_scenario, scenario_law
 from ballbot_casadi.sim.scenario import Scenario
 from ballbot_casadi.sim.scenario.file import parse_scenario
@@ -128,4 +128,14 @@ def test_sample_metrics_refuse_a_replay_that_differs_from_the_log(mpc_log):
     law = scenario_law(Scenario.from_dict(log.scenario))
     log.arrays["guide"][GUIDANCE_EVERY + 1, 1] += 1e-3  # the state after the second sample
     with pytest.raises(SolverError, match="differs from the logged state"):
+        guidance_sample_metrics(log, {law.function.name(): law.function})
+
+
+def test_sample_metrics_of_a_run_without_samples_say_so(mpc_log):
+    """A log cut before the first period has no guidance sample: one line saying so (not a
+    replay mismatch, not a numpy error)."""
+    log = copy.deepcopy(mpc_log)
+    log.arrays = {k: v[:1] for k, v in log.arrays.items()}
+    law = scenario_law(Scenario.from_dict(log.scenario))
+    with pytest.raises(ScenarioError, match="the log has no control period, so no guidance sample"):
         guidance_sample_metrics(log, {law.function.name(): law.function})
