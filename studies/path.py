@@ -135,7 +135,7 @@ def guidance_sample_metrics(log: SimulationLog, libraries: dict[str, Any] | None
                           law.parameters(sc.route.build()), float(inp["Ts"]))
     logged = np.asarray(log["guide"], float)[timing.periods + 1]
     replay = float(np.max(np.abs(timing.g_next - logged)))
-    if not replay <= 1e-9 * max(1.0, float(np.max(np.abs(logged), initial=0.0))):
+    if not replay <= 1e-9 * max(1.0, float(np.max(np.abs(logged)))):
         raise SolverError(f"{sc.name}: the compiled guidance block on the logged inputs "
                           f"differs from the logged state by {replay:.3g}")
     r_prim = sample_residuals(law, log["guide"])

@@ -86,9 +86,9 @@ def saved(monkeypatch):
                          "scatter": [(c.get_label(), np.asarray(c.get_offsets(), float)) for c in ax.collections],
                          "circles": [(tuple(map(float, c.get_center())), float(c.get_radius()))
                                      for c in ax.patches if hasattr(c, "get_radius")],
-                         "spans": [(c.get_label(), *_y_range(c)) for c in ax.patches
+                         "spans": [(c.get_label(), *_range(c, 1)) for c in ax.patches
                                    if not hasattr(c, "get_radius")],
-                         "xspans": [(c.get_label(), *_x_range(c)) for c in ax.patches
+                         "xspans": [(c.get_label(), *_range(c, 0)) for c in ax.patches
                                     if not hasattr(c, "get_radius")],
                          "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(), "title": ax.get_title(),
                          "yscale": ax.get_yscale(), "xscale": ax.get_xscale(),
@@ -106,16 +106,10 @@ def saved(monkeypatch):
 
 
 
-def _y_range(patch) -> tuple[float, float]:
-    """The data y range of a patch (a span's bounds)."""
-    y = patch.get_path().transformed(patch.get_patch_transform()).vertices[:, 1]
-    return float(y.min()), float(y.max())
-
-
-def _x_range(patch) -> tuple[float, float]:
-    """The data x range of a patch (an ``axvspan``'s bounds)."""
-    x = patch.get_path().transformed(patch.get_patch_transform()).vertices[:, 0]
-    return float(x.min()), float(x.max())
+def _range(patch, axis: int) -> tuple[float, float]:
+    """The data range of a patch along ``axis`` (0: x, 1: y; a span's bounds)."""
+    v = patch.get_path().transformed(patch.get_patch_transform()).vertices[:, axis]
+    return float(v.min()), float(v.max())
 
 
 def _style(fig, dpi) -> dict:
