@@ -188,6 +188,17 @@ def test_singular_values_of_a_known_system():
                                rtol=1e-12)
 
 
+def test_singular_values_add_the_feedthrough_and_hold_for_an_unstable_pole():
+    """G(s) = diag(1/(s-1) + 0.5, 2/(s+3) - 1): |G_1(jw)| = 0.5 at every w (an all-pass with
+    an unstable pole), |G_2(jw)| = sqrt((1 + w^2)/(9 + w^2)); with D subtracted they differ."""
+    sys = control.ss(np.diag([1.0, -3.0]), np.diag([1.0, 2.0]), np.eye(2), np.diag([0.5, -1.0]))
+    w = np.array([0.0, 0.5, 2.0, 30.0])
+    sv = an.singular_values(sys, w)
+    g1, g2 = np.full_like(w, 0.5), np.sqrt((1 + w**2) / (9 + w**2))
+    np.testing.assert_allclose(sv, np.column_stack([np.maximum(g1, g2), np.minimum(g1, g2)]),
+                               rtol=1e-12)
+
+
 def test_channel_outputs_pick_the_named_reduced_states(lin):
     for name, (idx, outs) in an.CHANNELS.items():
         sys = an.channel_system(lin, name)
