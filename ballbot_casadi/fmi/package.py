@@ -233,7 +233,7 @@ def verify_cache(cache: Path, model_identifier: str, fmi_version: int = 2) -> st
 
 
 def _build_into(tmp: Path, spec: FmuSpec, xml: str, files: dict[str, str], c_sources: list[str],
-                ccmd: list[str], fmi_version: int = 2) -> None:
+                ccmd: list[str], fmi_version: int) -> None:
     """Write, compile and zip one FMU into the empty folder ``tmp``; manifest last."""
     troot = tmp / "unzipped"
     member = binary_member(spec.model_identifier, fmi_version)
