@@ -58,7 +58,7 @@ def run_heading_study(out: Path, plot: bool = True, duration: float = 3600.0,
     e = aided.error_deg()
     i0, i1 = np.searchsorted(lost.time, loss)
     back = lost.time >= loss[1] + 10.0
-    drift = np.array([u.error_deg()[-1] for u in unaided]) * 3600.0 / unaided[0].time[-1]
+    drift = np.array([u.error_deg()[-1] * 3600.0 / u.time[-1] for u in unaided])  # deg per hour
     s = load_sensor_params()
     m: dict[str, Any] = {
         "duration_s": float(aided.time[-1]),
