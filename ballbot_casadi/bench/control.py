@@ -113,7 +113,9 @@ def _c_bench(library: tuple[Library, dict[str, ca.Function]], inputs: dict, n_ca
         " ".join(repr(float(v)) for v in np.ravel(arr)) for arr in vals) + "\n"
     data_file = out / "bench_control_input.txt"
     data_file.write_text(text)
-    run = subprocess.run([str(exe), str(n_calls), str(data_file)], capture_output=True, text=True, check=True)
+    run = subprocess.run([str(exe), str(n_calls), str(data_file)], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise BuildError(f"the control benchmark failed (exit {run.returncode}): {run.stderr[-2000:]}")
     data = json.loads(run.stdout)
     data.pop("sink", None)
     want = _expected(functions, inputs, kf, ks)

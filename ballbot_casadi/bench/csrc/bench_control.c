@@ -102,6 +102,51 @@ int main(int argc, char **argv) {
     return 2;
   }
   fclose(fh);
+  {
+    /* every buffer below holds its argument or result (exit 3: the program is out of date) */
+    const size_t v_in[] = {BENCH_LEN(x), BENCH_LEN(vref), BENCH_LEN(z), BENCH_LEN(p),
+                           BENCH_LEN(kv), 1};
+    const size_t v_out[] = {BENCH_LEN(qr), BENCH_LEN(dqr), BENCH_LEN(ddqr), BENCH_LEN(zn)};
+    const size_t f_in[] = {BENCH_LEN(x), BENCH_LEN(qr), BENCH_LEN(dqr), BENCH_LEN(ddqr),
+                           BENCH_LEN(p), BENCH_LEN(kf)};
+    const size_t s_in[] = {BENCH_LEN(x), BENCH_LEN(qr), BENCH_LEN(dqr), BENCH_LEN(ddqr),
+                           BENCH_LEN(p), BENCH_LEN(ks)};
+    const size_t f_out[] = {BENCH_LEN(tau), BENCH_LEN(diag)};
+    const size_t c_in[] = {BENCH_LEN(xz), BENCH_LEN(zero4), BENCH_LEN(zero4), BENCH_LEN(zero4),
+                           BENCH_LEN(vref), BENCH_LEN(w6), BENCH_LEN(p), BENCH_LEN(p),
+                           BENCH_LEN(kf), BENCH_LEN(kv), 1, 1, 1};
+    const size_t c_out[] = {BENCH_LEN(xzn), BENCH_LEN(xo), BENCH_LEN(tc), BENCH_LEN(ts_),
+                            BENCH_LEN(q1), BENCH_LEN(q2), BENCH_LEN(q3), BENCH_LEN(dg)};
+    const size_t k_in[] = {BENCH_LEN(xz), BENCH_LEN(sq), BENCH_LEN(sz4), BENCH_LEN(sz4),
+                           BENCH_LEN(sv), BENCH_LEN(sw), BENCH_LEN(p), BENCH_LEN(p),
+                           BENCH_LEN(kf), BENCH_LEN(kv), 1, 1, 1};
+    const size_t k_out[] = {BENCH_LEN(chunk_out[0]), BENCH_LEN(chunk_out[0]),
+                            BENCH_LEN(chunk_out[0]), BENCH_LEN(chunk_out[0]),
+                            BENCH_LEN(chunk_out[0]), BENCH_LEN(chunk_out[0]),
+                            BENCH_LEN(chunk_out[0]), BENCH_LEN(chunk_out[0]),
+                            BENCH_LEN(chunk_out[0])};
+    if (bench_sizes_fail("ballbot_velocity", "input", ballbot_velocity_n_in(),
+                         ballbot_velocity_sparsity_in, v_in, BENCH_LEN(v_in)) ||
+        bench_sizes_fail("ballbot_velocity", "output", ballbot_velocity_n_out(),
+                         ballbot_velocity_sparsity_out, v_out, BENCH_LEN(v_out)) ||
+        bench_sizes_fail("ballbot_flc", "input", ballbot_flc_n_in(), ballbot_flc_sparsity_in,
+                         f_in, BENCH_LEN(f_in)) ||
+        bench_sizes_fail("ballbot_flc", "output", ballbot_flc_n_out(), ballbot_flc_sparsity_out,
+                         f_out, BENCH_LEN(f_out)) ||
+        bench_sizes_fail("ballbot_smc", "input", ballbot_smc_n_in(), ballbot_smc_sparsity_in,
+                         s_in, BENCH_LEN(s_in)) ||
+        bench_sizes_fail("ballbot_smc", "output", ballbot_smc_n_out(), ballbot_smc_sparsity_out,
+                         f_out, BENCH_LEN(f_out)) ||
+        bench_sizes_fail("ballbot_cl_step_flc", "input", ballbot_cl_step_flc_n_in(),
+                         ballbot_cl_step_flc_sparsity_in, c_in, BENCH_LEN(c_in)) ||
+        bench_sizes_fail("ballbot_cl_step_flc", "output", ballbot_cl_step_flc_n_out(),
+                         ballbot_cl_step_flc_sparsity_out, c_out, BENCH_LEN(c_out)) ||
+        bench_sizes_fail("ballbot_cl_chunk_flc", "input", ballbot_cl_chunk_flc_n_in(),
+                         ballbot_cl_chunk_flc_sparsity_in, k_in, BENCH_LEN(k_in)) ||
+        bench_sizes_fail("ballbot_cl_chunk_flc", "output", ballbot_cl_chunk_flc_n_out(),
+                         ballbot_cl_chunk_flc_sparsity_out, k_out, BENCH_LEN(k_out)))
+      return 3;
+  }
   wv = alloc_work(ballbot_velocity_work);
   wf_ = alloc_work(ballbot_flc_work);
   ws = alloc_work(ballbot_smc_work);
