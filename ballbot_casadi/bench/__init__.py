@@ -75,7 +75,9 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
     os.replace(tmp, exe)  # a concurrent run keeps the executable it started
     p = load_params().to_vector()
     args = [repr(float(v)) for v in (*BENCH_STATE, *BENCH_TAU, *p)]
-    run = subprocess.run([str(exe), str(n_calls), *args], capture_output=True, text=True, check=True)
+    run = subprocess.run([str(exe), str(n_calls), *args], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise BuildError(f"the model benchmark failed (exit {run.returncode}): {run.stderr[-2000:]}")
     data = json.loads(run.stdout)
     data.pop("sink", None)
     fns = {f.name(): f for f in model_functions_list()}

@@ -79,6 +79,25 @@ int main(int argc, char **argv) {
     return 2;
   }
   for (i = 0; i < np_; ++i) p[i] = atof(argv[17 + i]);
+  {
+    /* every buffer holds its argument or result (exit 3: the program is out of date) */
+    const size_t in[] = {BENCH_LEN(x), BENCH_LEN(tau), BENCH_LEN(p)};
+    const size_t out[] = {OUT_STRIDE, OUT_STRIDE, OUT_STRIDE, OUT_STRIDE};
+    if (ballbot_ode_n_out() > 4 || ballbot_jac_n_out() > 4) {
+      fprintf(stderr, "bench_model: more than 4 outputs (%ld, %ld): the buffers alias\n",
+              (long)ballbot_ode_n_out(), (long)ballbot_jac_n_out());
+      return 3;
+    }
+    if (bench_sizes_fail("ballbot_ode", "input", ballbot_ode_n_in(), ballbot_ode_sparsity_in, in,
+                         BENCH_LEN(in)) ||
+        bench_sizes_fail("ballbot_jac", "input", ballbot_jac_n_in(), ballbot_jac_sparsity_in, in,
+                         BENCH_LEN(in)) ||
+        bench_sizes_fail("ballbot_ode", "output", ballbot_ode_n_out(), ballbot_ode_sparsity_out,
+                         out, ballbot_ode_n_out()) ||
+        bench_sizes_fail("ballbot_jac", "output", ballbot_jac_n_out(), ballbot_jac_sparsity_out,
+                         out, ballbot_jac_n_out()))
+      return 3;
+  }
   arg[0] = x; arg[1] = tau; arg[2] = p;
   arg[3] = arg[4] = arg[5] = arg[6] = arg[7] = 0;
   {
