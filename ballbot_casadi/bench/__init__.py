@@ -28,7 +28,7 @@ from ballbot_casadi.codegen.libraries import model_functions_list, model_library
 from ballbot_casadi.core.files import atomic_write_text
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, run_tool
-from ballbot_casadi.errors import BallbotError
+from ballbot_casadi.errors import BallbotError, BuildError
 from ballbot_casadi.model.dynamics import make_ode
 
 __all__ = ["bench_model", "run_benchmarks", "BENCHMARKS", "BenchmarkError"]
