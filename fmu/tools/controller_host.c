@@ -7,7 +7,10 @@
  *
  * Prints one JSON object: the final wheel torques and "step_us", the best-of-reps mean
  * wall time of one 5 ms controller step (fmi2SetReal of the nine readings, fmi2DoStep,
- * fmi2GetReal of the three torques), in micro-seconds.  Exit status 0 on success.
+ * fmi2GetReal of the three torques), in micro-seconds.  Exit status 0 on success; else
+ * 2 usage, 3 the binary or a symbol not loaded, 4 fmi2Instantiate refused (e.g. a wrong
+ * GUID), 5 initialisation failed, 6 a period failed, 7 non-finite torques (the FMU's log
+ * and the failing step on stderr).
  */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
@@ -39,7 +42,10 @@ int main(int argc, char **argv) {
     lib = host_load(argv[1], &f);
     cb = host_callbacks();
     c = f.instantiate("controller", fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
-    if (c == NULL) return 4;
+    if (c == NULL) {
+        fprintf(stderr, "%s: fmi2Instantiate refused the FMU\n", argv[0]);
+        return 4;
+    }
     if (f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK || f.enter_init(c) != fmi2OK ||
         f.exit_init(c) != fmi2OK)
         return 5;

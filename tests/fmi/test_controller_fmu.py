@@ -452,6 +452,11 @@ def test_c_host_runs_the_controller_without_python():
     usage = subprocess.run([str(host), str(b.binary), b.guid, "400"], capture_output=True, text=True)
     assert usage.returncode == 2 and usage.stdout == ""
     assert usage.stderr == f"usage: {host} lib guid n_steps bench_reps\n"   # names the program
+    wrong = subprocess.run([str(host), str(b.binary), "{not-the-guid}", "400", "0"],
+                           capture_output=True, text=True)
+    assert (wrong.returncode, wrong.stdout) == (4, "")   # documented: instantiation refused
+    assert "GUID" in wrong.stderr.upper()   # the FMU's own log line says why
+    assert wrong.stderr.endswith(f"{host}: fmi2Instantiate refused the FMU\n")
 
 
 @pytest.mark.parametrize("ctrl,est", [("flc", "ukf"), ("smc", "ekf")])
