@@ -6,7 +6,10 @@
  *
  * Prints one JSON object: the final time, the final 12 model states and the continuous
  * outputs, and, with bench_reps > 0, "step_us", the best-of-reps mean wall time of one
- * fmi2DoStep + reading the 12 states (micro-seconds).  Exit status 0 on success.
+ * fmi2DoStep + reading the 12 states (micro-seconds).  Exit status 0 on success; else
+ * 2 usage, 3 the binary or a symbol not loaded, 4 fmi2Instantiate refused (e.g. a wrong
+ * GUID), 5 initialisation refused, 6 a step refused, 7 a value not read (the FMU's log
+ * on stderr).
  */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
@@ -52,7 +55,10 @@ int main(int argc, char **argv) {
     for (r = 0; r <= reps; ++r) {
         double t0;
         c = f.instantiate("host", fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
-        if (c == NULL) return 4;
+        if (c == NULL) {
+            fprintf(stderr, "%s: fmi2Instantiate refused the FMU\n", argv[0]);
+            return 4;
+        }
         if (f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
             f.enter_init(c) != fmi2OK || f.set_real(c, vr_q, 4, q) != fmi2OK ||
             f.set_real(c, vr_tau, 3, tau) != fmi2OK || f.exit_init(c) != fmi2OK)

@@ -2,7 +2,7 @@
 status and message, as its usage line documents, and the benchmark field appears only when asked.
 
 Statuses: 2 usage, 3 the binary cannot be loaded, 4 fmi2Instantiate refused, 5 the
-initialisation refused, 6 a step refused."""
+initialisation refused, 6 a step refused (7, a value not read, is not reachable from here)."""
 
 from __future__ import annotations
 
@@ -38,6 +38,13 @@ def test_a_missing_binary_exits_3_with_the_loader_message(tmp_path):
     res = _host(str(tmp_path / "none.so"), "{guid}", "1", "0.005", "0", "0", "0", "0")
     assert res.returncode == 3
     assert "dlopen failed" in res.stderr and res.stdout == ""
+
+
+def test_a_wrong_guid_exits_4_with_the_fmus_reason():
+    res = _host("{lib}", "not-the-guid", "1", "0.005", "0", "0", "0", "0")
+    assert (res.returncode, res.stdout) == (4, "")
+    assert "GUID" in res.stderr.upper()   # the FMU's own log line says why
+    assert res.stderr.endswith(f"{build_tool(plant_build(), 'host')}: fmi2Instantiate refused the FMU\n")
 
 
 def test_a_refused_initialisation_exits_5():
