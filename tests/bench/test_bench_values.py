@@ -404,7 +404,7 @@ def test_model_group_by_hand(monkeypatch, tmp_path, fake_run):
     monkeypatch.setattr(bench, "_python_call_ns", lambda: 10000.0)
     out = bench.bench_model(n_calls=77)
     cmd, kw = calls[0]
-    assert cmd[0] == str(tmp_path / "bench" / "bench_model") and cmd[1] == "77" and kw["check"]
+    assert cmd[0] == str(tmp_path / "bench" / "bench_model") and cmd[1] == "77" and kw["text"]
     # the operating point, then the parameters, all as the C program reads them
     assert [float(v) for v in cmd[2:]] == [*x, *tau, *p]
     assert out == {"ode_ns": 250.0, "jac_ns": 1200.0, "python_call_ns": 10000.0,
@@ -416,6 +416,10 @@ def test_model_group_by_hand(monkeypatch, tmp_path, fake_run):
         printed[0] = {**good, key: bad}
         with pytest.raises(BuildError, match="model benchmark"):
             bench.bench_model(n_calls=77)
+    # the program refusing its buffers (exit 3): its message, not a traceback
+    monkeypatch.setattr(bench.subprocess, "run", fake_run(lambda cmd: "", [], returncode=3))
+    with pytest.raises(BuildError, match=r"the model benchmark failed \(exit 3\)"):
+        bench.bench_model(n_calls=77)
 
 
 def test_run_benchmarks_merges_and_refuses_unknown_groups(monkeypatch, tmp_path):
