@@ -84,6 +84,16 @@ def test_every_controller_is_selectable_and_sta_carries_its_state():
                                                          ca.DM.zeros(3)])
     with pytest.raises(ScenarioError, match="with a state"):
         check_blocks(PeriodBlocks(bad, vel), affine.numel_in(1))
+    # the smallest state (one integrator) is a state; an empty one is not
+    for n, ok in ((1, True), (0, False)):
+        zb = ca.MX.sym("zb", n)
+        f = ca.Function(f"ballbot_z{n}", [x, *r, p, k, zb], [ca.DM.zeros(3), ca.DM.zeros(1), zb])
+        if ok:
+            assert check_blocks(PeriodBlocks(f, vel), affine.numel_in(1))["nb"] == 1
+            assert PeriodBlocks(f, vel).balance_state == 1
+        else:
+            with pytest.raises(ScenarioError, match="with a state"):
+                check_blocks(PeriodBlocks(f, vel), affine.numel_in(1))
 
 
 def test_scenario_file_selects_the_controller_and_the_default_gains():
