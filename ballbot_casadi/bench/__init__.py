@@ -23,12 +23,12 @@ from ballbot_casadi.bench.firmware import bench_firmware, bench_firmware_mpc, be
 from ballbot_casadi.bench.fmu import bench_fmu
 from ballbot_casadi.bench.guidance import bench_mpc
 from ballbot_casadi.bench.montecarlo import bench_montecarlo
-from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros
+from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros, run_program
 from ballbot_casadi.codegen.libraries import model_functions_list, model_library
 from ballbot_casadi.core.files import atomic_write_text
 from ballbot_casadi.core.params import load_params
 from ballbot_casadi.core.toolchain import CFLAGS, build_root, compiler_command, run_tool
-from ballbot_casadi.errors import BallbotError, BuildError
+from ballbot_casadi.errors import BallbotError
 from ballbot_casadi.model.dynamics import make_ode
 
 __all__ = ["bench_model", "run_benchmarks", "BENCHMARKS", "BenchmarkError"]
@@ -75,10 +75,7 @@ def bench_model(n_calls: int = 200000) -> dict[str, float]:
     os.replace(tmp, exe)  # a concurrent run keeps the executable it started
     p = load_params().to_vector()
     args = [repr(float(v)) for v in (*BENCH_STATE, *BENCH_TAU, *p)]
-    run = subprocess.run([str(exe), str(n_calls), *args], capture_output=True, text=True)
-    if run.returncode != 0:
-        raise BuildError(f"the model benchmark failed (exit {run.returncode}): {run.stderr[-2000:]}")
-    data = json.loads(run.stdout)
+    data = json.loads(run_program("the model benchmark", [exe, n_calls, *args]))
     data.pop("sink", None)
     fns = {f.name(): f for f in model_functions_list()}
     for key, name in (("check_ode", "ballbot_ode"), ("check_jac", "ballbot_jac")):

@@ -28,7 +28,6 @@ Keys
 from __future__ import annotations
 
 import json
-import subprocess
 import time
 from importlib import resources
 from pathlib import Path
@@ -45,7 +44,7 @@ from ballbot_casadi.core.toolchain import CFLAGS, Library, build_root, compiler_
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.model.dynamics import make_affine, make_ode
 from ballbot_casadi.bench.exports import control_bench_library
-from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros
+from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros, run_program
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.sim.period import control_period, rk4_plant
@@ -113,10 +112,7 @@ def _c_bench(library: tuple[Library, dict[str, ca.Function]], inputs: dict, n_ca
         " ".join(repr(float(v)) for v in np.ravel(arr)) for arr in vals) + "\n"
     data_file = out / "bench_control_input.txt"
     data_file.write_text(text)
-    run = subprocess.run([str(exe), str(n_calls), str(data_file)], capture_output=True, text=True)
-    if run.returncode != 0:
-        raise BuildError(f"the control benchmark failed (exit {run.returncode}): {run.stderr[-2000:]}")
-    data = json.loads(run.stdout)
+    data = json.loads(run_program("the control benchmark", [exe, n_calls, data_file]))
     data.pop("sink", None)
     want = _expected(functions, inputs, kf, ks)
     check_c_outputs("control benchmark", [data.pop(k) for k in want], list(want.values()))

@@ -35,7 +35,6 @@ Keys
 from __future__ import annotations
 
 import json
-import subprocess
 import time
 from importlib import resources
 from pathlib import Path
@@ -45,7 +44,7 @@ import numpy as np
 
 from ballbot_casadi.core.toolchain import CFLAGS, Library, build_root, compiler_command, run_tool
 from ballbot_casadi.bench.exports import estimation_bench_library
-from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros
+from ballbot_casadi.bench.verify import check_c_outputs, function_nonzeros, run_program
 from ballbot_casadi.errors import BuildError
 from ballbot_casadi.sim.closed_loop import ClosedLoop
 from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
@@ -79,10 +78,7 @@ def c_function_us(lib: Library, function: ca.Function, inputs: list, n_calls: in
     values = [" ".join(repr(float(e)) for e in np.ravel(arr, order="F")) for arr in args]
     data = out / f"bench_{function.name()}_input.txt"
     data.write_text("\n".join(values) + "\n")
-    run = subprocess.run([str(exe), str(n_calls), str(data)], capture_output=True, text=True)
-    if run.returncode != 0:
-        raise BuildError(f"benchmark of {function.name()} failed: {run.stderr[-2000:]}")
-    res = json.loads(run.stdout)
+    res = json.loads(run_program(f"benchmark of {function.name()}", [exe, n_calls, data]))
     if not res["finite"]:
         raise BuildError(f"benchmark of {function.name()} produced a non-finite output")
     check_c_outputs(f"benchmark of {function.name()}", res["outputs"], function_nonzeros(function, *args))

@@ -6,6 +6,7 @@ argument to the wrong buffer, or timed the wrong configuration, stops with
 
 from __future__ import annotations
 
+import subprocess
 from typing import Any, Sequence
 
 import casadi as ca
@@ -13,11 +14,20 @@ import numpy as np
 
 from ballbot_casadi.errors import BuildError
 
-__all__ = ["C_RTOL", "check_c_outputs", "function_nonzeros"]
+__all__ = ["C_RTOL", "check_c_outputs", "function_nonzeros", "run_program"]
 
 #: Relative tolerance of generated C against CasADi's virtual machine (same operations;
 #: the compiler may reorder a few): of each output's largest magnitude (at least 1).
 C_RTOL = 1e-9
+
+
+def run_program(what: str, cmd: Sequence[str]) -> str:
+    """Run a benchmark program and return its standard output; a non-zero exit status is a
+    :class:`BuildError` with the program's last lines of standard error."""
+    run = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise BuildError(f"{what} failed (exit {run.returncode}): {run.stderr[-2000:]}")
+    return run.stdout
 
 
 def function_nonzeros(f: ca.Function, *args: Any) -> list[np.ndarray]:

@@ -41,11 +41,7 @@ int main(int argc, char **argv) {
     reps = atol(argv[4]);
     lib = host_load(argv[1], &f);
     cb = host_callbacks();
-    c = f.instantiate("controller", fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
-    if (c == NULL) {
-        fprintf(stderr, "%s: fmi2Instantiate refused the FMU\n", argv[0]);
-        return 4;
-    }
+    c = host_instantiate(&f, argv[0], "controller", argv[2], &cb);
     if (f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK || f.enter_init(c) != fmi2OK ||
         f.exit_init(c) != fmi2OK)
         return 5;

@@ -71,6 +71,18 @@ static fmi2CallbackFunctions host_callbacks(void) {
     return cb;
 }
 
+/* A Co-Simulation instance of the loaded FMU; exit status 4, after the FMU's log and one
+ * line naming the program `prog`, when fmi2Instantiate refuses (e.g. a wrong GUID). */
+static fmi2Component host_instantiate(const host_api *f, const char *prog, const char *name,
+                                      const char *guid, const fmi2CallbackFunctions *cb) {
+    fmi2Component c = f->instantiate(name, fmi2CoSimulation, guid, "", cb, fmi2False, fmi2False);
+    if (c == NULL) {
+        fprintf(stderr, "%s: fmi2Instantiate refused the FMU\n", prog);
+        exit(4);
+    }
+    return c;
+}
+
 static double host_now_s(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);

@@ -54,11 +54,7 @@ int main(int argc, char **argv) {
     q[3] = 0.0;
     for (r = 0; r <= reps; ++r) {
         double t0;
-        c = f.instantiate("host", fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
-        if (c == NULL) {
-            fprintf(stderr, "%s: fmi2Instantiate refused the FMU\n", argv[0]);
-            return 4;
-        }
+        c = host_instantiate(&f, argv[0], "host", argv[2], &cb);
         if (f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
             f.enter_init(c) != fmi2OK || f.set_real(c, vr_q, 4, q) != fmi2OK ||
             f.set_real(c, vr_tau, 3, tau) != fmi2OK || f.exit_init(c) != fmi2OK)

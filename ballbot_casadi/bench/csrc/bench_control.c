@@ -120,11 +120,8 @@ int main(int argc, char **argv) {
     const size_t k_in[] = {BENCH_LEN(xz), BENCH_LEN(sq), BENCH_LEN(sz4), BENCH_LEN(sz4),
                            BENCH_LEN(sv), BENCH_LEN(sw), BENCH_LEN(p), BENCH_LEN(p),
                            BENCH_LEN(kf), BENCH_LEN(kv), 1, 1, 1};
-    const size_t k_out[] = {BENCH_LEN(chunk_out[0]), BENCH_LEN(chunk_out[0]),
-                            BENCH_LEN(chunk_out[0]), BENCH_LEN(chunk_out[0]),
-                            BENCH_LEN(chunk_out[0]), BENCH_LEN(chunk_out[0]),
-                            BENCH_LEN(chunk_out[0]), BENCH_LEN(chunk_out[0]),
-                            BENCH_LEN(chunk_out[0])};
+    size_t k_out[BENCH_LEN(chunk_out)];
+    for (k = 0; k < (int)BENCH_LEN(chunk_out); ++k) k_out[k] = BENCH_LEN(chunk_out[0]);
     if (bench_sizes_fail("ballbot_velocity", "input", ballbot_velocity_n_in(),
                          ballbot_velocity_sparsity_in, v_in, BENCH_LEN(v_in)) ||
         bench_sizes_fail("ballbot_velocity", "output", ballbot_velocity_n_out(),
