@@ -56,13 +56,32 @@ def dfreq(A: np.ndarray, B: np.ndarray, C: np.ndarray, omega: np.ndarray, Ts: fl
     return np.array([C @ np.linalg.solve(np.exp(1j * w * Ts) * np.eye(n) - A, B) for w in omega])
 
 
+def _crossing(omega: np.ndarray, y: np.ndarray, level: float, i: int) -> float:
+    """Frequency between grid points ``i - 1`` and ``i`` where ``y`` crosses ``level``.
+
+    Linear in log-frequency; in log-magnitude when both ends are positive, linearly in
+    magnitude when one end is exactly zero (a log-log line cannot reach zero, and a floor
+    put in its place would move the crossing by an arbitrary amount).
+    """
+    y0, y1 = float(y[i - 1]), float(y[i])
+    if y0 > 0 and y1 > 0:
+        frac = (np.log10(level) - np.log10(y0)) / (np.log10(y1) - np.log10(y0))
+    else:
+        frac = (level - y0) / (y1 - y0)
+    lw = np.log10(omega[i - 1 : i + 1])
+    return float(10 ** (lw[0] + frac * (lw[1] - lw[0])))
+
+
 def bandwidth_3db(omega: np.ndarray, mag: np.ndarray) -> float | None:
     """First frequency where ``|T|`` falls 3 dB below its low-frequency value ``mag[0]``.
 
-    Linear interpolation in log-frequency/dB between grid points; ``None`` when the
-    magnitude never drops that far on the grid.
+    Linear interpolation in log-frequency/dB between grid points (linear in magnitude
+    towards a grid point where ``|T|`` is exactly 0); ``None`` when the magnitude never
+    drops that far on the grid, or when ``mag[0]`` is 0 (no low-frequency value to fall from).
     """
-    db = 20 * np.log10(np.maximum(np.asarray(mag, dtype=float), 1e-300))
+    mag = np.asarray(mag, dtype=float)
+    with np.errstate(divide="ignore"):
+        db = 20 * np.log10(mag)  # -inf where the magnitude is exactly 0
     target = db[0] - 3.0103
     below = np.nonzero(db < target)[0]
     if below.size == 0:
@@ -70,9 +89,7 @@ def bandwidth_3db(omega: np.ndarray, mag: np.ndarray) -> float | None:
     i = int(below[0])
     if i == 0:
         return float(omega[0])
-    lw = np.log10(omega[i - 1 : i + 1])
-    frac = (db[i - 1] - target) / (db[i - 1] - db[i])
-    return float(10 ** (lw[0] + frac * (lw[1] - lw[0])))
+    return _crossing(omega, mag, 10 ** (target / 20), i)
 
 
 def analyze_closed_loop(
@@ -289,8 +306,9 @@ def bandwidth_sensitivity(omega: np.ndarray, H: np.ndarray) -> float | None:
     The frequency up to which the tracking error is attenuated (Skogestad and
     Postlethwaite, Multivariable Feedback Control, §2.4.5: ``omega_B``).  Unlike the
     -3 dB point of ``|H|`` it is not fooled by a non-minimum-phase loop whose output
-    still moves, but out of phase, at high frequency.  Log interpolation; ``None`` when
-    not reached on the grid.
+    still moves, but out of phase, at high frequency.  Log interpolation (linear in
+    magnitude from a grid point where the error is exactly 0); ``None`` when not reached
+    on the grid.
     """
     H = np.asarray(H, dtype=complex)
     S = np.abs(1.0 - H / np.abs(H[0]))
@@ -300,10 +318,7 @@ def bandwidth_sensitivity(omega: np.ndarray, H: np.ndarray) -> float | None:
     i = int(above[0])
     if i == 0:
         return float(omega[0])
-    ls = np.log10(S[i - 1 : i + 1])
-    lw = np.log10(omega[i - 1 : i + 1])
-    frac = (np.log10(1 / np.sqrt(2)) - ls[0]) / (ls[1] - ls[0])
-    return float(10 ** (lw[0] + frac * (lw[1] - lw[0])))
+    return _crossing(omega, S, 1 / np.sqrt(2), i)
 
 
 def _second_order_bw(kp: float, kd: float) -> float:

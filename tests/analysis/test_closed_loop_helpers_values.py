@@ -88,3 +88,17 @@ def test_a_response_that_only_touches_minus_3_db_has_no_bandwidth():
     grid = np.array([1.0, 10.0, 100.0])
     assert cla.bandwidth_3db(grid, np.array([m0, m1, 0.5])) is None
     assert cla.bandwidth_3db(grid, np.array([m0, m1, 0.01])) == pytest.approx(10.0, rel=1e-12)
+
+
+def test_a_crossing_towards_an_exact_zero_interpolates_in_magnitude():
+    """A grid point where |T| (or the tracking error) is exactly 0 has no logarithm: the
+    crossing is interpolated linearly in magnitude (log-frequency still) on that segment,
+    never towards an arbitrary floor and never NaN."""
+    grid = np.array([1.0, 10.0, 100.0])
+    level = 10 ** (-3.0103 / 20)
+    frac = (0.9 - level) / 0.9  # |T|: 1, 0.9, 0 -> falls through 0.7071 on the second segment
+    assert cla.bandwidth_3db(grid, np.array([1.0, 0.9, 0.0])) == pytest.approx(10 ** (1 + frac), rel=1e-12)
+    assert cla.bandwidth_3db(grid, np.array([0.0, 0.5, 0.0])) is None  # no low-frequency value
+    # tracking error |1 - H|: 0, 0, 1 -> rises through 1/sqrt(2) at 0.7071 of the second segment
+    got = cla.bandwidth_sensitivity(grid, np.array([1.0, 1.0, 0.0]))
+    assert got == pytest.approx(10 ** (1 + 1 / math.sqrt(2)), rel=1e-12)
