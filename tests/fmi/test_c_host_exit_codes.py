@@ -2,16 +2,19 @@
 status and message, as its usage line documents, and the benchmark field appears only when asked.
 
 Statuses: 2 usage, 3 the binary cannot be loaded, 4 fmi2Instantiate refused, 5 the
-initialisation refused, 6 a step refused (7, a value not read, is not reachable from here)."""
+initialisation refused, 6 a step refused, 7 a value not read (the plant behind a library
+that refuses fmi2GetReal, ``_broken_fmu``)."""
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 
 import numpy as np
 import pytest
+from _broken_fmu import build_broken_plant
 from _fmu_support import Plant, plant_build, vr_table
 
 from ballbot_casadi.fmi.build import build_tool
@@ -19,11 +22,12 @@ from ballbot_casadi.fmi.build import build_tool
 pytestmark = pytest.mark.needs_cc
 
 
-def _host(*args: str) -> subprocess.CompletedProcess:
+def _host(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
     b = plant_build()
     exe = build_tool(b, "host")
     return subprocess.run([str(exe), *[a.format(lib=b.binary, guid=b.guid) for a in args]],
-                          capture_output=True, text=True, timeout=60)
+                          capture_output=True, text=True, timeout=60,
+                          env=None if env is None else {**os.environ, **env})
 
 
 def test_too_few_arguments_print_the_usage_and_exit_2():
@@ -57,6 +61,24 @@ def test_a_refused_step_exits_6():
     res = _host("{lib}", "{guid}", "1", "-0.005", "0", "0", "0", "0")  # a negative step
     assert res.returncode == 6, res.stderr
     assert "fmi2DoStep" in res.stderr and "(status 3)" in res.stderr and res.stdout == ""
+
+
+@pytest.fixture(scope="module")
+def broken(tmp_path_factory) -> str:
+    return str(build_broken_plant(tmp_path_factory.mktemp("broken_fmu")))
+
+
+@pytest.mark.parametrize("rule", ["getreal", "none"])
+def test_a_value_not_read_exits_7(broken, rule):
+    """fmi2GetReal refused: after the first step (reading the states, n_steps = 1) and, with
+    no step, at the end (reading the outputs, n_steps = 0), each exit 7 with nothing printed;
+    the same library keeping every rule ("none") runs to the end."""
+    for n in ("1", "0"):
+        res = _host(broken, "{guid}", n, "0.005", "0", "0", "0", "0", env={"BROKEN_RULE": rule})
+        if rule == "none":
+            assert res.returncode == 0 and json.loads(res.stdout)["t"] == 0.005 * int(n), res.stderr
+        else:
+            assert (res.returncode, res.stdout) == (7, ""), res.stderr
 
 
 def test_upright_at_rest_stays_there_and_the_repetitions_restart_from_it():

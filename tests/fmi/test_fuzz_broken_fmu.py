@@ -1,9 +1,8 @@
 """The C fuzzer of the FMI API (fmu/tools/fuzz.c) fails an FMU that breaks the rules, each
 rule with its own exit status and message.
 
-The plant FMU keeps every rule, so the other fuzz tests only ever see exit 0. Here a thin
-shared library stands in front of the plant's binary (it is linked against it, so every
-function it does not define is the plant's own) and breaks one rule, chosen by
+The plant FMU keeps every rule, so the other fuzz tests only ever see exit 0. Here the
+plant's binary behind a library that breaks one rule (``_broken_fmu``), chosen by
 ``BROKEN_RULE``:
 
 - ``guid``: instantiates whatever GUID it is given (exit 10, "instantiated with a wrong GUID");
@@ -21,64 +20,16 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from _broken_fmu import build_broken_plant
 from _fmu_support import plant_build, run_fuzz
 
-from ballbot_casadi.core.toolchain import compiler_command
-from ballbot_casadi.fmi.package import fmi_headers_dir
-
 pytestmark = pytest.mark.needs_cc
-
-WRAPPER = r"""
-#define _GNU_SOURCE
-#include <dlfcn.h>
-#include <stdlib.h>
-#include <string.h>
-#include "fmi2FunctionTypes.h"
-
-static int rule(const char *name) {
-    const char *r = getenv("BROKEN_RULE");
-    return r != NULL && strcmp(r, name) == 0;
-}
-static void *plant(const char *name) { return dlsym(RTLD_NEXT, name); }
-
-fmi2Component fmi2Instantiate(fmi2String n, fmi2Type t, fmi2String guid, fmi2String res,
-                              const fmi2CallbackFunctions *cb, fmi2Boolean vis, fmi2Boolean log) {
-    fmi2InstantiateTYPE *f = (fmi2InstantiateTYPE *)plant("fmi2Instantiate");
-    if (rule("guid")) guid = getenv("PLANT_GUID");
-    return f(n, t, guid, res, cb, vis, log);
-}
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *size) {
-    fmi2SerializedFMUstateSizeTYPE *f =
-        (fmi2SerializedFMUstateSizeTYPE *)plant("fmi2SerializedFMUstateSize");
-    fmi2Status st = f(c, s, size);
-    if (rule("state") && st == fmi2OK) *size = (size_t)atol(getenv("STATE_SIZE"));
-    return st;
-}
-fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real dx[], size_t nx) {
-    fmi2GetDerivativesTYPE *f = (fmi2GetDerivativesTYPE *)plant("fmi2GetDerivatives");
-    if (rule("null") && c == NULL) return fmi2OK;
-    return f(c, dx, nx);
-}
-fmi2Status fmi2Terminate(fmi2Component c) {
-    fmi2TerminateTYPE *f = (fmi2TerminateTYPE *)plant("fmi2Terminate");
-    if (rule("silent") && c != NULL) return fmi2Error;
-    return f(c);
-}
-"""
 
 
 @pytest.fixture(scope="module")
 def broken(tmp_path_factory) -> Path:
     """The rule-breaking library in front of the plant FMU's binary."""
-    build = plant_build()
-    d = tmp_path_factory.mktemp("broken_fmu")
-    (d / "broken.c").write_text(WRAPPER)
-    lib = d / "broken.so"
-    subprocess.run([*compiler_command(), "-shared", "-fPIC", "-I", str(fmi_headers_dir()),
-                    "-o", str(lib), str(d / "broken.c"), "-Wl,--no-as-needed", str(build.binary),
-                    f"-Wl,-rpath,{build.binary.parent}", "-ldl"], check=True,
-                   capture_output=True)
-    return lib
+    return build_broken_plant(tmp_path_factory.mktemp("broken_fmu"))
 
 
 def _fuzz(lib: Path, rule: str, n: int, seed: int, **extra: str) -> subprocess.CompletedProcess:
