@@ -114,7 +114,7 @@ def _range(patch, axis: int) -> tuple[float, float]:
 
 def _style(fig, dpi) -> dict:
     """What a figure looks like beyond its data: size, resolution, and per axes the lines'
-    width, style, marker and size, alpha, draw style, colour, number of points (a curve's
+    width, style, marker, its size, edge width and face colour (open or filled), alpha, draw style, colour, number of points (a curve's
     resolution) and, for a straight horizontal or vertical line (a limit, a threshold), its
     level; the scatter sets' sizes, colours and counts; the patches' colours; the legend's,
     title's and axis labels' font sizes; the axis scales and the limits set on purpose (not
@@ -147,7 +147,8 @@ def _style(fig, dpi) -> dict:
         return None
 
     def line(ln):
-        return [ln.get_linewidth(), ln.get_linestyle(), ln.get_marker(), ln.get_markersize(), ln.get_alpha(),
+        return [ln.get_linewidth(), ln.get_linestyle(), ln.get_marker(), ln.get_markersize(),
+                ln.get_markeredgewidth(), to_hex(ln.get_markerfacecolor(), keep_alpha=True), ln.get_alpha(),
                 ln.get_drawstyle(), to_hex(ln.get_color(), keep_alpha=True), len(ln.get_xdata()), level(ln)]
 
     def collection(c):
