@@ -91,3 +91,16 @@ def test_coincident_waypoints_are_those_closer_than_a_micrometre():
     path = waypoint_path([(0, 0), (1, 0), (1 + 1.5e-6, 0), (2, 1)])
     np.testing.assert_allclose(path.waypoints[2], [1 + 1.5e-6, 0], rtol=0, atol=0)
     assert np.all(np.isfinite(path.point(np.linspace(0, path.length, 50))))
+
+
+def test_a_waypoint_on_an_obstacles_circle_is_allowed_inside_it_is_not():
+    """An obstacle is ``|p - center| >= radius`` (the ball centre may touch the circle): a
+    waypoint exactly on it (distance 4 from (3, 4), exact in floats) is allowed; the next
+    float of radius covers it, and the refusal names the first waypoint covered."""
+    pts = [(0.0, 0.0), (3.0, 0.0), (6.0, 0.0), (3.0, 8.0)]
+    path = waypoint_path(pts, obstacles=[Obstacle((3.0, 4.0), 4.0)])
+    assert path.clearance([[3.0, 0.0]])[0] == 0.0
+    r = float(np.nextafter(4.0, np.inf))
+    with pytest.raises(ScenarioError, match=r"^obstacles\[0\] \(radius 4\.000000000000001 m at \[3\.0, 4\.0\]\) "
+                       r"covers waypoint 1 \[3\.0, 0\.0\]: the path cannot pass through it$"):
+        waypoint_path(pts, obstacles=[Obstacle((3.0, 4.0), r)])
