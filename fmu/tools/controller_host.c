@@ -5,12 +5,12 @@
  *
  * usage: controller_host <BallbotController.so> <guid> <n_steps> <bench_reps>
  *
- * Prints one JSON object: the final wheel torques and "step_us", the best-of-reps mean
+ * Prints one JSON object (on success only): the final wheel torques and "step_us", the best-of-reps mean
  * wall time of one 5 ms controller step (fmi2SetReal of the nine readings, fmi2DoStep,
  * fmi2GetReal of the three torques), in micro-seconds.  Exit status 0 on success; else
  * 2 usage, 3 the binary or a symbol not loaded, 4 fmi2Instantiate refused (e.g. a wrong
  * GUID), 5 initialisation failed, 6 a period failed, 7 non-finite torques (the FMU's log
- * and the failing step on stderr).
+ * and one line naming the failure, with the period counted from 0, on stderr).
  */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
@@ -43,8 +43,10 @@ int main(int argc, char **argv) {
     cb = host_callbacks();
     c = host_instantiate(&f, argv[0], "controller", argv[2], &cb);
     if (f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK || f.enter_init(c) != fmi2OK ||
-        f.exit_init(c) != fmi2OK)
+        f.exit_init(c) != fmi2OK) {
+        fprintf(stderr, "%s: the initialisation failed\n", argv[0]);
         return 5;
+    }
     for (r = 0; r < (reps > 0 ? reps : 1); ++r) {
         double t0 = host_now_s(), dt;
         for (k = 0; k < n; ++k) {
@@ -59,17 +61,23 @@ int main(int argc, char **argv) {
             meas[7] = -10.0 * s;
             meas[8] = -10.0 * s;
             if (f.set_real(c, meas_vr, 9, meas) != fmi2OK || f.do_step(c, t, h, fmi2True) != fmi2OK ||
-                f.get_real(c, tau_vr, 3, tau) != fmi2OK)
+                f.get_real(c, tau_vr, 3, tau) != fmi2OK) {
+                fprintf(stderr, "%s: period %ld failed\n", argv[0], k);
                 return 6;
+            }
             t += h;
         }
         dt = (host_now_s() - t0) / (double)n;
         if (dt < best) best = dt;
+    }
+    if (!(isfinite(tau[0]) && isfinite(tau[1]) && isfinite(tau[2]))) {
+        fprintf(stderr, "%s: non-finite torques after %ld periods\n", argv[0], n);
+        return 7;
     }
     printf("{\"t\": %.17g, \"tau\": [%.17g, %.17g, %.17g]", t, tau[0], tau[1], tau[2]);
     if (reps > 0) printf(", \"step_us\": %.6g", best * 1e6);
     printf("}\n");
     f.free_instance(c);
     dlclose(lib);
-    return isfinite(tau[0]) && isfinite(tau[1]) && isfinite(tau[2]) ? 0 : 7;
+    return 0;
 }

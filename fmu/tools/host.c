@@ -9,7 +9,8 @@
  * fmi2DoStep + reading the 12 states (micro-seconds).  Exit status 0 on success; else
  * 2 usage, 3 the binary or a symbol not loaded, 4 fmi2Instantiate refused (e.g. a wrong
  * GUID), 5 initialisation refused, 6 a step refused, 7 a value not read (the FMU's log
- * on stderr).
+ * and one line naming the failure, with the step counted from 0, on stderr; nothing on
+ * stdout).
  */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
@@ -57,21 +58,31 @@ int main(int argc, char **argv) {
         c = host_instantiate(&f, argv[0], "host", argv[2], &cb);
         if (f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
             f.enter_init(c) != fmi2OK || f.set_real(c, vr_q, 4, q) != fmi2OK ||
-            f.set_real(c, vr_tau, 3, tau) != fmi2OK || f.exit_init(c) != fmi2OK)
+            f.set_real(c, vr_tau, 3, tau) != fmi2OK || f.exit_init(c) != fmi2OK) {
+            fprintf(stderr, "%s: the initialisation was refused\n", argv[0]);
             return 5;
+        }
         t = 0.0;
         t0 = host_now_s();
         for (i = 0; i < n; ++i) {
-            if (f.set_real(c, vr_tau, 3, tau) != fmi2OK) return 6;
-            if (f.do_step(c, t, h, fmi2True) != fmi2OK) return 6;
+            if (f.set_real(c, vr_tau, 3, tau) != fmi2OK || f.do_step(c, t, h, fmi2True) != fmi2OK) {
+                fprintf(stderr, "%s: step %ld was refused\n", argv[0], i);
+                return 6;
+            }
             t += h;
-            if (f.get_real(c, vr_x, NX, x) != fmi2OK) return 7;
+            if (f.get_real(c, vr_x, NX, x) != fmi2OK) {
+                fprintf(stderr, "%s: the states were not read after step %ld\n", argv[0], i);
+                return 7;
+            }
         }
         if (r > 0 || reps == 0) {
             double per = (host_now_s() - t0) / (double)n * 1e6;
             if (per < best) best = per;
         }
-        if (f.get_real(c, vr_y, NOUT, y) != fmi2OK) return 7;
+        if (f.get_real(c, vr_y, NOUT, y) != fmi2OK) {
+            fprintf(stderr, "%s: the outputs were not read\n", argv[0]);
+            return 7;
+        }
         f.terminate(c);
         f.free_instance(c);
     }

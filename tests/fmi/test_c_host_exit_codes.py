@@ -3,7 +3,7 @@ status and message, as its usage line documents, and the benchmark field appears
 
 Statuses: 2 usage, 3 the binary cannot be loaded, 4 fmi2Instantiate refused, 5 the
 initialisation refused, 6 a step refused, 7 a value not read (the plant behind a library
-that refuses fmi2GetReal, ``_broken_fmu``)."""
+that breaks one rule, ``_broken_fmu``, for the failures a correct FMU never causes)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from _broken_fmu import build_broken_plant
+from _broken_fmu import build_broken
 from _fmu_support import Plant, plant_build, vr_table
 
 from ballbot_casadi.fmi.build import build_tool
@@ -55,30 +55,43 @@ def test_a_refused_initialisation_exits_5():
     res = _host("{lib}", "{guid}", "1", "0.005", "nan", "0", "0", "0")  # NaN torque input
     assert res.returncode == 5, res.stderr
     assert "tau0" in res.stderr and res.stdout == ""
+    assert res.stderr.endswith(f"{_exe()}: the initialisation was refused\n")
 
 
 def test_a_refused_step_exits_6():
     res = _host("{lib}", "{guid}", "1", "-0.005", "0", "0", "0", "0")  # a negative step
     assert res.returncode == 6, res.stderr
     assert "fmi2DoStep" in res.stderr and "(status 3)" in res.stderr and res.stdout == ""
+    assert res.stderr.endswith(f"{_exe()}: step 0 was refused\n")
 
 
 @pytest.fixture(scope="module")
 def broken(tmp_path_factory) -> str:
-    return str(build_broken_plant(tmp_path_factory.mktemp("broken_fmu")))
+    return str(build_broken(tmp_path_factory.mktemp("broken_fmu")))
 
 
-@pytest.mark.parametrize("rule", ["getreal", "none"])
-def test_a_value_not_read_exits_7(broken, rule):
-    """fmi2GetReal refused: after the first step (reading the states, n_steps = 1) and, with
-    no step, at the end (reading the outputs, n_steps = 0), each exit 7 with nothing printed;
-    the same library keeping every rule ("none") runs to the end."""
-    for n in ("1", "0"):
-        res = _host(broken, "{guid}", n, "0.005", "0", "0", "0", "0", env={"BROKEN_RULE": rule})
-        if rule == "none":
-            assert res.returncode == 0 and json.loads(res.stdout)["t"] == 0.005 * int(n), res.stderr
-        else:
-            assert (res.returncode, res.stdout) == (7, ""), res.stderr
+def _exe() -> str:
+    return str(build_tool(plant_build(), "host"))
+
+
+@pytest.mark.parametrize(("rule", "n", "ok", "status", "line"), [
+    ("setreal", "3", "1", 5, "the initialisation was refused"),   # its second fmi2SetReal
+    ("setreal", "3", "2", 6, "step 0 was refused"),
+    ("setreal", "3", "4", 6, "step 2 was refused"),               # 2 at start, 2 steps
+    ("getreal", "1", "0", 7, "the states were not read after step 0"),
+    ("getreal", "0", "0", 7, "the outputs were not read"),        # no step: the outputs
+    ("none", "3", "0", 0, ""),
+])
+def test_a_failure_after_instantiation_has_its_status_and_line(broken, rule, n, ok, status, line):
+    """Through the plant behind a library that breaks one rule: each failure exits with its
+    documented status, prints nothing on stdout and one line naming it (steps counted from
+    0); the same library keeping every rule ("none") runs to the end."""
+    res = _host(broken, "{guid}", n, "0.005", "0", "0", "0", "0",
+                env={"BROKEN_RULE": rule, "SETREAL_OK": ok})
+    if status == 0:
+        assert res.returncode == 0 and json.loads(res.stdout)["t"] == pytest.approx(0.015, abs=1e-15)
+    else:
+        assert (res.returncode, res.stdout, res.stderr) == (status, "", f"{_exe()}: {line}\n")
 
 
 def test_upright_at_rest_stays_there_and_the_repetitions_restart_from_it():

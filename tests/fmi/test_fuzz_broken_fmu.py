@@ -20,7 +20,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from _broken_fmu import build_broken_plant
+from _broken_fmu import build_broken
 from _fmu_support import plant_build, run_fuzz
 
 pytestmark = pytest.mark.needs_cc
@@ -29,7 +29,7 @@ pytestmark = pytest.mark.needs_cc
 @pytest.fixture(scope="module")
 def broken(tmp_path_factory) -> Path:
     """The rule-breaking library in front of the plant FMU's binary."""
-    return build_broken_plant(tmp_path_factory.mktemp("broken_fmu"))
+    return build_broken(tmp_path_factory.mktemp("broken_fmu"))
 
 
 def _fuzz(lib: Path, rule: str, n: int, seed: int, **extra: str) -> subprocess.CompletedProcess:
