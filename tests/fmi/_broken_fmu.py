@@ -102,3 +102,13 @@ def build_broken(directory: Path, build: FmuBuild | None = None) -> Path:
                     str(build.binary), f"-Wl,-rpath,{build.binary.parent}", "-ldl"], check=True,
                    capture_output=True)
     return lib
+
+
+def build_not_an_fmu(directory: Path) -> Path:
+    """A shared library that loads but defines no FMI function (the tools must exit 3
+    naming the first symbol they miss)."""
+    (directory / "not_fmu.c").write_text("int not_an_fmu(void) { return 0; }\n")
+    lib = directory / "not_fmu.so"
+    subprocess.run([*compiler_command(), "-shared", "-fPIC", "-o", str(lib),
+                    str(directory / "not_fmu.c")], check=True, capture_output=True)
+    return lib

@@ -1,9 +1,9 @@
 """The plain-C controller host (fmu/tools/controller_host.c): the failures a correct
 controller FMU never causes, through its binary behind a library that breaks one rule
-(``_broken_fmu``). Each exits with its documented status (5 initialisation, 6 a period,
-7 non-finite torques), prints nothing on stdout and one line naming it (periods counted
-from 0). Usage (2) and a wrong GUID (4) are tested with the FMU itself in
-test_controller_fmu.py."""
+(``_broken_fmu``). Each exits with its documented status (3 a binary without the FMI
+functions, 5 initialisation, 6 a period, 7 non-finite torques), prints nothing on stdout
+and one line naming it (periods counted from 0). Usage (2) and a wrong GUID (4) are tested
+with the FMU itself in test_controller_fmu.py."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import os
 import subprocess
 
 import pytest
-from _broken_fmu import build_broken
+from _broken_fmu import build_broken, build_not_an_fmu
 from _controller_support import controller_build
 
 from ballbot_casadi.fmi.build import build_tool
@@ -42,3 +42,10 @@ def test_a_failure_after_instantiation_has_its_status_and_line(broken, rule, ok,
         assert json.loads(res.stdout)["t"] == pytest.approx(5 * 0.005, abs=1e-15)
     else:
         assert (res.returncode, res.stdout, res.stderr) == (status, "", f"{exe}: {line}\n")
+
+
+def test_a_binary_without_the_fmi_functions_exits_3_naming_the_first_missing(tmp_path):
+    b = controller_build()
+    res = subprocess.run([str(build_tool(b, "controller_host")), str(build_not_an_fmu(tmp_path)),
+                          b.guid, "5", "0"], capture_output=True, text=True, timeout=60)
+    assert (res.returncode, res.stdout, res.stderr) == (3, "", "missing symbol fmi2Instantiate\n")

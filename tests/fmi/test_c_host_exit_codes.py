@@ -14,7 +14,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from _broken_fmu import build_broken
+from _broken_fmu import build_broken, build_not_an_fmu
 from _fmu_support import Plant, plant_build, vr_table
 
 from ballbot_casadi.fmi.build import build_tool
@@ -42,6 +42,8 @@ def test_a_missing_binary_exits_3_with_the_loader_message(tmp_path):
     res = _host(str(tmp_path / "none.so"), "{guid}", "1", "0.005", "0", "0", "0", "0")
     assert res.returncode == 3
     assert "dlopen failed" in res.stderr and res.stdout == ""
+    res = _host(str(build_not_an_fmu(tmp_path)), "{guid}", "1", "0.005", "0", "0", "0", "0")
+    assert (res.returncode, res.stdout, res.stderr) == (3, "", "missing symbol fmi2Instantiate\n")
 
 
 def test_a_wrong_guid_exits_4_with_the_fmus_reason():

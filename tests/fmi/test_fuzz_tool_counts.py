@@ -11,6 +11,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from _broken_fmu import build_not_an_fmu
 from _fmu_support import fuzz_counts, plant_build, run_fuzz
 
 from ballbot_casadi.fmi.build import build_tool
@@ -59,6 +60,8 @@ def test_usage_and_unloadable_binary_exit_statuses(tmp_path):
     assert res.stderr == f"usage: {build_tool(plant_build(), 'fuzz')} lib guid n_calls seed\n"
     res = _fuzz(str(tmp_path / "none.so"), "{guid}", "10", "1")
     assert res.returncode == 3 and "dlopen failed" in res.stderr
+    res = _fuzz(str(build_not_an_fmu(tmp_path)), "{guid}", "10", "1")   # loads, no FMI function
+    assert (res.returncode, res.stdout, res.stderr) == (3, "", "missing symbol fmi2GetTypesPlatform\n")
 
 
 # A fuzz failure is reported by its seed, so a seed must replay the same call sequence on any
