@@ -191,7 +191,7 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     z_att = np.r_[acc, gyro, meas[M["heading"]] if M.has("heading") else []]
     XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
     att_values = {"xhat": xa, "P": Pa, "z": z_att, "Q": est["Qa"], "R": est["Ra"],
-                  "dt": inputs["Ts"], "p": p, "a": [0.1, -0.05, 0.0]}
+                  "dt": inputs["Ts"], "p": p, "a": np.r_[xv[XV["a"]], 0.0]}  # as the software feeds it
     out = {"attitude": c_function_us(lib, att_f, _by_name(att_f, att_values), n_calls)}
     out[att_f.name().removeprefix("ballbot_")] = out["attitude"]
     if not with_rest:
