@@ -5,9 +5,9 @@
  *
  * usage: controller_host <BallbotController.so> <guid> <n_steps> <bench_reps>
  *
- * Prints one JSON object (on success only): the final wheel torques and "step_us", the best-of-reps mean
- * wall time of one 5 ms controller step (fmi2SetReal of the nine readings, fmi2DoStep,
- * fmi2GetReal of the three torques), in micro-seconds.  Exit status 0 on success; else
+ * Prints one JSON object, on success only: the final wheel torques and "step_us", the
+ * best-of-reps mean wall time of one 5 ms controller step (fmi2SetReal of the nine readings,
+ * fmi2DoStep, fmi2GetReal of the three torques), in micro-seconds.  Exit status 0 on success; else
  * 2 usage, 3 the binary or a symbol not loaded, 4 fmi2Instantiate refused (e.g. a wrong
  * GUID), 5 initialisation failed, 6 a period failed, 7 non-finite torques (the FMU's log
  * and one line naming the failure, with the period counted from 0, on stderr).
