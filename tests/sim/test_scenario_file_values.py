@@ -83,7 +83,8 @@ def test_the_writer_keeps_every_key_and_digit():
 
 @pytest.mark.parametrize("key, cov, block", [
     ("rate_process_var", "Qa", slice(3, 6)), ("encoder_var", "Rv", slice(0, 3)),
-    ("acc_process_var", "Qv", slice(2, 4)), ("acc_bias_process_var", "Qv", slice(4, 7))])
+    ("acc_process_var", "Qv", slice(2, 4)), ("acc_process_var_x", "Qv", slice(2, 3)),
+    ("acc_process_var_y", "Qv", slice(3, 4)), ("acc_bias_process_var", "Qv", slice(4, 7))])
 def test_estimator_tuning_sets_its_own_diagonal_block_only(key, cov, block):
     sc = parse_scenario({"duration_s": 0.05, "estimator": "ukf", "estimator_tuning": {key: 7.5e-3}},
                         "t.toml").scenario
