@@ -98,11 +98,7 @@ ATTITUDE_MEAS = Layout("attitude filter measurement", [("acc", 3), ("gyro", 3)])
 ATTITUDE_NOISE = Layout("attitude filter process noise", [("rotation", 3), ("omega", 3)])
 #: Measurement groups of the attitude filters' gate (``gate=True``): the accelerometer
 #: and the gyroscope rows of :data:`ATTITUDE_MEAS`.
-ATTITUDE_GATE = InnovationGate(tuple((f, tuple(range(ATTITUDE_MEAS.offset(f),
-                                                      ATTITUDE_MEAS.offset(f)
-                                                      + ATTITUDE_MEAS.size_of(f))))
-                                     for f in ATTITUDE_MEAS.fields),
-                               scale=GATE_SCALE_ATTITUDE, name="attitude_gate")
+ATTITUDE_GATE = InnovationGate.per_field(ATTITUDE_MEAS, scale=GATE_SCALE_ATTITUDE, name="attitude_gate")
 
 _NP = len(PARAM_NAMES)
 _NO_INPUT = ca.DM.zeros(3)

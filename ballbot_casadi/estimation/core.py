@@ -71,6 +71,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 from scipy.stats import chi2
@@ -153,6 +154,14 @@ class InnovationGate:
             raise ShapeError(f"gate scale must be a finite number > 0, got {self.scale!r}")
         if not isinstance(self.max_rejections, int) or self.max_rejections < 1:
             raise ShapeError(f"gate max_rejections must be an int >= 1, got {self.max_rejections!r}")
+
+    @classmethod
+    def per_field(cls, layout: Any, **options: Any) -> "InnovationGate":
+        """A gate with one group per field of the measurement ``layout``
+        (:class:`~ballbot_casadi.core.layout.Layout`), its rows, in order; ``options`` as
+        the attributes."""
+        return cls(tuple((f, tuple(range(layout[f].start, layout[f].stop))) for f in layout.fields),
+                   **options)
 
     @property
     def names(self) -> tuple[str, ...]:

@@ -54,6 +54,7 @@ import math
 import casadi as ca
 
 from ballbot_casadi.core import quaternion as Q
+from ballbot_casadi.core.layout import Layout
 from ballbot_casadi.core.params import PARAM_NAMES, ParamView
 from ballbot_casadi.errors import BallbotTypeError
 from ballbot_casadi.estimation.adaptive_walk import (
@@ -81,6 +82,7 @@ from ballbot_casadi.estimation.tuning import GATE_SCALE_VELOCITY
 __all__ = [
     "INPUT_NAMES",
     "VELOCITY_GATE",
+    "VELOCITY_MEAS",
     "KAPPA",
     "MATCHED_ACC_PROCESS_VAR",
     "NX",
@@ -111,10 +113,13 @@ MATCHED_ACC_PROCESS_VAR = (0.057, 0.073)
 #: Inputs of ``ballbot_vukf`` and ``ballbot_vekf``.
 INPUT_NAMES = ("xhat", "P", "z", "att", "P_att", "Q", "R", "dt", "p")
 
-#: Measurement groups of the velocity filters' gate (``gate=True``): the encoder
-#: increments (``z[0:3]``) and the accelerometer (``z[3:6]``).
-VELOCITY_GATE = InnovationGate((("enc", (0, 1, 2)), ("acc", (3, 4, 5))),
-                               scale=GATE_SCALE_VELOCITY, name="velocity_gate")
+#: The velocity filters' measurement ``z`` (thesis 5.2): the three wheel encoders'
+#: increments over the period, then the accelerometer.
+VELOCITY_MEAS = Layout("velocity filter measurement", [("enc", 3), ("acc", 3)])
+#: Measurement groups of the velocity filters' gate (``gate=True``): the rows of each
+#: sensor in :data:`VELOCITY_MEAS`.
+VELOCITY_GATE = InnovationGate.per_field(VELOCITY_MEAS, scale=GATE_SCALE_VELOCITY,
+                                         name="velocity_gate")
 
 _NP = len(PARAM_NAMES)
 _NU = 7 + 9  # att = [q, omega], then P_att column-major

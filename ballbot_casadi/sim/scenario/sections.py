@@ -34,12 +34,15 @@ import numpy as np
 from ballbot_casadi.control import BALANCE_CONTROLLERS, VELOCITY_NKV, check_gains
 from ballbot_casadi.core import quaternion as Q
 from ballbot_casadi.core.constants import N_SUB, TS_CONTROL
+from ballbot_casadi.core.layout import VELOCITY_FILTER_STATE as XV
 from ballbot_casadi.core.params import PARAM_NAMES
 from ballbot_casadi.core.safe_paths import name_problem
 from ballbot_casadi.core.specs import SPEC_OPS
 from ballbot_casadi.core.validation import check_state
 from ballbot_casadi.errors import ArgumentError, ScenarioError
+from ballbot_casadi.estimation.attitude import ATTITUDE_NOISE
 from ballbot_casadi.estimation.com_observer import check_com_observer_gains
+from ballbot_casadi.estimation.velocity import VELOCITY_MEAS
 from ballbot_casadi.sim import references as R
 from ballbot_casadi.sim.embedded import VALID
 from ballbot_casadi.sim.period import TORQUE_LIMIT_MODES
@@ -70,12 +73,12 @@ ESTIMATOR_CHOICES = ("true", "ukf", "ekf", "ukf_heading", "ekf_heading", "ukf_co
 #: Scenario.estimator_tuning keys (changes to the filters' default tuning): the covariance
 #: input each sets and the diagonal block of it (the value times the identity).
 ESTIMATOR_TUNING_TARGETS: Mapping[str, tuple[str, slice]] = MappingProxyType({
-    "rate_process_var": ("Qa", slice(3, 6)),      # QUKF body rate (tangent [rotation, omega])
-    "encoder_var": ("Rv", slice(0, 3)),           # VUKF encoder ticks
-    "acc_process_var": ("Qv", slice(2, 4)),       # VUKF ball acceleration
-    "acc_process_var_x": ("Qv", slice(2, 3)),     # VUKF ball acceleration, x only
-    "acc_process_var_y": ("Qv", slice(3, 4)),     # VUKF ball acceleration, y only
-    "acc_bias_process_var": ("Qv", slice(4, 7)),  # VUKF accelerometer bias
+    "rate_process_var": ("Qa", ATTITUDE_NOISE["omega"]),   # QUKF body rate
+    "encoder_var": ("Rv", VELOCITY_MEAS["enc"]),           # VUKF encoder ticks
+    "acc_process_var": ("Qv", XV["a"]),                    # VUKF ball acceleration
+    "acc_process_var_x": ("Qv", slice(XV["a"].start, XV["a"].start + 1)),  # x only
+    "acc_process_var_y": ("Qv", slice(XV["a"].start + 1, XV["a"].stop)),   # y only
+    "acc_bias_process_var": ("Qv", XV["b_acc"]),           # VUKF accelerometer bias
 })
 #: Keys of Scenario.estimator_tuning.
 ESTIMATOR_TUNING_KEYS = tuple(ESTIMATOR_TUNING_TARGETS)
