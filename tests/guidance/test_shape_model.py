@@ -108,3 +108,12 @@ def test_bad_gains_and_step_are_refused(gains):
         ShapeGains(gains.K_v, np.ones(3), gains.K_dth, gains.K_u)
     with pytest.raises(ShapeError, match="dt"):
         shape_model(gains, 0.0)
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.1, float("inf"), float("nan")])
+def test_a_step_that_is_not_a_positive_number_is_refused_before_the_exponential(gains, dt):
+    """The shape model refuses the step itself, with its own line, before the matrix
+    exponential sees it (an infinite or negative step would reach the loop model's check
+    only after ``expm``, or not at all)."""
+    with pytest.raises(ShapeError, match=rf"^dt must be > 0 s, got {dt!r}$"):
+        shape_model(gains, dt)
