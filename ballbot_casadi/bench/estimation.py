@@ -197,8 +197,11 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     if not with_rest:
         return out
     g = ATTITUDE_MEAS["gyro"]
+    # the attitude covariance the velocity filter reads: the attitude filter's own output here
+    att_out = att_f.call([ca.reshape(ca.DM(v), *att_f.size_in(i))
+                          for i, v in enumerate(_by_name(att_f, att_values))])
     vel_values = {"xhat": xv, "P": Pv, "z": np.r_[enc * inputs["Ts"], acc], "att": xa[:XA.size],
-                  "P_att": np.eye(3) * 1e-8, "Q": est["Qv"], "R": est["Rv"], "dt": inputs["Ts"],
+                  "P_att": np.asarray(att_out[att_f.index_out("P_att")]), "Q": est["Qv"], "R": est["Rv"], "dt": inputs["Ts"],
                   "p": p, "P_rate": np.asarray(est["Ra"])[g, g],  # (Ra's gyro block)
                   **({"walk": c[C["walk"]]} if C.has("walk") else {})}
     tilt_values = {"q": xa[XA["q"]], "a": xv[XV["a"]], "b_acc": xv[XV["b_acc"]], "p": p}
