@@ -256,7 +256,8 @@ def _analyze(params: Params, lin: LinearModel, funcs: dict[str, ca.Function], p:
             "omega": omega.tolist(), "mag": np.abs(H[:, 0, 0]).tolist(),
             "phase_deg": np.degrees(np.unwrap(np.angle(H[:, 0, 0]))).tolist()}
     out["max_real_pole"] = max(out["inner"]["max_real_pole"], out["outer"]["max_real_pole"])
-    kp, kd = kb[0], kb[3]
+    gains = dict(zip(C.BALANCE_GAIN_NAMES["flc"], kb))
+    kp, kd = gains["Kp1"], gains["Kd1"]  # the tilt about x (thesis 8.45)
     out["inner_continuous_hz"] = _second_order_bw(kp, kd) / (2 * np.pi)
     out["description"] = (
         f"Sampled-data cascade at Ts = {Ts * 1e3:g} ms (zero-order hold, as simulated): plant "
