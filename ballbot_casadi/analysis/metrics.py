@@ -83,7 +83,8 @@ def tilt_rate_deg_s(x: np.ndarray) -> np.ndarray:
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
-    """Wrap to (-180, 180] deg, leaving values already inside untouched (no rounding)."""
+    """Wrap an angle outside [-180, 180] deg into [-180, 180), leaving values already inside
+    untouched (no rounding)."""
     a = np.asarray(a, float)
     return np.where(np.abs(a) > 180.0, (a + 180.0) % 360.0 - 180.0, a)
 

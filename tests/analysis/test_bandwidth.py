@@ -73,3 +73,7 @@ def test_tilt_and_error_keep_precision_near_zero():
         assert tilt_deg(q[None, :])[0] == pytest.approx(a, rel=1e-9)
     assert _wrap(np.array([1e-14]))[0] == 1e-14
     np.testing.assert_allclose(_wrap(np.array([190.0, -190.0, 540.0])), [-170.0, 170.0, -180.0], atol=1e-12)
+    # every angle in [-180, 180] comes back bit for bit (180 stays 180: not wrapped to -180;
+    # 123.456789 and 90.1 would lose their last bits through the modulo)
+    inside = np.array([180.0, -180.0, 123.456789, 90.1, -179.3, 0.0])
+    np.testing.assert_array_equal(_wrap(inside), inside)
