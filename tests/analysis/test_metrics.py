@@ -154,3 +154,20 @@ def test_final_velocity_error_is_read_at_the_last_sample():
     m = velocity_metrics({"time": np.arange(5) * 1.0, "state": state, "v_ref": vr})
     assert m["final_velocity_error_mps"] == pytest.approx(0.03, abs=1e-12)
     assert m["velocity_error_max_mps"] == pytest.approx(0.05, abs=1e-12)
+
+
+def test_velocity_metrics_of_a_one_period_log():
+    """A run stopped after one control period logs one reference sample: the metrics are
+    those of that sample (speed 0.1 m/s tracked exactly: no error, no delay, no
+    acceleration, which needs two samples), not an IndexError or a NaN."""
+    vr = np.array([[0.1, 0.0, 0.0]])
+    state = np.zeros((2, 12))
+    state[:, 2] = 1.0
+    state[:, 6] = 0.1
+    m = velocity_metrics({"time": np.array([0.0, 0.005]), "state": state, "v_ref": vr})
+    assert m["max_speed_mps"] == pytest.approx(0.1, abs=1e-15)
+    assert m["velocity_error_max_mps"] == 0.0
+    assert m["velocity_lag_s"] == 0.0
+    assert m["velocity_error_rms_delayed_mps"] == 0.0
+    assert m["max_acceleration_mps2"] == 0.0
+    assert m["max_yaw_accel_rps2"] == 0.0
