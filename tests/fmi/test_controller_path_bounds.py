@@ -164,3 +164,18 @@ def test_the_s0_tolerance_measures_from_the_nearest_table_point(unzipped):
     assert _init(unzipped, x0_y=x0[1], path_s0=s0) == []
     errors = _init(unzipped, x0_y=x0[1], path_s0=s0 + 0.2)
     assert len(errors) == 1 and "the nearest path point is %g m away" % best in errors[0], errors
+
+
+def test_the_s0_refusal_gives_the_start_distance_in_both_axes(unzipped):
+    """path_s0 at a table sample's own arc length puts the start exactly on that sample: the
+    refusal gives its distance from the robot, hypot(dx, dy), with dx != dy (the robot 0.3 m
+    off the path, the sample 20 samples beyond the nearest)."""
+    v = _values()
+    x0 = np.array([v["x0_x"], v["path_p0_y"] + 0.3])
+    pts = np.array([[v[f"path_p{i}_x"], v[f"path_p{i}_y"]] for i in range(PATH_SAMPLES)])
+    dist = np.hypot(*(pts - x0).T)
+    i = int(np.argmin(dist)) + 20
+    dx, dy = pts[i] - x0
+    assert abs(abs(dx) - abs(dy)) > 0.05 and dist[i] > dist.min() + S0_TOL  # the case separates
+    errors = _init(unzipped, x0_y=x0[1], path_s0=i * v["path_length"] / (PATH_SAMPLES - 1))
+    assert len(errors) == 1 and "puts the start %g m from the robot" % dist[i] in errors[0], errors
