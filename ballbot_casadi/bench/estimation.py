@@ -192,14 +192,14 @@ def _estimator_parts(sc, inputs: dict, log, k: int, n_calls: int, with_rest: boo
     XA, XV = ATTITUDE_FILTER_STATE, VELOCITY_FILTER_STATE
     att_values = {"xhat": xa, "P": Pa, "z": z_att, "Q": est["Qa"], "R": est["Ra"],
                   "dt": inputs["Ts"], "p": p, "a": np.r_[xv[XV["a"]], 0.0]}  # as the software feeds it
-    out = {"attitude": c_function_us(lib, att_f, _by_name(att_f, att_values), n_calls)}
+    att_args = _by_name(att_f, att_values)
+    out = {"attitude": c_function_us(lib, att_f, att_args, n_calls)}
     out[att_f.name().removeprefix("ballbot_")] = out["attitude"]
     if not with_rest:
         return out
     g = ATTITUDE_MEAS["gyro"]
     # the attitude covariance the velocity filter reads: the attitude filter's own output here
-    att_out = att_f.call([ca.reshape(ca.DM(v), *att_f.size_in(i))
-                          for i, v in enumerate(_by_name(att_f, att_values))])
+    att_out = att_f.call([ca.reshape(ca.DM(v), *att_f.size_in(i)) for i, v in enumerate(att_args)])
     vel_values = {"xhat": xv, "P": Pv, "z": np.r_[enc * inputs["Ts"], acc], "att": xa[:XA.size],
                   "P_att": np.asarray(att_out[att_f.index_out("P_att")]), "Q": est["Qv"], "R": est["Rv"], "dt": inputs["Ts"],
                   "p": p, "P_rate": np.asarray(est["Ra"])[g, g],  # (Ra's gyro block)
