@@ -106,6 +106,38 @@ def test_estimation_inputs_are_passed_by_name(monkeypatch):
     assert want == {"cascade": 1.0, "feedforward": 0.0, "com_observer": 0.0}  # the full study's set-up
 
 
+def test_estimation_filters_are_timed_at_one_consistent_operating_point(monkeypatch):
+    """The velocity filter is timed with what the attitude filter of the same period hands
+    it in the embedded software: the attitude estimate's first states and the attitude
+    filter's own ``P_att`` output; the attitude filter gets the velocity filter's ball
+    acceleration ``(a_x, a_y, 0)`` (CasADi, no C build)."""
+    import numpy as np
+
+    from ballbot_casadi.core.layout import ATTITUDE_FILTER_STATE as XA
+    from ballbot_casadi.core.layout import VELOCITY_FILTER_STATE as XV
+
+    calls = []
+
+    def record(lib, f, inputs, n_calls):
+        args = [np.reshape(np.asarray(v, float), f.size_in(i), order="F") for i, v in enumerate(inputs)]
+        out = f.call(args)
+        calls.append((f.name(), dict(zip(f.name_in(), args)), dict(zip(f.name_out(), out))))
+        return 1.0
+
+    orig = bench_estimation_mod._full_scenario
+    monkeypatch.setattr(bench_estimation_mod, "_full_scenario", lambda: orig().replace(duration=0.5))
+    monkeypatch.setattr(bench_estimation_mod, "c_function_us", record)
+    bench_estimation_mod.bench_estimation(n_calls=1, repeats=1)
+    pairs = [(a, v) for a, v in zip(calls, calls[1:]) if a[0] == "ballbot_qukf" and v[0] == "ballbot_vukf"]
+    assert len(pairs) == 3, [c[0] for c in calls]  # the scenario's, matched and adaptive filters
+    for (_, att_in, att_out), (_, vel_in, _) in pairs:
+        np.testing.assert_array_equal(vel_in["P_att"], np.asarray(att_out["P_att"]))
+        np.testing.assert_array_equal(vel_in["att"].ravel(), att_in["xhat"].ravel()[:XA.size])
+        a = vel_in["xhat"].ravel()[XV["a"]]
+        np.testing.assert_array_equal(att_in["a"].ravel(), np.r_[a, 0.0])
+        assert np.all(a != 0.0)  # a real operating point: both axes move
+
+
 def test_estimation_group(monkeypatch):
     orig = bench_estimation_mod._full_scenario
     monkeypatch.setattr(bench_estimation_mod, "_full_scenario", lambda: orig().replace(duration=0.5))
