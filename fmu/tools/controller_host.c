@@ -44,8 +44,7 @@ int main(int argc, char **argv) {
     c = host_instantiate(&f, argv[0], "controller", argv[2], &cb);
     if (f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK || f.enter_init(c) != fmi2OK ||
         f.exit_init(c) != fmi2OK) {
-        fprintf(stderr, "%s: the initialisation failed\n", argv[0]);
-        return 5;
+        return host_fail(argv[0], 5, "the initialisation failed");
     }
     for (r = 0; r < (reps > 0 ? reps : 1); ++r) {
         double t0 = host_now_s(), dt;
@@ -62,8 +61,7 @@ int main(int argc, char **argv) {
             meas[8] = -10.0 * s;
             if (f.set_real(c, meas_vr, 9, meas) != fmi2OK || f.do_step(c, t, h, fmi2True) != fmi2OK ||
                 f.get_real(c, tau_vr, 3, tau) != fmi2OK) {
-                fprintf(stderr, "%s: period %ld failed\n", argv[0], k);
-                return 6;
+                return host_fail(argv[0], 6, "period %ld failed", k);
             }
             t += h;
         }
@@ -71,8 +69,7 @@ int main(int argc, char **argv) {
         if (dt < best) best = dt;
     }
     if (!(isfinite(tau[0]) && isfinite(tau[1]) && isfinite(tau[2]))) {
-        fprintf(stderr, "%s: non-finite torques after %ld periods\n", argv[0], n);
-        return 7;
+        return host_fail(argv[0], 7, "non-finite torques after %ld periods", n);
     }
     printf("{\"t\": %.17g, \"tau\": [%.17g, %.17g, %.17g]", t, tau[0], tau[1], tau[2]);
     if (reps > 0) printf(", \"step_us\": %.6g", best * 1e6);

@@ -8,6 +8,7 @@
 #define FMI2_HOST_H
 
 #include <dlfcn.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
@@ -71,15 +72,27 @@ static fmi2CallbackFunctions host_callbacks(void) {
     return cb;
 }
 
+/* One line on stderr, "prog: " and the printf-style message; returns `status` (the exit
+ * status the caller returns). */
+#ifdef __GNUC__
+__attribute__((format(printf, 3, 4)))
+#endif
+static int host_fail(const char *prog, int status, const char *fmt, ...) {
+    va_list ap;
+    fprintf(stderr, "%s: ", prog);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    return status;
+}
+
 /* A Co-Simulation instance of the loaded FMU; exit status 4, after the FMU's log and one
  * line naming the program `prog`, when fmi2Instantiate refuses (e.g. a wrong GUID). */
 static fmi2Component host_instantiate(const host_api *f, const char *prog, const char *name,
                                       const char *guid, const fmi2CallbackFunctions *cb) {
     fmi2Component c = f->instantiate(name, fmi2CoSimulation, guid, "", cb, fmi2False, fmi2False);
-    if (c == NULL) {
-        fprintf(stderr, "%s: fmi2Instantiate refused the FMU\n", prog);
-        exit(4);
-    }
+    if (c == NULL) exit(host_fail(prog, 4, "fmi2Instantiate refused the FMU"));
     return c;
 }
 

@@ -59,20 +59,17 @@ int main(int argc, char **argv) {
         if (f.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
             f.enter_init(c) != fmi2OK || f.set_real(c, vr_q, 4, q) != fmi2OK ||
             f.set_real(c, vr_tau, 3, tau) != fmi2OK || f.exit_init(c) != fmi2OK) {
-            fprintf(stderr, "%s: the initialisation was refused\n", argv[0]);
-            return 5;
+            return host_fail(argv[0], 5, "the initialisation was refused");
         }
         t = 0.0;
         t0 = host_now_s();
         for (i = 0; i < n; ++i) {
             if (f.set_real(c, vr_tau, 3, tau) != fmi2OK || f.do_step(c, t, h, fmi2True) != fmi2OK) {
-                fprintf(stderr, "%s: step %ld was refused\n", argv[0], i);
-                return 6;
+                return host_fail(argv[0], 6, "step %ld was refused", i);
             }
             t += h;
             if (f.get_real(c, vr_x, NX, x) != fmi2OK) {
-                fprintf(stderr, "%s: the states were not read after step %ld\n", argv[0], i);
-                return 7;
+                return host_fail(argv[0], 7, "the states were not read after step %ld", i);
             }
         }
         if (r > 0 || reps == 0) {
@@ -80,8 +77,7 @@ int main(int argc, char **argv) {
             if (per < best) best = per;
         }
         if (f.get_real(c, vr_y, NOUT, y) != fmi2OK) {
-            fprintf(stderr, "%s: the outputs were not read\n", argv[0]);
-            return 7;
+            return host_fail(argv[0], 7, "the outputs were not read");
         }
         f.terminate(c);
         f.free_instance(c);
