@@ -91,24 +91,25 @@ fmi2Status fmi2Terminate(fmi2Component c) {
 """
 
 
+def _shared_library(directory: Path, stem: str, source: str, *flags: str) -> Path:
+    """Compile ``source`` (C text, written to ``directory/stem.c``) into ``directory/stem.so``
+    with the compiler's extra ``flags`` (include paths, what to link)."""
+    (directory / f"{stem}.c").write_text(source)
+    lib = directory / f"{stem}.so"
+    subprocess.run([*compiler_command(), "-shared", "-fPIC", "-o", str(lib), str(directory / f"{stem}.c"),
+                    *flags], check=True, capture_output=True)
+    return lib
+
+
 def build_broken(directory: Path, build: FmuBuild | None = None) -> Path:
     """Compile the rule-breaking library in front of ``build``'s binary (default: the plant
     FMU's) into ``directory``."""
     build = build or plant_build()
-    (directory / "broken.c").write_text(WRAPPER)
-    lib = directory / "broken.so"
-    subprocess.run([*compiler_command(), "-shared", "-fPIC", "-I", str(fmi_headers_dir()),
-                    "-o", str(lib), str(directory / "broken.c"), "-Wl,--no-as-needed",
-                    str(build.binary), f"-Wl,-rpath,{build.binary.parent}", "-ldl"], check=True,
-                   capture_output=True)
-    return lib
+    return _shared_library(directory, "broken", WRAPPER, "-I", str(fmi_headers_dir()), "-Wl,--no-as-needed",
+                           str(build.binary), f"-Wl,-rpath,{build.binary.parent}", "-ldl")
 
 
 def build_not_an_fmu(directory: Path) -> Path:
     """A shared library that loads but defines no FMI function (the tools must exit 3
     naming the first symbol they miss)."""
-    (directory / "not_fmu.c").write_text("int not_an_fmu(void) { return 0; }\n")
-    lib = directory / "not_fmu.so"
-    subprocess.run([*compiler_command(), "-shared", "-fPIC", "-o", str(lib),
-                    str(directory / "not_fmu.c")], check=True, capture_output=True)
-    return lib
+    return _shared_library(directory, "not_fmu", "int not_an_fmu(void) { return 0; }\n")
