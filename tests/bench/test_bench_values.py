@@ -7,6 +7,7 @@ percentiles, the targets).  test_bench_groups runs the groups for real with tiny
 from __future__ import annotations
 
 import json
+import subprocess
 from types import SimpleNamespace
 
 import numpy as np
@@ -400,7 +401,7 @@ def test_model_group_by_hand(monkeypatch, tmp_path, fake_run):
             "check_jac": [A.tolist(), B.tolist()]}
     printed = [good]
 
-    monkeypatch.setattr(bench.subprocess, "run", fake_run(lambda cmd: json.dumps(printed[0]), calls))
+    monkeypatch.setattr(subprocess, "run", fake_run(lambda cmd: json.dumps(printed[0]), calls))
     monkeypatch.setattr(bench, "_python_call_ns", lambda: 10000.0)
     out = bench.bench_model(n_calls=77)
     cmd, kw = calls[0]
@@ -417,7 +418,7 @@ def test_model_group_by_hand(monkeypatch, tmp_path, fake_run):
         with pytest.raises(BuildError, match="model benchmark"):
             bench.bench_model(n_calls=77)
     # the program refusing its buffers (exit 3): its message, not a traceback
-    monkeypatch.setattr(bench.subprocess, "run", fake_run(lambda cmd: "", [], returncode=3))
+    monkeypatch.setattr(subprocess, "run", fake_run(lambda cmd: "", [], returncode=3))
     with pytest.raises(BuildError, match=r"the model benchmark failed \(exit 3\)"):
         bench.bench_model(n_calls=77)
 
