@@ -91,6 +91,16 @@ def test_an_estimate_within_tolerance_from_the_standstill_on_settles_at_once(log
     assert m["com_estimate_settle_s"] == 0.0
 
 
+def test_an_estimate_settling_at_the_last_sample(log):
+    """Outside the tolerance up to the second-to-last sample, inside at the last: settled at
+    the last sample's time, 19.9 - 3 s (not never)."""
+    a = dict(log.arrays)
+    a["com_hat"] = log.arrays["com_hat"].copy()
+    a["com_hat"][:-1, 0] += 0.01
+    m = com_observer_metrics(SimpleNamespace(**{**vars(log), "arrays": a}))
+    assert m["com_estimate_settle_s"] == pytest.approx((N - 1) * TS - 3.0, abs=1e-9)
+
+
 def test_an_estimate_that_never_settles_and_a_short_run(log):
     a = dict(log.arrays)
     a["com_hat"] = log.arrays["com_hat"].copy()
