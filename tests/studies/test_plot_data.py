@@ -117,3 +117,19 @@ def test_monte_carlo_scatter_without_dispersed_parameters_is_one_empty_row(saved
     assert len(saved["scatter.png"]) == 3
     assert all(ax["scatter"] == [] and ax["xlabel"] == "" for ax in saved["scatter.png"])
     assert (tmp_path / "scatter.png").is_file()
+
+
+@pytest.mark.parametrize("n_finite, n_bins", [(4, 5), (12, 6), (59, 29), (60, 30), (100, 30)])
+def test_monte_carlo_histogram_bins_half_the_finite_runs_between_5_and_30(saved, tmp_path, n_finite, n_bins):
+    """The histogram of a metric has n // 2 bins of its finite values, at least 5 and at most
+    30; non-finite values (a failed run's NaN, a fall's inf) are left out of the counts."""
+    vals = np.linspace(0.1, 0.9, n_finite)
+    results = [{"ok": True, "spec_ok": [True], "metrics": {"peak_tilt_deg": float(v)}, "error": None,
+                "failure": None} for v in [*vals, np.nan, np.inf]]
+    summary = {"specs": [{"metric": "peak_tilt_deg", "op": "<", "threshold": 1.0}], "n": n_finite + 2,
+               "success_rate": 1.0}
+    mr._plots(summary, [], results, tmp_path)
+    ax = next(a for a in saved["histograms.png"] if a["title"] == "peak_tilt_deg")
+    heights = [hi - lo for _, lo, hi in ax["spans"]]
+    assert len(heights) == n_bins
+    np.testing.assert_array_equal(heights, np.histogram(vals, n_bins)[0])
