@@ -32,6 +32,10 @@
 #define OUT_HEADER 9
 #define N_IN_HEADER 7
 #define N_REF 15
+/* One input row: the readings, then q_ref, dq_ref, ddq_ref (4 each) and v_ref (3). */
+#define N_ROW (BALLBOT_FW_N_READINGS + N_REF)
+/* The read buffer holds the initial controller state or one row, whichever is longer. */
+#define N_BUF (BALLBOT_FW_NC > N_ROW ? BALLBOT_FW_NC : N_ROW)
 #if BALLBOT_FW_GUIDANCE_SPLIT
 #define ROW_EXTRA 4
 static ballbot_fw_real guidance_data[BALLBOT_FW_N_GUIDANCE]; /* flash on a real board */
@@ -97,7 +101,7 @@ static int write_doubles(FILE *f, const double *v, int n) {
 }
 
 static int replay(FILE *in, FILE *out) {
-    double hdr[N_IN_HEADER], buf[BALLBOT_FW_NC > 64 ? BALLBOT_FW_NC : 64], oh[OUT_HEADER] = {0};
+    double hdr[N_IN_HEADER], buf[N_BUF], oh[OUT_HEADER] = {0};
     ballbot_fw_real c0[BALLBOT_FW_NC], meas[BALLBOT_FW_N_READINGS], tau[3];
     ballbot_fw_real *pflat = (ballbot_fw_real *)&params;
     ballbot_fw_references refs;
@@ -157,7 +161,7 @@ static int replay(FILE *in, FILE *out) {
         uint32_t t0, t1;
         int paint = k < 8;
         for (i = 0; i < 5 + ROW_EXTRA; ++i) row[i] = NAN; /* a column left unwritten shows */
-        if (read_doubles(in, buf, BALLBOT_FW_N_READINGS + N_REF)) return ends_early("row", k);
+        if (read_doubles(in, buf, N_ROW)) return ends_early("row", k);
         for (i = 0; i < BALLBOT_FW_N_READINGS; ++i) meas[i] = (ballbot_fw_real)buf[i];
         for (i = 0; i < 4; ++i) {
             refs.q_ref[i] = (ballbot_fw_real)buf[BALLBOT_FW_N_READINGS + i];
