@@ -282,6 +282,8 @@ def arc_path(center: Any, radius: float, start_angle: float, sweep: float,
     n = max(int(abs(sweep) * radius * 40), 16)
     th = start_angle + np.linspace(0.0, sweep, n + 1)
     xy = c + radius * np.column_stack([np.cos(th), np.sin(th)])
+    if closed:  # the periodic spline needs the end to be the start bit for bit
+        xy[-1] = xy[0]
     t = np.abs(th - start_angle) * radius
     ends = xy[:1] if closed else xy[[0, -1]]
     return _build(xy, t, closed, speed, obstacles, ends)

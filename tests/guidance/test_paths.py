@@ -13,6 +13,7 @@ from ballbot_casadi.guidance.paths import (
     arc_path,
     figure_eight,
     line_path,
+    path_from_spec,
     waypoint_path,
 )
 
@@ -104,3 +105,20 @@ def test_a_waypoint_on_an_obstacles_circle_is_allowed_inside_it_is_not():
     with pytest.raises(ScenarioError, match=r"^obstacles\[0\] \(radius 4\.000000000000001 m at \[3\.0, 4\.0\]\) "
                        r"covers waypoint 1 \[3\.0, 0\.0\]: the path cannot pass through it$"):
         waypoint_path(pts, obstacles=[Obstacle((3.0, 4.0), r)])
+
+
+@pytest.mark.parametrize("start_deg, sweep_deg", [(0.0, 360.0), (0.0, -360.0), (17.1887, 360.0)])
+def test_a_full_circle_of_any_radius_closes(start_deg, sweep_deg):
+    """A 10 m circle (scenario file: type "arc", sweep_deg = +-360): cos and sin of the start
+    and of start + 2 pi differ in the last bits, times 10 m; the path still closes at its
+    start (was a raw ValueError of the periodic spline), 2 pi r long, every point r from the
+    centre."""
+    path = path_from_spec({"type": "arc", "center": [0.5, -1.0], "radius": 10.0,
+                           "sweep_deg": sweep_deg, "start_angle_deg": start_deg})
+    assert path.closed
+    np.testing.assert_allclose(path.length, 2 * math.pi * 10.0, rtol=1e-9)
+    s = np.linspace(0.0, path.length, 2001)
+    np.testing.assert_allclose(np.linalg.norm(path.point(s) - [0.5, -1.0], axis=1), 10.0, atol=1e-9)
+    a = math.radians(start_deg)
+    np.testing.assert_allclose(path.point(0.0), [0.5 + 10 * math.cos(a), -1.0 + 10 * math.sin(a)], atol=1e-12)
+    np.testing.assert_array_equal(path.point(0.0), path.point(path.length))
