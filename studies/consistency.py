@@ -40,7 +40,6 @@ and ``nis.png``.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -60,6 +59,7 @@ from ballbot_casadi.sim.embedded import controller_layout  # noqa: E402
 from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR, THESIS_ESTIMATOR  # noqa: E402
 from ballbot_casadi.studies.registry import shipped_scenarios  # noqa: E402
 from ballbot_casadi.sim.scenario import load_scenario_file  # noqa: E402
+from ballbot_casadi.studies.formatting import write_metrics  # noqa: E402
 
 __all__ = ["FILTERS", "NIS_DIM", "MATCHED", "ADAPTIVE", "acceleration_random_walk",
            "estimator_scenarios", "final_walk", "run_consistency_study", "consistency_report_lines"]
@@ -170,7 +170,7 @@ def run_consistency_study(out: Path, plot: bool = True, names: Sequence[str] | N
     m = {"dim": NIS_DIM, "confidence": 0.95, "skip_s": _SKIP_S, "scenarios": rows,
          "passed": bool(inside), "adaptive_passed": bool(adaptive_ok) and all(adaptive_ok),
          "thesis_passed": verdicts("velocity_thesis"), "matched_passed": verdicts("velocity_matched")}
-    (out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    write_metrics(out, m)
     (out / "report.md").write_text("\n".join(consistency_report_lines(m)) + "\n")
     if plot and series:
         fig, axes = plt.subplots(len(FILTERS), 1, figsize=(9, 6), sharex=True)

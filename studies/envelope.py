@@ -28,7 +28,6 @@ push's own tilt: a push beyond 5 deg leaves the band at its instant), each with 
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any, Sequence
@@ -48,6 +47,7 @@ from ballbot_casadi.core.layout import STATE  # noqa: E402
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario  # noqa: E402
 from ballbot_casadi.sim.scenario import Scenario  # noqa: E402
 from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR  # noqa: E402
+from ballbot_casadi.studies.formatting import write_metrics  # noqa: E402
 
 __all__ = ["ENVELOPE_CONTROLLERS", "PUSH_DIRECTIONS", "final_motion", "peak_motion", "recovered",
            "within_limits", "run_envelope_study", "dob_verdict", "envelope_report_lines"]
@@ -224,7 +224,7 @@ def run_envelope_study(out: Path, plot: bool = True, controllers: Sequence[str] 
                  for est in estimators if {"flc", "flc_dob"} <= set(table[est])},
          "disturbance_time_s": _T_DIST, "duration_s": _DURATION, "torque_pulse_s": _PULSE,
          "push_tol_deg": push_tol, "torque_tol_nm": torque_tol, "passed": True}
-    (out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    write_metrics(out, m)
     (out / "report.md").write_text("\n".join(envelope_report_lines(m)) + "\n")
     if plot:
         fig, axes = plt.subplots(1, len(estimators), subplot_kw={"projection": "polar"},

@@ -28,7 +28,6 @@ Writes ``metrics.json`` and ``report.md``.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -41,6 +40,7 @@ from ballbot_casadi.control.smc import SMC_GAIN_NAMES
 from ballbot_casadi.core.specs import spec_ok
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.studies.registry import get_study
+from ballbot_casadi.studies.formatting import write_metrics
 
 __all__ = ["FLC_SMC_CONTROLLERS", "SETUPS", "stiffness_ratio", "run_flc_smc_study",
            "flc_smc_report_lines"]
@@ -101,7 +101,7 @@ def run_flc_smc_study(out: Path, plot: bool = True,
                                    / table["ours"][c]["pitch_error_max_deg"]
                                    for c in controllers if c in ("flc_dob", "sta")},
          "specs": specs, "passed": all(sp["ok"] for sp in specs if not sp["thesis"])}
-    (out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    write_metrics(out, m)
     (out / "report.md").write_text("\n".join(flc_smc_report_lines(m)) + "\n")
     return m
 

@@ -20,7 +20,6 @@ minute and the error recovers within 10 s of the sensor's return.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +31,7 @@ import numpy as np  # noqa: E402
 
 from ballbot_casadi.analysis.heading import heading_run  # noqa: E402
 from ballbot_casadi.core.sensor_params import load_sensor_params  # noqa: E402
+from ballbot_casadi.studies.formatting import write_metrics  # noqa: E402
 
 __all__ = ["HEADING_SPEC_DEG", "run_heading_study", "heading_report_lines"]
 
@@ -78,7 +78,7 @@ def run_heading_study(out: Path, plot: bool = True, duration: float = 3600.0,
     }
     m["passed"] = bool(m["aided_error_max_deg"] <= HEADING_SPEC_DEG
                        and m["loss_error_after_recovery_max_deg"] <= HEADING_SPEC_DEG)
-    (out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    write_metrics(out, m)
     (out / "report.md").write_text("\n".join(heading_report_lines(m)) + "\n")
     if plot:
         fig, ax = plt.subplots(2, 1, figsize=(9, 6), sharex=True)

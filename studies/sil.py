@@ -21,7 +21,6 @@ folder is replaced as a whole):
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +42,7 @@ from ballbot_casadi.sim.guided import run_path_scenario
 from ballbot_casadi.sim.log import save_log
 from ballbot_casadi.studies.registry import Spec, evaluate_specs
 from ballbot_casadi.studies.study import OWNED_OUTPUTS, _report, _result, jsonable, plot_run
+from ballbot_casadi.studies.formatting import write_metrics
 
 __all__ = ["SIL_OUTPUTS", "run_sil", "mission_difference", "plot_compare"]
 
@@ -140,7 +140,7 @@ def run_sil(ssp: str | Path, out: str | Path, duration: float | None = None,
             lines.append(f"- against the {diff['reference']}: states within "
                          f"{diff['state_max']:.3g}, torques within {diff['tau_max']:.3g} N m")
         _report(tmp, f"Software in the loop `{sc.name}`", result, plots, lines)
-        (tmp / "metrics.json").write_text(json.dumps(jsonable(result), indent=2) + "\n")
+        write_metrics(tmp, jsonable(result))
     return result
 
 
@@ -153,5 +153,5 @@ def _connections_only(run: SilRun, out: Path) -> dict[str, Any]:
                       "metrics or plots, the connections are in connections.csv"}
     with staged_dir(out, owned=SIL_OUTPUTS) as tmp:
         run.write_connections(tmp / "connections.csv")
-        (tmp / "metrics.json").write_text(json.dumps(jsonable(result), indent=2) + "\n")
+        write_metrics(tmp, jsonable(result))
     return result

@@ -22,7 +22,6 @@ RMS of ``e_S``.  Writes ``metrics.json`` and ``report.md``.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -36,6 +35,7 @@ from ballbot_casadi.core.sensor_params import load_sensor_params
 from ballbot_casadi.sim.closed_loop import ClosedLoop, run_scenario
 from ballbot_casadi.sim.scenario import Scenario, initial_state
 from ballbot_casadi.sim.embedded import DEFAULT_ESTIMATOR
+from ballbot_casadi.studies.formatting import write_metrics
 
 __all__ = ["gyro_noise_floor", "true_sliding_variable", "run_sta_noise_study", "sta_noise_report_lines"]
 
@@ -111,7 +111,7 @@ def run_sta_noise_study(out: Path, plot: bool = True, seeds: Sequence[int] = (0,
          "rate_noise_needed_rad_s": 2 * _TARGET,
          "rate_noise_rad_s": np.sqrt(load_sensor_params().gyro_noise_var).tolist(),
          "reached": best <= _TARGET, "passed": True}
-    (out / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    write_metrics(out, m)
     (out / "report.md").write_text("\n".join(sta_noise_report_lines(m)) + "\n")
     return m
 

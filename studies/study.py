@@ -52,7 +52,7 @@ from ballbot_casadi.sim.log import SimulationLog, save_log
 from ballbot_casadi.sim.scenario import ScenarioFile, dump_toml
 from ballbot_casadi.sim.scenario.file import MAX_PERIODS
 from ballbot_casadi.studies import thesis as TH
-from ballbot_casadi.studies.formatting import fmt
+from ballbot_casadi.studies.formatting import fmt, write_metrics
 from ballbot_casadi.studies.registry import (
     STUDY_NAMES,
     Spec,
@@ -239,7 +239,7 @@ def run_study(
                 [f"- run: {d}" for d in result["scenarios"]]
                 + [f"- scenario files: {', '.join(f'`{f}.toml`' for f in study.files)} "
                    "(`ballbot study --list`; copy one and run it with `ballbot simulate`)"], extra)
-        (tmp / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
+        write_metrics(tmp, result)
     return result
 
 
@@ -308,7 +308,7 @@ def run_file(
         _report(tmp, f"Simulation `{sc.name}`", result, plots,
                 [f"- file: `{source.path}`", f"- {sc.description or 'no description'}",
                  f"- rerun: `ballbot simulate {source.path}`"])
-        (tmp / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
+        write_metrics(tmp, result)
     return result
 
 
@@ -402,7 +402,7 @@ def run_thesis(out: Path | None = None, root: Path | None = None, rerun: bool = 
              *TH.table_lines(rows, "## The table"), "## Sources", "", *[f"- {s}" for s in sources], ""]
     with staged_dir(out, owned=OWNED_OUTPUTS) as tmp:
         (tmp / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-        (tmp / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
+        write_metrics(tmp, result)
     return result
 
 

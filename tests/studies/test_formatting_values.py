@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ballbot_casadi.studies.formatting import fmt, md_cell
+from ballbot_casadi.studies.formatting import fmt, md_cell, write_metrics
 
 
 @pytest.mark.parametrize("value, text", [
@@ -25,3 +25,10 @@ def test_fmt(value, text):
 ])
 def test_md_cell_escapes_pipes_once_and_joins_lines(text, cell):
     assert md_cell(text) == cell
+
+
+def test_metrics_json_is_indented_by_two_with_a_final_newline(tmp_path):
+    """Every study's metrics.json: two-space indentation, one final newline, keys in their order."""
+    path = write_metrics(tmp_path, {"b": [1, 2.5], "a": {"passed": True}})
+    assert path == tmp_path / "metrics.json"
+    assert path.read_text() == '{\n  "b": [\n    1,\n    2.5\n  ],\n  "a": {\n    "passed": true\n  }\n}\n'
