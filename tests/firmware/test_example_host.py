@@ -54,4 +54,11 @@ def test_the_example_balances_at_rest_in_the_velocity_cascade(run):
     np.testing.assert_allclose(x[[STATE.index("dx"), STATE.index("dy")]], 0.0, rtol=0, atol=1e-6)
     np.testing.assert_allclose(run["q_ref_used"], [1.0, 0.0, 0.0, 0.0], rtol=0, atol=1e-7)
     np.testing.assert_allclose(run["tau_cmd"], 0.0, rtol=0, atol=1e-5)
-    assert run["rejections"] == [0, 0, 0, 0] and run["repairs"] == 0
+    assert run["rejections"] == [0, 0, 0, 0] and run["repairs"] == [0]
+
+
+def test_the_board_stubs_read_a_robot_at_rest_with_failed_encoders(run):
+    """Every entry the stubs hand the step is written: gravity on the accelerometer's z axis
+    only, no rotation, the three encoders NaN (failed)."""
+    assert run["acc"] == [0.0, 0.0, 9.81] and run["gyro"] == [0.0, 0.0, 0.0]
+    assert run["enc_nan"] == [1, 1, 1]
